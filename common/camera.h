@@ -1,0 +1,24 @@
+// Primary-ray generation shared by the oracle and the raster path (design.md, "Conventions").
+#pragma once
+
+#include <glm/vec3.hpp>
+
+#include "common/scene.h"
+
+namespace penumbra {
+
+// Builds an orthonormal look-at basis: forward = normalize(target - eye),
+// right = normalize(forward x up), up' = right x forward. Returns false when degenerate.
+bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up,
+                   Camera& camera);
+
+// A primary ray through the centre of pixel (x, y), relative to the camera eye. The direction
+// is not normalised: its component along `forward` is 1, so the hit parameter t is the view
+// depth and clipping to [znear, zfar] is clipping in t, exactly as a rasteriser clips.
+struct PrimaryRay {
+    glm::dvec3 origin;     // relative to camera.eye
+    glm::dvec3 direction;  // forward + ...
+};
+PrimaryRay primary_ray(const Camera& camera, int width, int height, double px, double py);
+
+}  // namespace penumbra

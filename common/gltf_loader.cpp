@@ -1,0 +1,559 @@
+#include "common/gltf_loader.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat4x4.hpp>
+#include <nlohmann/json.hpp>
+
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#define TINYGLTF_NO_INCLUDE_JSON
+#include <tiny_gltf.h>
+
+#include "common/camera.h"
+#include "common/errors.h"
+
+namespace penumbra {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::uint64_t kMaxFileBytes = 8ull << 30;  // 8 GiB: anything bigger is refused
+
+struct Context {
+    std::string label;  // file name used in messages
+    fs::path dir;       // canonical folder of the scene file
+    bool allow_external = false;
+};
+
+[[noreturn]] void fail(const Context& ctx, const std::string& element, const std::string& what) {
+    throw InputError(fmt::format("{}: {}: {}", ctx.label, element, what));
+}
+
+// ---- URI policy -----------------------------------------------------------------------------
+
+std::string percent_decode(const std::string& s, bool& bad) {
+    std::string out;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        if (s[i] == '%') {
+            if (i + 2 >= s.size() || !std::isxdigit(static_cast<unsigned char>(s[i + 1])) ||
+                !std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+                bad = true;
+                return out;
+            }
+            out.push_back(static_cast<char>(std::stoi(s.substr(i + 1, 2), nullptr, 16)));
+            i += 2;
+        } else {
+            out.push_back(s[i]);
+        }
+    }
+    return out;
+}
+
+bool inside(const fs::path& dir, const fs::path& candidate) {
+    std::error_code ec;
+    fs::path c = fs::weakly_canonical(candidate, ec);
+    if (ec) return false;
+    auto rel = c.lexically_relative(dir);
+    return !rel.empty() && *rel.begin() != ".." && !rel.is_absolute();
+}
+
+// Refuses, before anything is read, URIs that would leave the scene's folder: absolute paths,
+// schemes other than data:, ".." escapes and their percent-encoded forms.
+void check_uri(const Context& ctx, const std::string& element, const std::string& uri) {
+    if (uri.rfind("data:", 0) == 0) return;
+    if (ctx.allow_external) return;
+    bool bad = false;
+    std::string decoded = percent_decode(uri, bad);
+    if (bad) fail(ctx, element, fmt::format("malformed percent-encoding in uri \"{}\"", uri));
+    if (decoded.find('\0') != std::string::npos)
+        fail(ctx, element, "uri contains a NUL character");
+    if (decoded.find("://") != std::string::npos)
+        fail(ctx, element, fmt::format("uri \"{}\" names a scheme; only relative paths and data: "
+                                       "URIs are allowed (use --allow-external-paths to lift this)", uri));
+    bool absolute = !decoded.empty() && (decoded[0] == '/' || decoded[0] == '\\' ||
+                                         (decoded.size() > 1 && decoded[1] == ':'));
+    if (absolute)
+        fail(ctx, element, fmt::format("uri \"{}\" is an absolute path; external files must lie in "
+                                       "the scene's folder (use --allow-external-paths to lift this)", uri));
+    if (!inside(ctx.dir, ctx.dir / decoded))
+        fail(ctx, element, fmt::format("uri \"{}\" resolves outside the scene's folder (use "
+                                       "--allow-external-paths to lift this)", uri));
+}
+
+// Reads the JSON part of a .gltf or .glb just far enough to vet its URIs.
+void check_uris(const Context& ctx, const std::string& bytes, bool binary) {
+    std::string json_text;
+    if (binary) {
+        if (bytes.size() < 20) return;  // tinygltf reports the truncation
+        std::uint32_t chunk_len = 0;
+        std::memcpy(&chunk_len, bytes.data() + 12, 4);
+        if (std::uint64_t(chunk_len) + 20 > bytes.size()) return;
+        json_text = bytes.substr(20, chunk_len);
+    } else {
+        json_text = bytes;
+    }
+    nlohmann::json j = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
+    if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports syntax errors
+    for (const char* kind : {"buffers", "images"}) {
+        auto it = j.find(kind);
+        if (it == j.end() || !it->is_array()) continue;
+        for (std::size_t i = 0; i < it->size(); ++i) {
+            const auto& e = (*it)[i];
+            if (e.is_object() && e.contains("uri") && e["uri"].is_string())
+                check_uri(ctx, fmt::format("{}[{}].uri", kind, i), e["uri"].get<std::string>());
+        }
+    }
+}
+
+// tinygltf file-system callbacks that enforce the same policy on every file it opens.
+bool fs_exists(const std::string& path, void* user) {
+    auto* ctx = static_cast<Context*>(user);
+    if (!ctx->allow_external && !inside(ctx->dir, path)) return false;
+    std::error_code ec;
+    return fs::is_regular_file(path, ec);
+}
+std::string fs_expand(const std::string& path, void*) {
+    return path;
+}
+bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+    auto* ctx = static_cast<Context*>(user);
+    if (!ctx->allow_external && !inside(ctx->dir, path)) {
+        *err += fmt::format("refusing to read \"{}\": outside the scene's folder\n", path);
+        return false;
+    }
+    std::error_code ec;
+    auto size = fs::file_size(path, ec);
+    if (ec || size > kMaxFileBytes) {
+        *err += fmt::format("cannot read \"{}\"\n", path);
+        return false;
+    }
+    std::ifstream in(path, std::ios::binary);
+    out->resize(size);
+    if (size && !in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size))) {
+        *err += fmt::format("cannot read \"{}\"\n", path);
+        return false;
+    }
+    return true;
+}
+bool fs_write(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+    *err += "penumbra never writes glTF files\n";
+    return false;
+}
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                const unsigned char*, int, void*) {
+    return true;  // images carry no geometry; never decoded
+}
+
+// ---- accessors ------------------------------------------------------------------------------
+
+struct AccessorView {
+    const unsigned char* data = nullptr;
+    std::size_t count = 0;
+    std::size_t stride = 0;
+    int component_type = 0;
+};
+
+// Validates an accessor against its buffer view and buffer, overflow-safely.
+AccessorView checked_accessor(const Context& ctx, const tinygltf::Model& m, int index,
+                              const std::string& user, int want_type,
+                              std::initializer_list<int> want_components) {
+    std::string element = fmt::format("accessors[{}]", index);
+    if (index < 0 || index >= static_cast<int>(m.accessors.size()))
+        fail(ctx, user, fmt::format("accessor index {} out of range ({} accessors)", index, m.accessors.size()));
+    const tinygltf::Accessor& a = m.accessors[index];
+    if (a.sparse.isSparse) fail(ctx, element, "sparse accessors are not supported");
+    if (a.type != want_type)
+        fail(ctx, element, fmt::format("type {} where {} expects {}", a.type, user, want_type == TINYGLTF_TYPE_VEC3 ? "VEC3" : "SCALAR"));
+    bool ok_component = false;
+    for (int c : want_components) ok_component |= (a.componentType == c);
+    if (!ok_component)
+        fail(ctx, element, fmt::format("componentType {} is not allowed for {}", a.componentType, user));
+    if (a.count == 0) return {};
+    if (a.bufferView < 0 || a.bufferView >= static_cast<int>(m.bufferViews.size()))
+        fail(ctx, element, fmt::format("bufferView {} out of range ({} bufferViews)", a.bufferView, m.bufferViews.size()));
+    const tinygltf::BufferView& bv = m.bufferViews[a.bufferView];
+    if (bv.buffer < 0 || bv.buffer >= static_cast<int>(m.buffers.size()))
+        fail(ctx, fmt::format("bufferViews[{}]", a.bufferView), fmt::format("buffer {} out of range", bv.buffer));
+    const tinygltf::Buffer& buf = m.buffers[bv.buffer];
+    std::uint64_t view_end = 0;
+    if (__builtin_add_overflow(std::uint64_t(bv.byteOffset), std::uint64_t(bv.byteLength), &view_end) ||
+        view_end > buf.data.size())
+        fail(ctx, fmt::format("bufferViews[{}]", a.bufferView),
+             fmt::format("byteOffset + byteLength exceeds buffer {} ({} + {} > {} bytes)", bv.buffer,
+                         bv.byteOffset, bv.byteLength, buf.data.size()));
+    int comp_size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
+    int ncomp = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
+    std::size_t elem = static_cast<std::size_t>(comp_size * ncomp);
+    std::size_t stride = bv.byteStride ? bv.byteStride : elem;
+    if (stride < elem)
+        fail(ctx, fmt::format("bufferViews[{}]", a.bufferView),
+             fmt::format("byteStride {} is smaller than an element of accessor {} ({} bytes)", stride, index, elem));
+    // Bytes the accessor spans: byteOffset + (count - 1) * stride + element size, overflow-checked.
+    std::uint64_t need = 0;
+    bool overflow = __builtin_mul_overflow(std::uint64_t(a.count - 1), std::uint64_t(stride), &need) ||
+                    __builtin_add_overflow(need, std::uint64_t(a.byteOffset) + elem, &need);
+    if (overflow || need > bv.byteLength)
+        fail(ctx, element,
+             fmt::format("byteOffset + count*stride exceeds bufferView {} ({} > {} bytes)", a.bufferView,
+                         overflow ? std::string("2^64") : std::to_string(need), bv.byteLength));
+    AccessorView v;
+    v.data = buf.data.data() + bv.byteOffset + a.byteOffset;
+    v.count = a.count;
+    v.stride = stride;
+    v.component_type = a.componentType;
+    return v;
+}
+
+std::vector<glm::dvec3> read_positions(const Context& ctx, const tinygltf::Model& m, int index,
+                                       const std::string& user) {
+    AccessorView v = checked_accessor(ctx, m, index, user, TINYGLTF_TYPE_VEC3, {TINYGLTF_COMPONENT_TYPE_FLOAT});
+    std::vector<glm::dvec3> out(v.count);
+    for (std::size_t i = 0; i < v.count; ++i) {
+        float f[3];
+        std::memcpy(f, v.data + i * v.stride, sizeof f);
+        for (int c = 0; c < 3; ++c)
+            if (!std::isfinite(f[c]))
+                fail(ctx, fmt::format("accessors[{}]", index),
+                     fmt::format("element {} of {} is not finite ({})", i, user, f[c]));
+        out[i] = glm::dvec3(f[0], f[1], f[2]);
+    }
+    return out;
+}
+
+std::vector<std::uint32_t> read_indices(const Context& ctx, const tinygltf::Model& m, int index,
+                                        const std::string& user, std::size_t vertex_count) {
+    AccessorView v = checked_accessor(ctx, m, index, user, TINYGLTF_TYPE_SCALAR,
+                                      {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
+    std::vector<std::uint32_t> out(v.count);
+    for (std::size_t i = 0; i < v.count; ++i) {
+        const unsigned char* p = v.data + i * v.stride;
+        std::uint32_t idx = 0;
+        if (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE) {
+            idx = *p;
+        } else if (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) {
+            std::uint16_t s;
+            std::memcpy(&s, p, 2);
+            idx = s;
+        } else {
+            std::memcpy(&idx, p, 4);
+        }
+        if (idx >= vertex_count)
+            fail(ctx, user, fmt::format("index {} (element {} of accessors[{}]) is out of range: "
+                                        "POSITION has {} vertices", idx, i, index, vertex_count));
+        out[i] = idx;
+    }
+    return out;
+}
+
+// ---- transforms -----------------------------------------------------------------------------
+
+glm::dmat4 local_transform(const Context& ctx, const tinygltf::Node& n, int index) {
+    std::string element = fmt::format("nodes[{}]", index);
+    auto check = [&](const std::vector<double>& v, std::size_t size, const char* name) {
+        if (!v.empty() && v.size() != size)
+            fail(ctx, element, fmt::format("{} must have {} numbers, has {}", name, size, v.size()));
+        for (double d : v)
+            if (!std::isfinite(d)) fail(ctx, element, fmt::format("{} is not finite", name));
+    };
+    check(n.matrix, 16, "matrix");
+    check(n.translation, 3, "translation");
+    check(n.rotation, 4, "rotation");
+    check(n.scale, 3, "scale");
+    if (!n.matrix.empty()) return glm::make_mat4(n.matrix.data());  // column-major, as glTF
+    glm::dmat4 t(1.0), r(1.0), s(1.0);
+    if (!n.translation.empty())
+        t[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
+    if (!n.rotation.empty()) {
+        glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
+        double len = glm::length(q);
+        if (!(len > 1e-6)) fail(ctx, element, "rotation is a zero quaternion");
+        r = glm::mat4_cast(q / len);
+    }
+    if (!n.scale.empty()) {
+        s[0][0] = n.scale[0];
+        s[1][1] = n.scale[1];
+        s[2][2] = n.scale[2];
+    }
+    return t * r * s;
+}
+
+int node_light(const Context& ctx, const tinygltf::Node& n, int index, std::size_t light_count) {
+    auto it = n.extensions.find("KHR_lights_punctual");
+    if (it == n.extensions.end()) return -1;
+    const tinygltf::Value& ext = it->second;
+    if (!ext.IsObject() || !ext.Has("light") || !ext.Get("light").IsInt())
+        fail(ctx, fmt::format("nodes[{}].extensions.KHR_lights_punctual", index), "expected {\"light\": integer}");
+    int l = ext.Get("light").GetNumberAsInt();
+    if (l < 0 || static_cast<std::size_t>(l) >= light_count)
+        fail(ctx, fmt::format("nodes[{}].extensions.KHR_lights_punctual.light", index),
+             fmt::format("light {} out of range ({} lights)", l, light_count));
+    return l;
+}
+
+// ---- flattening -----------------------------------------------------------------------------
+
+struct Flattener {
+    const Context& ctx;
+    const tinygltf::Model& m;
+    Scene& scene;
+    std::size_t degenerate = 0, skipped_points_lines = 0;
+
+    void add_primitive(int node_index, int mesh_index, int prim_index, const glm::dmat4& world) {
+        const tinygltf::Primitive& p = m.meshes[mesh_index].primitives[prim_index];
+        std::string element = fmt::format("meshes[{}].primitives[{}]", mesh_index, prim_index);
+        int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
+        if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+            mode == 3 /* LINE_STRIP */) {
+            ++skipped_points_lines;
+            return;
+        }
+        if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+            mode != TINYGLTF_MODE_TRIANGLE_FAN)
+            fail(ctx, element, fmt::format("mode {} is not a glTF primitive mode", p.mode));
+        auto pos = p.attributes.find("POSITION");
+        if (pos == p.attributes.end()) fail(ctx, element, "no POSITION attribute");
+        bool double_sided = false;
+        if (p.material >= 0) {
+            if (p.material >= static_cast<int>(m.materials.size()))
+                fail(ctx, element, fmt::format("material {} out of range ({} materials)", p.material, m.materials.size()));
+            double_sided = m.materials[p.material].doubleSided;
+        }
+        std::vector<glm::dvec3> local = read_positions(ctx, m, pos->second, element + ".attributes.POSITION");
+        std::vector<std::uint32_t> idx;
+        if (p.indices >= 0) {
+            idx = read_indices(ctx, m, p.indices, element + ".indices", local.size());
+        } else {
+            idx.resize(local.size());
+            for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = static_cast<std::uint32_t>(i);
+        }
+        // Triangles of each topology, per glTF 2.0 section 3.7.2.1.
+        std::vector<glm::u32vec3> tris;
+        if (mode == TINYGLTF_MODE_TRIANGLES) {
+            for (std::size_t i = 0; i + 2 < idx.size(); i += 3) tris.emplace_back(idx[i], idx[i + 1], idx[i + 2]);
+            if (idx.size() % 3)
+                scene.warnings.push_back(fmt::format("{}: {} trailing indices ignored", element, idx.size() % 3));
+        } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+            for (std::size_t i = 0; i + 2 < idx.size(); ++i)
+                tris.emplace_back(idx[i], idx[i + 1 + i % 2], idx[i + 2 - i % 2]);
+        } else {
+            for (std::size_t i = 1; i + 1 < idx.size(); ++i) tris.emplace_back(idx[i], idx[i + 1], idx[0]);
+        }
+        // A mirroring transform flips the winding (glTF: the determinant defines front faces).
+        bool mirror = glm::determinant(glm::dmat3(world)) < 0;
+        std::uint32_t base = static_cast<std::uint32_t>(scene.positions.size());
+        if (scene.positions.size() + local.size() > std::numeric_limits<std::uint32_t>::max())
+            fail(ctx, element, "scene has more than 2^32 vertices");
+        for (std::size_t i = 0; i < local.size(); ++i) {
+            glm::dvec3 w = glm::dvec3(world * glm::dvec4(local[i], 1.0));
+            for (int c = 0; c < 3; ++c)
+                if (!(std::abs(w[c]) <= kMaxCoordinate))
+                    fail(ctx, element, fmt::format("vertex {} lies at {} m from the origin after node {}'s "
+                                                   "transform (limit {:g} m)", i, w[c], node_index, kMaxCoordinate));
+            scene.positions.push_back(w);
+        }
+        for (auto t : tris) {
+            glm::dvec3 a = scene.positions[base + t.x], b = scene.positions[base + t.y], c = scene.positions[base + t.z];
+            if (glm::length(glm::cross(b - a, c - a)) == 0.0) {  // no area: can neither be seen nor occlude
+                ++degenerate;
+                continue;
+            }
+            if (mirror) std::swap(t.y, t.z);
+            scene.triangles.push_back(t + glm::u32vec3(base));
+            scene.double_sided.push_back(double_sided ? 1 : 0);
+            scene.triangle_node.push_back(static_cast<std::uint32_t>(node_index));
+            scene.bounds.grow(a);
+            scene.bounds.grow(b);
+            scene.bounds.grow(c);
+        }
+    }
+
+    void add_camera(int node_index, int cam, const glm::dmat4& world) {
+        std::string element = fmt::format("cameras[{}]", cam);
+        if (cam < 0 || cam >= static_cast<int>(m.cameras.size()))
+            fail(ctx, fmt::format("nodes[{}].camera", node_index), fmt::format("camera {} out of range", cam));
+        if (scene.camera_placed[cam]) return;  // the first node that uses a camera places it
+        const tinygltf::Camera& c = m.cameras[cam];
+        Camera out;
+        glm::dvec3 eye(world[3]);
+        glm::dvec3 fwd(world * glm::dvec4(0, 0, -1, 0));
+        glm::dvec3 up(world * glm::dvec4(0, 1, 0, 0));
+        if (!look_at_basis(eye, eye + fwd, up, out))
+            fail(ctx, fmt::format("nodes[{}]", node_index), "camera transform is degenerate");
+        if (c.type == "perspective") {
+            out.type = ProjectionType::perspective;
+            out.yfov_rad = c.perspective.yfov;
+            out.znear = c.perspective.znear;
+            out.zfar = c.perspective.zfar > 0 ? c.perspective.zfar : std::numeric_limits<double>::infinity();
+        } else if (c.type == "orthographic") {
+            out.type = ProjectionType::orthographic;
+            out.xmag = c.orthographic.xmag;
+            out.ymag = c.orthographic.ymag;
+            out.znear = c.orthographic.znear;
+            out.zfar = c.orthographic.zfar;
+        } else {
+            fail(ctx, element, fmt::format("unknown camera type \"{}\"", c.type));
+        }
+        scene.cameras[cam] = out;
+        scene.camera_placed[cam] = true;
+    }
+
+    void add_light(int node_index, int li, const glm::dmat4& world) {
+        const tinygltf::Light& l = m.lights[li];
+        std::string element = fmt::format("KHR_lights_punctual.lights[{}]", li);
+        Light out;
+        out.origin = fmt::format("glTF node {} (light {})", node_index, li);
+        out.position = glm::dvec3(world[3]);
+        glm::dvec3 dir(world * glm::dvec4(0, 0, -1, 0));
+        double len = glm::length(dir);
+        if (l.type == "directional" || l.type == "spot") {
+            if (!(len > 0) || !std::isfinite(len))
+                fail(ctx, fmt::format("nodes[{}]", node_index), "light transform collapses the light's direction");
+            out.direction = dir / len;
+        }
+        if (l.type == "directional") {
+            out.type = LightType::directional;
+        } else if (l.type == "point") {
+            out.type = LightType::point;
+        } else if (l.type == "spot") {
+            out.type = LightType::spot;
+            out.outer_cone_rad = l.spot.outerConeAngle;
+            out.inner_cone_rad = l.spot.innerConeAngle;
+            if (!(out.outer_cone_rad > 0 && out.outer_cone_rad <= M_PI / 2))
+                fail(ctx, element, fmt::format("spot.outerConeAngle {} outside (0, pi/2]", out.outer_cone_rad));
+        } else {
+            fail(ctx, element, fmt::format("unknown light type \"{}\"", l.type));
+        }
+        scene.lights.push_back(out);
+    }
+
+    void traverse(const std::vector<int>& roots) {
+        const std::size_t n = m.nodes.size();
+        // glTF requires a forest: every node has at most one parent and no node is its own ancestor.
+        std::vector<int> parent(n, -1);
+        for (std::size_t i = 0; i < n; ++i)
+            for (int c : m.nodes[i].children) {
+                if (c < 0 || static_cast<std::size_t>(c) >= n)
+                    fail(ctx, fmt::format("nodes[{}].children", i), fmt::format("node {} out of range ({} nodes)", c, n));
+                if (static_cast<std::size_t>(c) == i)
+                    fail(ctx, fmt::format("nodes[{}]", i), "node hierarchy has a cycle (node is its own child)");
+                if (parent[c] >= 0)
+                    fail(ctx, fmt::format("nodes[{}]", c), fmt::format("node has two parents (nodes {} and {}); "
+                                                                        "glTF node hierarchies must be trees", parent[c], i));
+                parent[c] = static_cast<int>(i);
+            }
+        for (std::size_t i = 0; i < n; ++i) {  // a cycle shows up as a walk up that never ends
+            std::size_t steps = 0;
+            for (int p = parent[i]; p >= 0; p = parent[p])
+                if (++steps > n)
+                    fail(ctx, fmt::format("nodes[{}]", i), "node hierarchy has a cycle");
+        }
+        struct Item { int node; glm::dmat4 world; };
+        std::vector<Item> stack;
+        for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
+            if (*it < 0 || static_cast<std::size_t>(*it) >= n)
+                fail(ctx, "scenes", fmt::format("root node {} out of range ({} nodes)", *it, n));
+            if (parent[*it] >= 0)
+                fail(ctx, fmt::format("nodes[{}]", *it), "a scene root must not be another node's child");
+            stack.push_back({*it, glm::dmat4(1.0)});
+        }
+        while (!stack.empty()) {  // explicit stack: deep hierarchies must not overflow ours
+            Item item = stack.back();
+            stack.pop_back();
+            const tinygltf::Node& node = m.nodes[item.node];
+            glm::dmat4 world = item.world * local_transform(ctx, node, item.node);
+            if (node.mesh >= 0) {
+                if (node.mesh >= static_cast<int>(m.meshes.size()))
+                    fail(ctx, fmt::format("nodes[{}].mesh", item.node), fmt::format("mesh {} out of range ({} meshes)", node.mesh, m.meshes.size()));
+                for (std::size_t p = 0; p < m.meshes[node.mesh].primitives.size(); ++p)
+                    add_primitive(item.node, node.mesh, static_cast<int>(p), world);
+            }
+            if (node.camera >= 0) add_camera(item.node, node.camera, world);
+            int li = node_light(ctx, node, item.node, m.lights.size());
+            if (li >= 0) add_light(item.node, li, world);
+            for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
+                stack.push_back({*it, world});
+        }
+    }
+};
+
+}  // namespace
+
+Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
+    Context ctx;
+    ctx.label = file.filename().string();
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) throw InputError(fmt::format("{}: no such file", file.string()));
+    auto size = fs::file_size(file, ec);
+    if (ec || size > kMaxFileBytes)
+        throw InputError(fmt::format("{}: cannot read, or larger than {} bytes", file.string(), kMaxFileBytes));
+    ctx.dir = fs::weakly_canonical(fs::absolute(file).parent_path());
+    ctx.allow_external = options.allow_external_paths;
+
+    std::string bytes;
+    {
+        std::ifstream in(file, std::ios::binary);
+        std::ostringstream s;
+        s << in.rdbuf();
+        bytes = s.str();
+    }
+    bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    check_uris(ctx, bytes, binary);
+
+    tinygltf::TinyGLTF loader;
+    tinygltf::FsCallbacks callbacks{&fs_exists, &fs_expand, &fs_read, &fs_write, &ctx};
+    loader.SetFsCallbacks(callbacks);
+    loader.SetImageLoader(&skip_image, nullptr);
+    tinygltf::Model model;
+    std::string err, warn;
+    std::string base_dir = ctx.dir.string();
+    bool ok = binary
+        ? loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                      static_cast<unsigned int>(bytes.size()), base_dir)
+        : loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()), base_dir);
+    if (!ok) {
+        while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+        for (auto& ch : err) if (ch == '\n') ch = ';';
+        throw InputError(fmt::format("{}: not a valid glTF 2.0 file: {}", ctx.label, err.empty() ? "unknown error" : err));
+    }
+
+    Scene scene;
+    scene.cameras.resize(model.cameras.size());
+    scene.camera_placed.assign(model.cameras.size(), false);
+    std::vector<int> roots;
+    if (!model.scenes.empty()) {
+        int s = model.defaultScene >= 0 ? model.defaultScene : 0;
+        if (s >= static_cast<int>(model.scenes.size()))
+            fail(ctx, "scene", fmt::format("default scene {} out of range ({} scenes)", s, model.scenes.size()));
+        roots = model.scenes[s].nodes;
+    } else {
+        std::vector<bool> is_child(model.nodes.size(), false);
+        for (const auto& n : model.nodes)
+            for (int c : n.children)
+                if (c >= 0 && static_cast<std::size_t>(c) < is_child.size()) is_child[c] = true;
+        for (std::size_t i = 0; i < model.nodes.size(); ++i)
+            if (!is_child[i]) roots.push_back(static_cast<int>(i));
+        scene.warnings.push_back(fmt::format("{}: no scenes; using all {} root nodes", ctx.label, roots.size()));
+    }
+    Flattener flat{ctx, model, scene};
+    flat.traverse(roots);
+    if (flat.skipped_points_lines)
+        scene.warnings.push_back(fmt::format("{}: {} point/line primitives skipped (they cast no shadows)",
+                                             ctx.label, flat.skipped_points_lines));
+    if (flat.degenerate)
+        scene.warnings.push_back(fmt::format("{}: {} zero-area triangles dropped", ctx.label, flat.degenerate));
+    return scene;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,104 @@
+#include "common/output_files.h"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include "common/errors.h"
+
+namespace penumbra {
+namespace fs = std::filesystem;
+
+OutputTransaction::OutputTransaction(fs::path dir) : dir_(std::move(dir)) {}
+
+OutputTransaction::~OutputTransaction() {
+    if (committed_) return;
+    std::error_code ec;
+    for (auto& [tmp, final_path] : files_) fs::remove(tmp, ec);
+    if (created_dir_) fs::remove(dir_, ec);  // only succeeds if empty
+}
+
+fs::path OutputTransaction::temporary(const std::string& name) {
+    std::error_code ec;
+    if (!fs::exists(dir_, ec)) {
+        if (!fs::create_directories(dir_, ec) || ec)
+            throw InputError(fmt::format("{}: cannot create output folder: {}", dir_.string(), ec.message()));
+        created_dir_ = true;
+    } else if (!fs::is_directory(dir_, ec)) {
+        throw InputError(fmt::format("{}: output path exists and is not a folder", dir_.string()));
+    }
+    fs::path tmp = dir_ / fmt::format(".{}.tmp-{}", name, ::getpid());
+    files_.emplace_back(tmp, dir_ / name);
+    return tmp;
+}
+
+void OutputTransaction::write_exr(const std::string& name, int width, int height,
+                                  const std::vector<ExrChannel>& channels) {
+    fs::path tmp = temporary(name);
+    OIIO::ImageSpec spec(width, height, static_cast<int>(channels.size()), OIIO::TypeDesc::FLOAT);
+    spec.channelnames.clear();
+    spec.channelformats.clear();
+    std::size_t pixel_bytes = 0;
+    for (const ExrChannel& c : channels) {
+        spec.channelnames.push_back(c.name);
+        spec.channelformats.push_back(c.u32.empty() ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT);
+        pixel_bytes += 4;
+    }
+    spec.attribute("compression", "zip");
+    // Interleave per pixel in each channel's native format (OIIO's TypeUnknown convention).
+    const std::size_t n = static_cast<std::size_t>(width) * height;
+    std::vector<unsigned char> data(n * pixel_bytes);
+    for (std::size_t i = 0; i < n; ++i) {
+        unsigned char* p = data.data() + i * pixel_bytes;
+        for (const ExrChannel& c : channels) {
+            std::memcpy(p, c.u32.empty() ? static_cast<const void*>(&c.f32[i]) : static_cast<const void*>(&c.u32[i]), 4);
+            p += 4;
+        }
+    }
+    auto out = OIIO::ImageOutput::create("openexr");
+    if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeUnknown, data.data()) || !out->close())
+        throw EnvironmentError(fmt::format("{}: cannot write EXR: {}", (dir_ / name).string(),
+                                           out ? out->geterror() : OIIO::geterror()));
+}
+
+void OutputTransaction::write_png(const std::string& name, int width, int height, const std::vector<float>& rgb) {
+    fs::path tmp = temporary(name);
+    std::vector<unsigned char> bytes(rgb.size());
+    for (std::size_t i = 0; i < rgb.size(); ++i) {
+        float v = std::clamp(rgb[i], 0.0f, 1.0f);
+        float s = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+        bytes[i] = static_cast<unsigned char>(std::lround(s * 255.0f));
+    }
+    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+    auto out = OIIO::ImageOutput::create("png");
+    if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close())
+        throw EnvironmentError(fmt::format("{}: cannot write PNG: {}", (dir_ / name).string(),
+                                           out ? out->geterror() : OIIO::geterror()));
+}
+
+void OutputTransaction::write_json(const std::string& name, const nlohmann::json& value) {
+    write_text(name, value.dump(2) + "\n");
+}
+
+void OutputTransaction::write_text(const std::string& name, const std::string& text) {
+    fs::path tmp = temporary(name);
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw EnvironmentError(fmt::format("{}: cannot write", (dir_ / name).string()));
+}
+
+void OutputTransaction::commit() {
+    for (auto& [tmp, final_path] : files_) {
+        std::error_code ec;
+        fs::rename(tmp, final_path, ec);
+        if (ec) throw EnvironmentError(fmt::format("{}: cannot move into place: {}", final_path.string(), ec.message()));
+    }
+    committed_ = true;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,45 @@
+// Writing results without ever leaving partial output: every file goes to a temporary name in
+// the output folder and is renamed into place only when all of them were written.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace penumbra {
+
+// One named channel of an EXR image; exactly one of the two vectors is filled.
+struct ExrChannel {
+    std::string name;
+    std::vector<float> f32;
+    std::vector<std::uint32_t> u32;
+};
+
+class OutputTransaction {
+  public:
+    explicit OutputTransaction(std::filesystem::path dir);
+    ~OutputTransaction();  // removes temporaries (and the folder if it made it) unless committed
+    OutputTransaction(const OutputTransaction&) = delete;
+    OutputTransaction& operator=(const OutputTransaction&) = delete;
+
+    void write_exr(const std::string& name, int width, int height, const std::vector<ExrChannel>& channels);
+    // 8-bit sRGB-encoded RGB image, linear input in [0, 1] per channel, row-major.
+    void write_png(const std::string& name, int width, int height, const std::vector<float>& rgb);
+    void write_json(const std::string& name, const nlohmann::json& value);
+    void write_text(const std::string& name, const std::string& text);
+
+    void commit();  // renames every temporary into place
+    const std::filesystem::path& dir() const { return dir_; }
+
+  private:
+    std::filesystem::path temporary(const std::string& name);
+    std::filesystem::path dir_;
+    bool created_dir_ = false;
+    bool committed_ = false;
+    std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // temp, final
+};
+
+}  // namespace penumbra

@@ -1,0 +1,65 @@
+// The scene penumbra judges: triangles in double-precision world space, lights and cameras.
+// Conventions follow glTF 2.0 (right-handed, +Y up, metres, cameras look down local -Z).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+namespace penumbra {
+
+enum class LightType { directional, spot, point, rect, disk, sphere };
+const char* to_string(LightType type);
+inline bool is_area_light(LightType t) {
+    return t == LightType::rect || t == LightType::disk || t == LightType::sphere;
+}
+
+struct Light {
+    LightType type = LightType::directional;
+    glm::dvec3 position{0.0};   // spot, point; centre of rect, disk, sphere
+    glm::dvec3 direction{0.0};  // directional, spot: unit direction light travels
+    double outer_cone_rad = 0;  // spot: half-angle of the cone
+    double inner_cone_rad = 0;  // spot: shading only, no effect on visibility
+    glm::dvec3 u{0.0}, v{0.0};  // rect: full edge vectors; emits towards u x v
+    glm::dvec3 normal{0.0};     // disk: unit emitting normal
+    double radius = 0;          // disk, sphere
+    std::string origin;         // where it came from, for messages ("lights[2]", "gltf node 4")
+};
+
+enum class ProjectionType { perspective, orthographic };
+
+struct Camera {
+    ProjectionType type = ProjectionType::perspective;
+    glm::dvec3 eye{0.0};
+    glm::dvec3 forward{0, 0, -1}, right{1, 0, 0}, up{0, 1, 0};  // orthonormal
+    double yfov_rad = 0.785398;  // perspective
+    double xmag = 1, ymag = 1;   // orthographic half-extents
+    double znear = 0.1, zfar = 1e30;
+};
+
+struct Bounds {
+    glm::dvec3 lo{1e300}, hi{-1e300};
+    void grow(const glm::dvec3& p);
+    bool empty() const { return lo.x > hi.x; }
+    glm::dvec3 center() const { return (lo + hi) * 0.5; }
+    double radius() const;
+};
+
+// A flattened triangle soup; triangle index = primitive id in every output (oracle and raster).
+struct Scene {
+    std::vector<glm::dvec3> positions;   // world space
+    std::vector<glm::u32vec3> triangles; // counter-clockwise = front face
+    std::vector<std::uint8_t> double_sided;  // per triangle (glTF material.doubleSided)
+    std::vector<std::uint32_t> triangle_node;  // per triangle: glTF node index
+    std::vector<Camera> cameras;         // glTF cameras, placed by their first node; index = camera index
+    std::vector<bool> camera_placed;     // false where no node of the scene uses that camera
+    std::vector<Light> lights;           // KHR_lights_punctual, placed by nodes
+    Bounds bounds;
+    std::vector<std::string> warnings;   // skipped points/lines, degenerate triangles, ...
+
+    std::size_t triangle_count() const { return triangles.size(); }
+};
+
+}  // namespace penumbra

@@ -1,0 +1,128 @@
+#include "oracle/oracle.h"
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <unistd.h>
+
+#include "oracle/tracer.h"
+
+namespace penumbra {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+constexpr int kTile = 16;  // pixels per tile side: the unit of parallel work
+
+void allocate(OracleFrame& frame, const Scenario& scenario, std::size_t lights) {
+    frame.width = scenario.width;
+    frame.height = scenario.height;
+    const std::size_t n = frame.pixel_count();
+    frame.A.assign(n, 0.0f);
+    frame.prim.assign(n, kNoPrimitive);
+    frame.depth.assign(n, 0.0f);
+    frame.P.assign(n, glm::vec3(0.0f));
+    frame.N.assign(n, glm::vec3(0.0f));
+    frame.lights.resize(lights);
+    for (auto& img : frame.lights) {
+        img.V.assign(n, 0.0f);
+        img.E.assign(n, 0.0f);  // punctual lights are exact
+        img.U.assign(n, 0.0f);
+        img.lightable.assign(n, 0.0f);
+        img.occluder_m.assign(n, kNoDistance);
+        img.boundary_m.assign(n, kNoDistance);
+    }
+}
+
+}  // namespace
+
+OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings) {
+    using namespace oracle_detail;
+    const int threads = settings.threads > 0 ? settings.threads
+                                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+
+    OracleResult result;
+    OracleStats& stats = result.stats;
+    stats.threads = threads;
+
+    auto t0 = Clock::now();
+    Tracer tracer(scenario);
+    stats.embree_version = tracer.device().version();
+    tracer.build();
+    stats.build_s = seconds_since(t0);
+
+    OracleFrame& frame = result.frame;
+    allocate(frame, scenario, tracer.lights().size());
+    frame.frame_origin = tracer.frame_origin();
+
+    // ---- primary and shadow rays, tile by tile; each pixel's answer is independent of the
+    // tiling and of the thread that computes it, so the output is deterministic ----
+    t0 = Clock::now();
+    const int tiles_x = (frame.width + kTile - 1) / kTile, tiles_y = (frame.height + kTile - 1) / kTile;
+    const int tile_count = tiles_x * tiles_y;
+    std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0};
+    std::atomic<int> tiles_done{0};
+    const bool progress = settings.progress && ::isatty(STDERR_FILENO);
+    std::mutex progress_mutex;
+    int last_percent = -1;
+    tbb::parallel_for(tbb::blocked_range<int>(0, tile_count, 4), [&](const tbb::blocked_range<int>& r) {
+        TraceCounters c;
+        for (int t = r.begin(); t != r.end(); ++t)
+            tracer.trace_tile(frame, (t % tiles_x) * kTile, (t / tiles_x) * kTile, kTile, c);
+        primary += c.primary;
+        shadow += c.shadow;
+        retraced += c.retraced;
+        int done = tiles_done += static_cast<int>(r.size());
+        if (progress) {
+            int pct = static_cast<int>(100.0 * done / tile_count);
+            std::lock_guard lock(progress_mutex);
+            if (pct != last_percent) {
+                last_percent = pct;
+                std::fprintf(stderr, "\rpenumbra oracle: tracing %3d%%", pct);
+            }
+        }
+    });
+    if (progress) std::fprintf(stderr, "\r\033[K");
+    tracer.device().check("tracing");
+    stats.trace_s = seconds_since(t0);
+    stats.primary_rays = primary;
+    stats.shadow_rays = shadow;
+    stats.verified_retraces = retraced;
+
+    // ---- shadow boundaries (and the ambiguity they imply), one light per task ----
+    t0 = Clock::now();
+    std::atomic<std::uint64_t> boundary_rays{0};
+    tbb::parallel_for(std::size_t(0), tracer.lights().size(), [&](std::size_t li) {
+        boundary_rays += locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps);
+    });
+    tracer.device().check("boundary search");
+    stats.boundary_rays = boundary_rays;
+    stats.boundary_s = seconds_since(t0);
+
+    stats.lights.resize(tracer.lights().size());
+    for (std::size_t li = 0; li < frame.lights.size(); ++li) {
+        const OracleLightImage& img = frame.lights[li];
+        OracleLightStats& ls = stats.lights[li];
+        for (std::size_t i = 0; i < frame.pixel_count(); ++i) {
+            if (frame.A[i] == 0) continue;
+            ++ls.surface;
+            if (img.lightable[i] == 0) continue;
+            ++ls.lightable;
+            ls.shadowed += img.V[i] == 0;
+            ls.uncertain += img.U[i] != 0;
+        }
+    }
+    return result;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,116 @@
+#include "oracle/oracle_output.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+
+namespace penumbra {
+
+namespace {
+
+std::vector<ExrChannel> exr_channels(const OracleFrame& f) {
+    const std::size_t n = f.pixel_count();
+    std::vector<ExrChannel> ch;
+    auto add = [&](std::string name, std::vector<float> data) {
+        ch.push_back({std::move(name), std::move(data), {}});
+    };
+    add("A", f.A);
+    ch.push_back({"prim", {}, f.prim});
+    add("depth", f.depth);
+    for (int c = 0; c < 3; ++c) {
+        std::vector<float> p(n), nn(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            p[i] = f.P[i][c];
+            nn[i] = f.N[i][c];
+        }
+        add(std::string("P.") + "XYZ"[c], std::move(p));
+        add(std::string("N.") + "XYZ"[c], std::move(nn));
+    }
+    for (std::size_t li = 0; li < f.lights.size(); ++li) {
+        const OracleLightImage& img = f.lights[li];
+        std::string prefix = fmt::format("light{}.", li);
+        add(prefix + "V", img.V);
+        add(prefix + "E", img.E);
+        add(prefix + "U", img.U);
+        add(prefix + "lightable", img.lightable);
+        add(prefix + "occluder_m", img.occluder_m);
+        add(prefix + "boundary_m", img.boundary_m);
+    }
+    return ch;
+}
+
+// A picture a person can read: surfaces shaded by how many lights reach them, ambiguous
+// pixels in magenta, background dark.
+std::vector<float> preview(const OracleFrame& f) {
+    const std::size_t n = f.pixel_count();
+    std::vector<float> rgb(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        float r = 0.06f, g = 0.07f, b = 0.09f;
+        if (f.A[i] != 0) {
+            float lit = 0;
+            bool uncertain = false;
+            for (const auto& img : f.lights) {
+                lit += img.V[i];
+                uncertain |= img.U[i] != 0;
+            }
+            float k = f.lights.empty() ? 1.0f : lit / static_cast<float>(f.lights.size());
+            glm::vec3 n3 = f.N[i];
+            float facing = 0.55f + 0.45f * std::abs(n3.y);  // a little shape from the normal
+            r = g = b = facing * (0.12f + 0.78f * k);
+            if (uncertain) {
+                r = 0.95f;
+                g = 0.1f;
+                b = 0.9f;
+            }
+        }
+        rgb[3 * i] = r;
+        rgb[3 * i + 1] = g;
+        rgb[3 * i + 2] = b;
+    }
+    return rgb;
+}
+
+}  // namespace
+
+void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
+                          const OracleTimings& timings) {
+    const OracleFrame& f = result.frame;
+    const OracleStats& s = result.stats;
+    auto t0 = std::chrono::steady_clock::now();
+    out.write_exr("oracle.exr", f.width, f.height, exr_channels(f));
+    out.write_png("oracle.png", f.width, f.height, preview(f));
+    double write_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    nlohmann::json lights = nlohmann::json::array();
+    for (std::size_t li = 0; li < s.lights.size(); ++li) {
+        const auto& l = s.lights[li];
+        lights.push_back({{"index", li},
+                          {"type", to_string(scenario.lights[li].type)},
+                          {"source", scenario.lights[li].origin},
+                          {"pixels", {{"surface", l.surface}, {"lightable", l.lightable},
+                                      {"shadowed", l.shadowed}, {"uncertain", l.uncertain}}}});
+    }
+    double trace_total = s.trace_s + s.boundary_s;
+    std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces;
+    nlohmann::json j = {
+        {"scenario", scenario.file.string()},
+        {"scene", scenario.scene_file.string()},
+        {"image", {{"width", f.width}, {"height", f.height}}},
+        {"triangles", scenario.scene.triangle_count()},
+        {"frame_origin", {f.frame_origin.x, f.frame_origin.y, f.frame_origin.z}},
+        {"rays", {{"primary", s.primary_rays}, {"shadow", s.shadow_rays}, {"boundary", s.boundary_rays},
+                  {"verified_retraces", s.verified_retraces}}},
+        {"mrays_per_s", trace_total > 0 ? rays / trace_total * 1e-6 : 0.0},
+        {"seconds", {{"load", timings.load_s}, {"build", s.build_s}, {"trace", s.trace_s},
+                     {"boundary", s.boundary_s}, {"write", write_s}}},
+        {"threads", s.threads},
+        {"embree", s.embree_version},
+        {"lights", lights},
+        {"warnings", scenario.scene.warnings},
+    };
+    out.write_json("oracle.json", j);
+}
+
+}  // namespace penumbra

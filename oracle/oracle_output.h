@@ -1,0 +1,19 @@
+// The oracle's files: oracle.exr, oracle.json, oracle.png (design.md, "Output directory").
+#pragma once
+
+#include "common/output_files.h"
+#include "common/scenario.h"
+#include "oracle/oracle.h"
+
+namespace penumbra {
+
+struct OracleTimings {
+    double load_s = 0;  // scenario + glTF
+};
+
+// Adds oracle.exr, oracle.png and oracle.json to the transaction (nothing is visible until it
+// commits).
+void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
+                          const OracleTimings& timings);
+
+}  // namespace penumbra

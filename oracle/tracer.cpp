@@ -1,0 +1,347 @@
+#include "oracle/tracer.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <glm/geometric.hpp>
+
+#include "common/camera.h"
+#include "common/errors.h"
+
+namespace penumbra::oracle_detail {
+
+namespace {
+
+constexpr int kPacket = 16;  // rays per Embree packet: a 4x4 block of pixels
+// Point and spot shadow rays stop this relative distance short of the light, so geometry
+// touching the light position does not count and float rounding of the direction cannot
+// carry the ray past it.
+constexpr double kLightMargin = 64 * robust::kFloatEps;
+// |N.L| (or the spot-cone cosine difference) below this is within float error of the
+// terminator: a rasteriser may decide either way, so the pixel is flagged ambiguous.
+constexpr double kTerminatorTolerance = 64 * robust::kFloatEps;
+
+glm::vec3 to_float(const glm::dvec3& v) {
+    return glm::vec3(static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
+}
+
+// Context for rays re-traced with a filter: Embree hands the RTCIntersectContext pointer back
+// to the filter, so it is the first member.
+struct FilterContext {
+    RTCIntersectContext embree;
+    const Tracer* tracer = nullptr;
+    glm::dvec3 p{0.0}, dir{0.0};  // true (double) origin and direction
+    std::uint32_t self_prim = kNoPrimitive;
+    bool ambiguous = false;
+};
+
+// Every candidate hit of a re-traced shadow ray is judged in double.
+void shadow_filter(const RTCFilterFunctionNArguments* args) {
+    auto* ctx = reinterpret_cast<FilterContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (!args->valid[i]) continue;
+        std::uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
+        switch (ctx->tracer->verify(prim, ctx->p, ctx->dir, ctx->self_prim)) {
+            case robust::HitVerdict::real: break;
+            case robust::HitVerdict::edge: ctx->ambiguous = true; break;
+            case robust::HitVerdict::in_plane: ctx->ambiguous = true; args->valid[i] = 0; break;
+            case robust::HitVerdict::spurious: args->valid[i] = 0; break;
+        }
+    }
+}
+
+// Single-sided triangles seen from behind are culled for the camera, as a rasteriser would.
+void camera_cull_filter(const RTCFilterFunctionNArguments* args) {
+    auto* ctx = reinterpret_cast<FilterContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i)
+        if (args->valid[i] && ctx->tracer->culled_for_camera(RTCHitN_primID(args->hit, args->N, i), ctx->dir))
+            args->valid[i] = 0;
+}
+
+void set_ray(RTCRay& r, const glm::vec3& o, const glm::vec3& d, float tnear, float tfar) {
+    r.org_x = o.x; r.org_y = o.y; r.org_z = o.z;
+    r.dir_x = d.x; r.dir_y = d.y; r.dir_z = d.z;
+    r.tnear = tnear;
+    r.tfar = tfar;
+    r.time = 0;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+}
+
+void set_lane(RTCRay16& r, int k, const glm::vec3& o, const glm::vec3& d, float tnear, float tfar) {
+    r.org_x[k] = o.x; r.org_y[k] = o.y; r.org_z[k] = o.z;
+    r.dir_x[k] = d.x; r.dir_y[k] = d.y; r.dir_z[k] = d.z;
+    r.tnear[k] = tnear;
+    r.tfar[k] = tfar;
+    r.time[k] = 0;
+    r.mask[k] = 0xFFFFFFFFu;
+    r.id[k] = static_cast<unsigned>(k);
+    r.flags[k] = 0;
+}
+
+}  // namespace
+
+glm::dvec3 direction_to_light(const LocalLight& l, const glm::dvec3& p) {
+    if (l.type == LightType::directional) return l.to_light;
+    glm::dvec3 d = l.position - p;
+    double len = glm::length(d);
+    return len > 0 ? d / len : glm::dvec3(0.0);
+}
+
+ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s) {
+    ShadowSetup r;
+    glm::dvec3 to_light = direction_to_light(light, s.p);
+    double cos_nl = glm::dot(s.n, to_light);
+    bool in_cone = true;
+    if (light.type == LightType::spot) {
+        double c = glm::dot(-to_light, light.spot_axis);
+        in_cone = c >= light.cos_outer;
+        r.ambiguous |= std::abs(c - light.cos_outer) <= kTerminatorTolerance;
+    }
+    r.ambiguous |= std::abs(cos_nl) <= kTerminatorTolerance;
+    r.lightable = cos_nl > 0 && in_cone;
+    if (!r.lightable) return r;
+    r.origin = robust::offset_ray_origin(s.p, s.n, s.error);
+    if (light.type == LightType::directional) {
+        r.dir = to_light;
+        r.tfar = std::numeric_limits<float>::infinity();
+    } else {
+        glm::dvec3 d = light.position - glm::dvec3(r.origin);
+        double dist = glm::length(d);
+        r.dir = d / dist;
+        r.tfar = static_cast<float>(dist * (1.0 - kLightMargin));
+    }
+    r.dir_f = to_float(r.dir);
+    return r;
+}
+
+Tracer::Tracer(const Scenario& scenario)
+    : scenario_(scenario), device_("verbose=0"), scene_(device_), tris_(scenario.scene.triangles),
+      double_sided_(scenario.scene.double_sided) {}
+
+void Tracer::build() {
+    frame_origin_ = scenario_.camera.eye;
+    const auto& world = scenario_.scene.positions;
+    vertices_.resize(world.size());
+    for (std::size_t i = 0; i < world.size(); ++i) {
+        vertices_[i] = world[i] - frame_origin_;  // in double: float precision goes where the pixels are
+        max_vertex_norm_ = std::max(max_vertex_norm_, glm::length(vertices_[i]));
+    }
+    RTCScene sc = scene_.get();
+    // ROBUST: watertight traversal, no cracks between triangles sharing an edge.
+    // CONTEXT_FILTER_FUNCTION: lets the rare re-traced rays judge their hits in double.
+    rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+    if (!tris_.empty()) {
+        RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
+        auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                                3 * sizeof(float), vertices_.size()));
+        auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                   3 * sizeof(unsigned), tris_.size()));
+        device_.check("buffer allocation");
+        if (!vb || !ib) throw EnvironmentError("Embree: cannot allocate geometry buffers");
+        for (std::size_t i = 0; i < vertices_.size(); ++i) {
+            glm::vec3 f = to_float(vertices_[i]);
+            vb[3 * i] = f.x;
+            vb[3 * i + 1] = f.y;
+            vb[3 * i + 2] = f.z;
+        }
+        for (std::size_t i = 0; i < tris_.size(); ++i)
+            for (int k = 0; k < 3; ++k) ib[3 * i + k] = tris_[i][k];
+        rtcCommitGeometry(geom);
+        rtcAttachGeometry(sc, geom);
+        rtcReleaseGeometry(geom);  // the scene holds the reference now
+    }
+    rtcCommitScene(sc);
+    device_.check("BVH build");
+    for (const Light& l : scenario_.lights) {
+        if (is_area_light(l.type))
+            throw InputError(fmt::format("{}: {}: {} lights are not supported by the oracle yet",
+                                         scenario_.label, l.origin, to_string(l.type)));
+        LocalLight ll;
+        ll.type = l.type;
+        ll.position = l.position - frame_origin_;
+        ll.to_light = -l.direction;
+        ll.spot_axis = l.direction;
+        ll.cos_outer = l.type == LightType::spot ? std::cos(l.outer_cone_rad) : -1.0;
+        lights_.push_back(ll);
+    }
+}
+
+glm::dvec3 Tracer::normal_ccw(std::uint32_t prim) const {
+    return glm::cross(vertex(prim, 1) - vertex(prim, 0), vertex(prim, 2) - vertex(prim, 0));
+}
+
+robust::HitVerdict Tracer::verify(std::uint32_t prim, const glm::dvec3& p, const glm::dvec3& dir,
+                                  std::uint32_t self_prim) const {
+    if (prim == self_prim) return robust::HitVerdict::spurious;  // a plane cannot shadow itself
+    return robust::verify_hit(p, dir, vertex(prim, 0), vertex(prim, 1), vertex(prim, 2));
+}
+
+bool Tracer::culled_for_camera(std::uint32_t prim, const glm::dvec3& ray_dir) const {
+    return !double_sided_[prim] && glm::dot(normal_ccw(prim), ray_dir) > 0;
+}
+
+double Tracer::suspicious_hit_distance(const glm::dvec3& p, double cos_hit) const {
+    // Embree's plane-distance error is ~eps * (|origin| + |vertex|); along the ray it grows as
+    // 1 / cos(ray, hit plane). Hits closer than 64x that are re-judged in double.
+    return 64 * robust::kFloatEps * (glm::length(p) + max_vertex_norm_) / std::max(cos_hit, 1e-9);
+}
+
+SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir) const {
+    SurfacePoint s;
+    s.hit = true;
+    s.prim = prim;
+    // Rebuild the point from Embree's barycentrics and the double vertices: it lies on the
+    // exact triangle whatever the float error of t.
+    double b1 = std::clamp(u, 0.0, 1.0), b2 = std::clamp(v, 0.0, 1.0);
+    if (b1 + b2 > 1.0) {
+        double k = 1.0 / (b1 + b2);
+        b1 *= k;
+        b2 *= k;
+    }
+    double b0 = 1.0 - b1 - b2;
+    const glm::dvec3 &v0 = vertex(prim, 0), &v1 = vertex(prim, 1), &v2 = vertex(prim, 2);
+    s.p = b0 * v0 + b1 * v1 + b2 * v2;
+    s.error = robust::surface_error_bound(s.p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2));
+    s.n = glm::normalize(normal_ccw(prim));
+    if (glm::dot(s.n, ray_dir) > 0) s.n = -s.n;
+    s.depth = t;
+    return s;
+}
+
+ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p, std::uint32_t self_prim) const {
+    FilterContext ctx;
+    rtcInitIntersectContext(&ctx.embree);
+    ctx.embree.filter = &shadow_filter;
+    ctx.tracer = this;
+    ctx.p = p;
+    ctx.dir = setup.dir;
+    ctx.self_prim = self_prim;
+    RTCRayHit rh{};
+    set_ray(rh.ray, setup.origin, setup.dir_f, 0.0f, setup.tfar);
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene_.get(), &ctx.embree, &rh);
+    ShadowAnswer a;
+    a.ambiguous = ctx.ambiguous;
+    if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+        a.blocked = true;
+        a.occluder_t = rh.ray.tfar;
+    }
+    return a;
+}
+
+void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters) const {
+    const Camera& cam = scenario_.camera;
+    const int W = frame.width, H = frame.height;
+    const float znear = static_cast<float>(cam.znear);
+    const float zfar = static_cast<float>(std::min(cam.zfar, 3.0e38));
+    RTCIntersectContext coherent;
+    rtcInitIntersectContext(&coherent);
+    coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+
+    for (int by = y0; by < std::min(y0 + size, H); by += 4) {
+        for (int bx = x0; bx < std::min(x0 + size, W); bx += 4) {
+            alignas(64) RTCRayHit16 rh;
+            alignas(64) int valid[kPacket];
+            glm::dvec3 ray_dir[kPacket];
+            int pixel[kPacket];
+            for (int k = 0; k < kPacket; ++k) {
+                int x = bx + (k & 3), y = by + (k >> 2);
+                valid[k] = (x < W && y < H) ? -1 : 0;
+                pixel[k] = valid[k] ? y * W + x : -1;
+                PrimaryRay r = primary_ray(cam, W, H, x + 0.5, y + 0.5);
+                ray_dir[k] = r.direction;
+                set_lane(rh.ray, k, to_float(r.origin), to_float(r.direction), znear, zfar);
+                rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                if (valid[k]) ++counters.primary;
+            }
+            rtcIntersect16(valid, scene_.get(), &coherent, &rh);
+
+            SurfacePoint surf[kPacket];
+            for (int k = 0; k < kPacket; ++k) {
+                if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+                std::uint32_t prim = rh.hit.primID[k];
+                double t = rh.ray.tfar[k], u = rh.hit.u[k], v = rh.hit.v[k];
+                if (culled_for_camera(prim, ray_dir[k])) {
+                    // Rare: re-trace this ray alone, culling the backs of single-sided surfaces.
+                    FilterContext ctx;
+                    rtcInitIntersectContext(&ctx.embree);
+                    ctx.embree.filter = &camera_cull_filter;
+                    ctx.tracer = this;
+                    ctx.dir = ray_dir[k];
+                    RTCRayHit one{};
+                    set_ray(one.ray, glm::vec3(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]),
+                            glm::vec3(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]), znear, zfar);
+                    one.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                    rtcIntersect1(scene_.get(), &ctx.embree, &one);
+                    ++counters.retraced;
+                    if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                    prim = one.hit.primID;
+                    t = one.ray.tfar;
+                    u = one.hit.u;
+                    v = one.hit.v;
+                }
+                surf[k] = primary_hit(prim, u, v, t, ray_dir[k]);
+                int i = pixel[k];
+                frame.A[i] = 1.0f;
+                frame.prim[i] = prim;
+                frame.depth[i] = static_cast<float>(t);
+                frame.P[i] = to_float(surf[k].p);
+                frame.N[i] = to_float(surf[k].n);
+            }
+
+            for (std::size_t li = 0; li < lights_.size(); ++li) {
+                OracleLightImage& img = frame.lights[li];
+                alignas(64) RTCRayHit16 sh;
+                alignas(64) int svalid[kPacket];
+                ShadowSetup setup[kPacket];
+                bool any = false;
+                for (int k = 0; k < kPacket; ++k) {
+                    svalid[k] = 0;
+                    if (!surf[k].hit) continue;
+                    setup[k] = setup_shadow(lights_[li], surf[k]);
+                    int i = pixel[k];
+                    img.lightable[i] = setup[k].lightable ? 1.0f : 0.0f;
+                    img.U[i] = setup[k].ambiguous ? 1.0f : 0.0f;
+                    if (!setup[k].lightable) continue;  // back-facing or outside the cone: V = 0, no ray
+                    svalid[k] = -1;
+                    any = true;
+                    set_lane(sh.ray, k, setup[k].origin, setup[k].dir_f, 0.0f, setup[k].tfar);
+                    sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                    ++counters.shadow;
+                }
+                if (!any) continue;
+                // Closest hit, not any hit: the occluder distance is part of the answer (the
+                // metrics measure peter-panning gaps with it).
+                rtcIntersect16(svalid, scene_.get(), &coherent, &sh);
+                for (int k = 0; k < kPacket; ++k) {
+                    if (!svalid[k]) continue;
+                    ShadowAnswer ans;
+                    if (sh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
+                        ans.blocked = true;
+                        ans.occluder_t = sh.ray.tfar[k];
+                        glm::dvec3 ng(sh.hit.Ng_x[k], sh.hit.Ng_y[k], sh.hit.Ng_z[k]);
+                        double cos_hit = std::abs(glm::dot(ng, setup[k].dir)) / std::max(glm::length(ng), 1e-300);
+                        if (ans.occluder_t < suspicious_hit_distance(surf[k].p, cos_hit)) {
+                            auto verdict = verify(sh.hit.primID[k], surf[k].p, setup[k].dir, surf[k].prim);
+                            if (verdict == robust::HitVerdict::edge) {
+                                ans.ambiguous = true;
+                            } else if (verdict != robust::HitVerdict::real) {
+                                ans = trace_shadow_verified(setup[k], surf[k].p, surf[k].prim);
+                                ++counters.retraced;
+                            }
+                        }
+                    }
+                    int i = pixel[k];
+                    img.V[i] = ans.blocked ? 0.0f : 1.0f;
+                    img.occluder_m[i] = ans.blocked ? ans.occluder_t : kNoDistance;
+                    if (ans.ambiguous) img.U[i] = 1.0f;
+                }
+            }
+        }
+    }
+}
+
+}  // namespace penumbra::oracle_detail

@@ -1,0 +1,102 @@
+// Internal to the oracle: the Embree scene in the camera-centred frame and the ray queries
+// built on it. Shared by tracing (tracer.cpp) and the shadow-boundary search.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "common/frames.h"
+#include "common/scenario.h"
+#include "oracle/embree_handles.h"
+#include "oracle/robust_geometry.h"
+
+namespace penumbra::oracle_detail {
+
+// One light expressed in the local (camera-centred) frame.
+struct LocalLight {
+    LightType type = LightType::directional;
+    glm::dvec3 position{0.0};   // local
+    glm::dvec3 to_light{0.0};   // directional: unit vector towards the light
+    glm::dvec3 spot_axis{0.0};  // spot: unit direction light travels
+    double cos_outer = -1;
+};
+
+// Unit direction from p towards the light (for a directional light, the same everywhere).
+glm::dvec3 direction_to_light(const LocalLight& light, const glm::dvec3& p);
+
+// What the primary ray found at one pixel.
+struct SurfacePoint {
+    bool hit = false;
+    std::uint32_t prim = kNoPrimitive;
+    glm::dvec3 p{0.0};      // local, double, exactly on the triangle
+    glm::dvec3 n{0.0};      // unit geometric normal, facing the camera
+    glm::dvec3 error{0.0};  // per-component float error bound of p (robust::surface_error_bound)
+    double depth = 0;
+};
+
+// A shadow ray ready to trace, or the reason there is none.
+struct ShadowSetup {
+    bool lightable = false;  // faces the light and lies inside a spot cone
+    bool ambiguous = false;  // within float error of the terminator or the cone's edge
+    glm::vec3 origin{0.0f}, dir_f{0.0f};
+    glm::dvec3 dir{0.0};
+    float tfar = 0;
+};
+ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s);
+
+struct ShadowAnswer {
+    bool blocked = false;
+    bool ambiguous = false;
+    float occluder_t = kNoDistance;
+};
+
+struct TraceCounters {
+    std::uint64_t primary = 0, shadow = 0, retraced = 0;
+};
+
+class Tracer {
+  public:
+    explicit Tracer(const Scenario& scenario);
+    void build();  // BVH over the scene in the local frame
+
+    const Scenario& scenario() const { return scenario_; }
+    const EmbreeDevice& device() const { return device_; }
+    const glm::dvec3& frame_origin() const { return frame_origin_; }
+    const std::vector<LocalLight>& lights() const { return lights_; }
+
+    // Traces one tile of pixels: primary rays, then one shadow ray per lightable pixel and light.
+    void trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters) const;
+
+    // One shadow ray from a point with every candidate hit judged in double: the exact, slow
+    // path, used for suspicious hits and for the boundary search. `self_prim` may be kNoPrimitive.
+    ShadowAnswer trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p, std::uint32_t self_prim) const;
+
+    const glm::dvec3& vertex(std::uint32_t prim, int k) const { return vertices_[tris_[prim][k]]; }
+    glm::dvec3 normal_ccw(std::uint32_t prim) const;
+    robust::HitVerdict verify(std::uint32_t prim, const glm::dvec3& p, const glm::dvec3& dir,
+                              std::uint32_t self_prim) const;
+    bool culled_for_camera(std::uint32_t prim, const glm::dvec3& ray_dir) const;
+
+  private:
+    SurfacePoint primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir) const;
+    double suspicious_hit_distance(const glm::dvec3& p, double cos_hit) const;
+
+    const Scenario& scenario_;
+    EmbreeDevice device_;
+    EmbreeScene scene_;
+    glm::dvec3 frame_origin_{0.0};
+    std::vector<glm::dvec3> vertices_;  // local frame, double
+    double max_vertex_norm_ = 0;        // largest |v| in the local frame
+    std::vector<LocalLight> lights_;
+    const std::vector<glm::u32vec3>& tris_;
+    const std::vector<std::uint8_t>& double_sided_;
+};
+
+// Fills boundary_m of light `li` and flags pixels within float error of a boundary as U.
+// Returns the number of bisection rays traced.
+std::uint64_t locate_shadow_boundaries(const Tracer& tracer, OracleFrame& frame, std::size_t li, int bisection_steps);
+
+}  // namespace penumbra::oracle_detail
