@@ -21,6 +21,7 @@
 
 #include "common/camera.h"
 #include "common/errors.h"
+#include "common/gltf_schema.h"
 
 namespace penumbra {
 namespace fs = std::filesystem;
@@ -90,8 +91,8 @@ void check_uri(const Context& ctx, const std::string& element, const std::string
                                        "--allow-external-paths to lift this)", uri));
 }
 
-// Reads the JSON part of a .gltf or .glb just far enough to vet its URIs.
-void check_uris(const Context& ctx, const std::string& bytes, bool binary) {
+// Reads the JSON part of a .gltf or .glb and vets its types and URIs before tinygltf sees it.
+void prevalidate(const Context& ctx, const std::string& bytes, bool binary) {
     std::string json_text;
     if (binary) {
         if (bytes.size() < 20) return;  // tinygltf reports the truncation
@@ -104,6 +105,7 @@ void check_uris(const Context& ctx, const std::string& bytes, bool binary) {
     }
     nlohmann::json j = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
     if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports syntax errors
+    check_gltf_schema(j, ctx.label);
     for (const char* kind : {"buffers", "images"}) {
         auto it = j.find(kind);
         if (it == j.end() || !it->is_array()) continue;
@@ -509,7 +511,7 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
         bytes = s.str();
     }
     bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
-    check_uris(ctx, bytes, binary);
+    prevalidate(ctx, bytes, binary);
 
     tinygltf::TinyGLTF loader;
     tinygltf::FsCallbacks callbacks{&fs_exists, &fs_expand, &fs_read, &fs_write, &ctx};

@@ -50,6 +50,8 @@ json parse_json_strict(const std::string& text, const std::string& file_label) {
     } catch (const json::parse_error& e) {
         throw InputError(fmt::format("{}: invalid JSON at byte {}: {}", file_label, e.byte,
                                      e.what()));
+    } catch (const json::exception& e) {  // e.g. out_of_range for 1e999
+        throw InputError(fmt::format("{}: invalid JSON: {}", file_label, e.what()));
     }
     if (!duplicate.empty())
         throw InputError(fmt::format("{}: duplicate key \"{}\"", file_label, duplicate));

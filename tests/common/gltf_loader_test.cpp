@@ -1,0 +1,154 @@
+// glTF input: topology, hierarchy and transforms are read exactly; malformed files are
+// refused with the file and element named.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include <glm/geometric.hpp>
+
+#include "common/errors.h"
+#include "common/gltf_loader.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+using test::GltfFixture;
+using test::TempDir;
+
+std::string error_of(const std::filesystem::path& file, GltfLoadOptions options = {}) {
+    try {
+        load_gltf(file, options);
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(GltfLoader, ReadsIndexedTrianglesWithNodeTransformsInDouble) {
+    TempDir dir;
+    GltfFixture g;
+    g.doc["nodes"][0]["translation"] = {1e7, 0.25, -3};
+    g.doc["nodes"][0]["scale"] = {2, 2, 2};
+    Scene s = load_gltf(g.write(dir));
+    ASSERT_EQ(s.triangle_count(), 2u);
+    // (1, 0, -1) * 2 + (1e7, 0.25, -3): representable exactly in double, not in float.
+    const glm::dvec3& p = s.positions[s.triangles[0][2]];
+    EXPECT_EQ(p, glm::dvec3(1e7 + 2, 0.25, -5));
+    EXPECT_EQ(s.double_sided[0], 0);
+}
+
+TEST(GltfLoader, ComposesTheHierarchyAndFlipsWindingUnderMirrors) {
+    TempDir dir;
+    GltfFixture g;
+    g.doc["nodes"] = {{{"children", {1}}, {"translation", {0, 10, 0}}}, {{"mesh", 0}, {"scale", {-1, 1, 1}}}};
+    Scene s = load_gltf(g.write(dir));
+    ASSERT_EQ(s.triangle_count(), 2u);
+    for (std::size_t t = 0; t < 2; ++t) {
+        glm::dvec3 a = s.positions[s.triangles[t][0]], b = s.positions[s.triangles[t][1]], c = s.positions[s.triangles[t][2]];
+        EXPECT_EQ(a.y, 10.0);
+        // The fixture's quad faces +Y (CCW seen from above); mirrored, it must still face +Y.
+        EXPECT_GT(glm::cross(b - a, c - a).y, 0.0) << "triangle " << t;
+    }
+}
+
+TEST(GltfLoader, ExpandsStripsAndFansSkipsLinesAndHonoursDoubleSided) {
+    TempDir dir;
+    GltfFixture g;
+    // Same 4 vertices as a strip (0 1 3 2 -> 2 triangles) and as a fan (0 1 2 3 -> 2 triangles).
+    g.doc["meshes"][0]["primitives"] = {{{"attributes", {{"POSITION", 0}}}, {"mode", 5}, {"material", 0}},
+                                        {{"attributes", {{"POSITION", 0}}}, {"mode", 6}},
+                                        {{"attributes", {{"POSITION", 0}}}, {"mode", 1}}};
+    g.doc["materials"] = {{{"doubleSided", true}}};
+    Scene s = load_gltf(g.write(dir));
+    EXPECT_EQ(s.triangle_count(), 4u);
+    EXPECT_EQ(s.double_sided[0], 1);
+    EXPECT_EQ(s.double_sided[2], 0);
+    ASSERT_EQ(s.warnings.size(), 1u);
+    EXPECT_NE(s.warnings[0].find("1 point/line primitives skipped"), std::string::npos);
+    // Strip triangle p is (p, p + 1 + p%2, p + 2 - p%2) per glTF 3.7.2.1: triangle 1 is (1, 3, 2).
+    EXPECT_EQ(s.triangles[1], glm::u32vec3(1, 3, 2));
+    // Fan triangles are (v[i], v[i+1], v0).
+    EXPECT_EQ(s.triangles[2] - glm::u32vec3(4), glm::u32vec3(1, 2, 0));
+}
+
+TEST(GltfLoader, ReadsBinaryGlb) {
+    Scene s = load_gltf(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scene.glb");
+    EXPECT_GT(s.triangle_count(), 1000u);
+    EXPECT_LT(s.bounds.lo.y, 1e-9);
+}
+
+TEST(GltfLoader, RefusesAccessorsOutsideTheirBufferView) {
+    TempDir dir;
+    GltfFixture g;
+    g.doc["accessors"][0]["count"] = 5;
+    EXPECT_EQ(error_of(g.write(dir)),
+              "scene.gltf: accessors[0]: byteOffset + count*stride exceeds bufferView 0 (60 > 48 bytes)");
+}
+
+TEST(GltfLoader, RefusesOutOfRangeIndices) {
+    TempDir dir;
+    GltfFixture g;
+    g.bin[48] = 9;  // first index
+    EXPECT_NE(error_of(g.write(dir)).find("meshes[0].primitives[0].indices: index 9 (element 0 of accessors[1]) "
+                                          "is out of range: POSITION has 4 vertices"),
+              std::string::npos);
+}
+
+TEST(GltfLoader, RefusesNonFinitePositionsAndCycles) {
+    TempDir dir;
+    GltfFixture g;
+    float inf = std::numeric_limits<float>::infinity();
+    std::memcpy(g.bin.data() + 4, &inf, 4);
+    EXPECT_NE(error_of(g.write(dir)).find("accessors[0]: element 0 of meshes[0].primitives[0].attributes.POSITION "
+                                          "is not finite"),
+              std::string::npos);
+    GltfFixture c;
+    c.doc["nodes"] = {{{"mesh", 0}, {"children", {1}}}, {{"children", {2}}}, {{"children", {1}}}};
+    EXPECT_NE(error_of(c.write(dir)).find("scene.gltf: nodes["), std::string::npos);
+    GltfFixture self;
+    self.doc["nodes"][0]["children"] = {0};
+    EXPECT_EQ(error_of(self.write(dir)), "scene.gltf: nodes[0]: node hierarchy has a cycle (node is its own child)");
+}
+
+TEST(GltfLoader, KeepsExternalFilesInsideTheScenesFolder) {
+    TempDir dir;
+    std::filesystem::create_directories(dir / "sub");
+    for (const char* uri : {"../scene.bin", "/etc/passwd", "%2e%2e/scene.bin", "file:///etc/passwd"}) {
+        GltfFixture g;
+        g.doc["buffers"][0]["uri"] = uri;
+        auto file = g.write(dir, "sub/scene.gltf");
+        std::string err = error_of(file);
+        EXPECT_NE(err.find("scene.gltf: buffers[0].uri:"), std::string::npos) << uri << " -> " << err;
+        EXPECT_NE(err.find("--allow-external-paths"), std::string::npos) << err;
+    }
+    GltfFixture g;
+    g.doc["buffers"][0]["uri"] = "../scene.bin";
+    GltfLoadOptions allow;
+    allow.allow_external_paths = true;
+    EXPECT_EQ(load_gltf(g.write(dir, "sub/scene.gltf"), allow).triangle_count(), 2u);
+}
+
+// The malformed files of Debian's assimp-testmodels: each must be refused cleanly.
+class MalformedAssimpModel : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(MalformedAssimpModel, IsRefusedWithTheFileNamed) {
+    auto file = test::assimp_model(GetParam());
+    if (file.empty()) GTEST_SKIP() << "assimp-testmodels is not installed (scripts/install-deps.sh installs it)";
+    std::string err = error_of(file);
+    EXPECT_NE(err.find(file.filename().string() + ": "), std::string::npos) << "message: " << err;
+}
+
+INSTANTIATE_TEST_SUITE_P(AssimpTestModels, MalformedAssimpModel,
+                         ::testing::Values("IndexOutOfRange/IndexOutOfRange.gltf",
+                                           "IndexOutOfRange/AllIndicesOutOfRange.gltf",
+                                           "MissingBin/BoxTextured.gltf",
+                                           "BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb",
+                                           "RecursiveNodes/RecursiveNodes.gltf",
+                                           "wrongTypes/badArray.gltf", "wrongTypes/badNumber.gltf",
+                                           "wrongTypes/badObject.gltf", "wrongTypes/badString.gltf",
+                                           "wrongTypes/badUint.gltf", "wrongTypes/badExtension.gltf",
+                                           "SchemaFailures/sceneWrongType.gltf"));
+
+}  // namespace
+}  // namespace penumbra

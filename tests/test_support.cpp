@@ -1,0 +1,166 @@
+#include "tests/test_support.h"
+
+#include <atomic>
+#include <cstring>
+#include <fstream>
+
+#include <glm/geometric.hpp>
+#include <unistd.h>
+
+#include "common/camera.h"
+
+namespace penumbra::test {
+namespace fs = std::filesystem;
+
+std::uint32_t SceneBuilder::triangle(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, bool double_sided) {
+    auto base = static_cast<std::uint32_t>(scene_.positions.size());
+    for (auto p : {a, b, c}) {
+        scene_.positions.push_back(p);
+        scene_.bounds.grow(p);
+    }
+    scene_.triangles.push_back({base, base + 1, base + 2});
+    scene_.double_sided.push_back(double_sided);
+    scene_.triangle_node.push_back(0);
+    return static_cast<std::uint32_t>(scene_.triangles.size() - 1);
+}
+
+std::uint32_t SceneBuilder::quad(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d, bool double_sided) {
+    std::uint32_t first = triangle(a, b, c, double_sided);
+    triangle(a, c, d, double_sided);
+    return first;
+}
+
+std::uint32_t SceneBuilder::box(glm::dvec3 lo, glm::dvec3 hi) {
+    glm::dvec3 p[8];
+    for (int i = 0; i < 8; ++i) p[i] = {i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z};
+    std::uint32_t first = quad(p[0], p[2], p[3], p[1], false);  // -z
+    quad(p[4], p[5], p[7], p[6], false);                        // +z
+    quad(p[0], p[4], p[6], p[2], false);                        // -x
+    quad(p[1], p[3], p[7], p[5], false);                        // +x
+    quad(p[0], p[1], p[5], p[4], false);                        // -y
+    quad(p[2], p[6], p[7], p[3], false);                        // +y
+    return first;
+}
+
+std::uint32_t SceneBuilder::grid(glm::dvec3 o, glm::dvec3 u, glm::dvec3 v, int nu, int nv) {
+    std::uint32_t first = static_cast<std::uint32_t>(scene_.triangles.size());
+    for (int j = 0; j < nv; ++j)
+        for (int i = 0; i < nu; ++i) {
+            glm::dvec3 a = o + (double(i) / nu) * u + (double(j) / nv) * v;
+            glm::dvec3 b = o + (double(i + 1) / nu) * u + (double(j) / nv) * v;
+            glm::dvec3 c = o + (double(i + 1) / nu) * u + (double(j + 1) / nv) * v;
+            glm::dvec3 d = o + (double(i) / nu) * u + (double(j + 1) / nv) * v;
+            quad(a, b, c, d, false);
+        }
+    return first;
+}
+
+Camera look_at(glm::dvec3 eye, glm::dvec3 target, double yfov_deg, glm::dvec3 up) {
+    Camera c;
+    look_at_basis(eye, target, up, c);
+    c.type = ProjectionType::perspective;
+    c.yfov_rad = yfov_deg * M_PI / 180;
+    c.znear = 1e-3 * glm::length(target - eye);
+    c.zfar = 1e30;
+    return c;
+}
+
+Camera look_at_ortho(glm::dvec3 eye, glm::dvec3 target, double xmag, double ymag, glm::dvec3 up) {
+    Camera c;
+    look_at_basis(eye, target, up, c);
+    c.type = ProjectionType::orthographic;
+    c.xmag = xmag;
+    c.ymag = ymag;
+    c.znear = 0;
+    c.zfar = 1e30;
+    return c;
+}
+
+Light directional(glm::dvec3 direction) {
+    Light l;
+    l.type = LightType::directional;
+    l.direction = glm::normalize(direction);
+    l.origin = "test directional";
+    return l;
+}
+
+Light point(glm::dvec3 position) {
+    Light l;
+    l.type = LightType::point;
+    l.position = position;
+    l.origin = "test point";
+    return l;
+}
+
+Light spot(glm::dvec3 position, glm::dvec3 direction, double outer_deg) {
+    Light l;
+    l.type = LightType::spot;
+    l.position = position;
+    l.direction = glm::normalize(direction);
+    l.outer_cone_rad = outer_deg * M_PI / 180;
+    l.origin = "test spot";
+    return l;
+}
+
+Scenario make_scenario(Scene scene, Camera camera, std::vector<Light> lights, int width, int height) {
+    Scenario s;
+    s.label = "test";
+    s.width = width;
+    s.height = height;
+    s.camera = camera;
+    s.lights = std::move(lights);
+    s.scene = std::move(scene);
+    return s;
+}
+
+TempDir::TempDir() {
+    static std::atomic<int> counter{0};
+    path_ = fs::temp_directory_path() / ("penumbra-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+}
+
+GltfFixture::GltfFixture() {
+    const float pos[] = {0, 0, 0, 1, 0, 0, 1, 0, -1, 0, 0, -1};
+    const std::uint16_t idx[] = {0, 1, 2, 0, 2, 3};
+    bin.resize(sizeof pos + sizeof idx);
+    std::memcpy(bin.data(), pos, sizeof pos);
+    std::memcpy(bin.data() + sizeof pos, idx, sizeof idx);
+    doc = {
+        {"asset", {{"version", "2.0"}}},
+        {"scene", 0},
+        {"scenes", {{{"nodes", {0}}}}},
+        {"nodes", {{{"mesh", 0}}}},
+        {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}}}}}}},
+        {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"},
+                        {"min", {0, 0, -1}}, {"max", {1, 0, 0}}},
+                       {{"bufferView", 1}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}},
+        {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", sizeof pos}},
+                         {{"buffer", 0}, {"byteOffset", sizeof pos}, {"byteLength", sizeof idx}}}},
+        {"buffers", {{{"uri", "scene.bin"}, {"byteLength", bin.size()}}}},
+    };
+}
+
+fs::path GltfFixture::write(const TempDir& dir, const std::string& name) const {
+    std::ofstream b(dir / "scene.bin", std::ios::binary);
+    b.write(reinterpret_cast<const char*>(bin.data()), static_cast<std::streamsize>(bin.size()));
+    write_text(dir / name, doc.dump(1));
+    return dir / name;
+}
+
+void write_text(const fs::path& file, const std::string& text) {
+    std::ofstream out(file, std::ios::binary);
+    out << text;
+}
+
+fs::path assimp_model(const std::string& relative) {
+    fs::path p = fs::path("/usr/share/assimp/models/glTF2") / relative;
+    return fs::exists(p) ? p : fs::path();
+}
+
+}  // namespace penumbra::test
