@@ -62,9 +62,9 @@ inline HitVerdict verify_hit(const glm::dvec3& p, const glm::dvec3& dir, const g
     n /= n_len;
     double scale = std::max({glm::length(v0), glm::length(v1), glm::length(v2), glm::length(p),
                              std::numeric_limits<double>::min()});
-    // Double rounding of p and of the normal is ~1e-16 * scale; 1e-12 leaves four decades of
-    // margin yet stays four decades below float error, the thing being corrected.
-    double tol_plane = 1e-12 * scale;
+    // Double rounding of p and of the normal is ~1e-16 * scale; 1e-13 leaves three decades of
+    // margin yet stays five decades below float error, the thing being corrected.
+    double tol_plane = 1e-13 * scale;
     double s = glm::dot(n, p - v0);
     double cos_dir = glm::dot(n, dir);
     if (std::abs(s) <= tol_plane)

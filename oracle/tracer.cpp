@@ -83,6 +83,11 @@ void set_lane(RTCRay16& r, int k, const glm::vec3& o, const glm::vec3& d, float 
 
 }  // namespace
 
+float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit) {
+    // Embree's t counts from the offset origin; the answer is the distance from the true point.
+    return static_cast<float>(glm::length(glm::dvec3(setup.origin) + static_cast<double>(t_hit) * setup.dir - p));
+}
+
 glm::dvec3 direction_to_light(const LocalLight& l, const glm::dvec3& p) {
     if (l.type == LightType::directional) return l.to_light;
     glm::dvec3 d = l.position - p;
@@ -227,7 +232,7 @@ ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::
     a.ambiguous = ctx.ambiguous;
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         a.blocked = true;
-        a.occluder_t = rh.ray.tfar;
+        a.occluder_t = occluder_distance(setup, p, rh.ray.tfar);
     }
     return a;
 }
@@ -321,7 +326,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     ShadowAnswer ans;
                     if (sh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
                         ans.blocked = true;
-                        ans.occluder_t = sh.ray.tfar[k];
+                        ans.occluder_t = occluder_distance(setup[k], surf[k].p, sh.ray.tfar[k]);
                         glm::dvec3 ng(sh.hit.Ng_x[k], sh.hit.Ng_y[k], sh.hit.Ng_z[k]);
                         double cos_hit = std::abs(glm::dot(ng, setup[k].dir)) / std::max(glm::length(ng), 1e-300);
                         if (ans.occluder_t < suspicious_hit_distance(surf[k].p, cos_hit)) {

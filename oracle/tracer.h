@@ -47,6 +47,9 @@ struct ShadowSetup {
 };
 ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s);
 
+// Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).
+float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit);
+
 struct ShadowAnswer {
     bool blocked = false;
     bool ambiguous = false;

@@ -1,0 +1,455 @@
+// The oracle against analytic answers: shadows of random triangles projected onto a plane
+// (point light: the planar projection matrix of shared/reference 001; directional light), a box's
+// shadow as the convex hull of its projected corners, spot cones, grazing light, invariance
+// under translation, scaling and rotation of the whole scenario, and determinism.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <random>
+
+#include <glm/geometric.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/mat4x4.hpp>
+
+#include "oracle/oracle.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+using test::SceneBuilder;
+
+glm::dvec3 world_point(const OracleFrame& f, std::size_t i) {
+    return f.frame_origin + glm::dvec3(f.P[i]);
+}
+
+double cross2(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) {
+    return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
+
+bool inside_triangle(glm::dvec2 p, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) {
+    double d1 = cross2(a, b, p), d2 = cross2(b, c, p), d3 = cross2(c, a, p);
+    return (d1 >= 0 && d2 >= 0 && d3 >= 0) || (d1 <= 0 && d2 <= 0 && d3 <= 0);
+}
+
+// Planar projection onto y = 0 from a point light l (shared/reference 001, "Projection Shadows"):
+// M = [[ly, -lx, 0, 0], [0, 0, 0, 0], [0, -lz, ly, 0], [0, -1, 0, ly]], p = M v / w.
+glm::dvec2 project_from_point(const glm::dvec3& l, const glm::dvec3& v) {
+    glm::dmat4 m(0.0);  // glm is column-major: m[col][row]
+    m[0][0] = l.y;
+    m[1][0] = -l.x;
+    m[1][2] = -l.z;
+    m[2][2] = l.y;
+    m[1][3] = -1;
+    m[3][3] = l.y;
+    glm::dvec4 p = m * glm::dvec4(v, 1.0);
+    return {p.x / p.w, p.z / p.w};
+}
+
+glm::dvec2 project_along(const glm::dvec3& d, const glm::dvec3& v) {
+    glm::dvec3 p = v - (v.y / d.y) * d;
+    return {p.x, p.z};
+}
+
+struct RandomOccluders {
+    SceneBuilder builder;
+    std::vector<std::array<glm::dvec3, 3>> tris;
+    std::uint32_t ground_first = 0;
+};
+
+RandomOccluders random_occluders(unsigned seed) {
+    RandomOccluders r;
+    r.ground_first = r.builder.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> pos(-3, 3), h(0.4, 3.0), size(0.15, 1.2), unit(-1, 1);
+    for (int i = 0; i < 30; ++i) {
+        glm::dvec3 c(pos(rng), h(rng), pos(rng));
+        double s = size(rng);
+        std::array<glm::dvec3, 3> t;
+        for (auto& v : t) v = c + s * glm::dvec3(unit(rng), 0.3 * unit(rng), unit(rng));
+        r.builder.triangle(t[0], t[1], t[2]);
+        r.tris.push_back(t);
+    }
+    // A sliver: a thin occluder 5 mm wide and 2 m long.
+    std::array<glm::dvec3, 3> sliver{glm::dvec3(-1, 1.0, 1.5), glm::dvec3(1, 1.0, 1.5), glm::dvec3(1, 1.0, 1.505)};
+    r.builder.triangle(sliver[0], sliver[1], sliver[2]);
+    r.tris.push_back(sliver);
+    return r;
+}
+
+struct ProjectionCase {
+    const char* name;
+    bool point_light;
+    bool orthographic;
+};
+
+class AnalyticProjection : public ::testing::TestWithParam<ProjectionCase> {};
+
+// Every ground pixel's verdict equals the analytic one: shadowed exactly where its point lies
+// inside the projection of some occluder. No mismatch is allowed outside ambiguous pixels.
+TEST_P(AnalyticProjection, MatchesThePlanarProjectionOfEveryOccluder) {
+    const ProjectionCase pc = GetParam();
+    RandomOccluders occ = random_occluders(1234);
+    const glm::dvec3 light_pos(0.7, 7.5, -0.4);
+    const glm::dvec3 light_dir = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
+    Light light = pc.point_light ? test::point(light_pos) : test::directional(light_dir);
+    Camera cam = pc.orthographic ? test::look_at_ortho({0, 12, 6}, {0, 0, 0}, 6, 4.5)
+                                 : test::look_at({0, 9, 9}, {0, 0, 0}, 50);
+    Scenario sc = test::make_scenario(occ.builder.build(), cam, {light}, 320, 240);
+    OracleResult res = run_oracle(sc);
+    const OracleFrame& f = res.frame;
+    const OracleLightImage& img = f.lights[0];
+
+    std::size_t ground = 0, checked = 0, shadowed = 0, ambiguous = 0, wrong = 0, occluder_checked = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+        if (f.prim[i] != occ.ground_first && f.prim[i] != occ.ground_first + 1) continue;
+        ++ground;
+        ASSERT_EQ(img.lightable[i], 1.0f);
+        if (img.U[i] != 0) {
+            ++ambiguous;
+            continue;
+        }
+        glm::dvec3 p = world_point(f, i);
+        bool expect_shadow = false;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const auto& t : occ.tris) {
+            glm::dvec2 a, b, c;
+            if (pc.point_light) {
+                a = project_from_point(light_pos, t[0]), b = project_from_point(light_pos, t[1]), c = project_from_point(light_pos, t[2]);
+            } else {
+                a = project_along(light_dir, t[0]), b = project_along(light_dir, t[1]), c = project_along(light_dir, t[2]);
+            }
+            if (!inside_triangle({p.x, p.z}, a, b, c)) continue;
+            expect_shadow = true;
+            glm::dvec3 dir = pc.point_light ? glm::normalize(light_pos - p) : -light_dir;
+            glm::dvec3 n = glm::cross(t[1] - t[0], t[2] - t[0]);
+            nearest = std::min(nearest, glm::dot(n, t[0] - p) / glm::dot(n, dir));
+        }
+        ++checked;
+        bool got_shadow = img.V[i] == 0.0f;
+        shadowed += got_shadow;
+        if (got_shadow != expect_shadow) {
+            ++wrong;
+            ADD_FAILURE_AT(__FILE__, __LINE__) << pc.name << ": pixel " << i % f.width << "," << i / f.width
+                                               << " oracle V=" << img.V[i] << " analytic " << (expect_shadow ? 0 : 1)
+                                               << " boundary_m=" << img.boundary_m[i];
+            if (wrong > 5) return;
+        } else if (expect_shadow) {
+            // The occluder distance is the nearest occluder along the ray, in metres.
+            // The test's point is the float P of the frame; steep occluders amplify its error.
+            EXPECT_NEAR(img.occluder_m[i], nearest, 1e-4 * nearest + 1e-6);
+            ++occluder_checked;
+        }
+    }
+    EXPECT_EQ(wrong, 0u);
+    EXPECT_GT(ground, 20000u);
+    EXPECT_GT(shadowed, checked / 100) << "the test must exercise shadows";
+    EXPECT_LT(ambiguous, ground / 500) << "the ambiguous band must stay thin";
+    EXPECT_GT(occluder_checked, 1000u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Oracle, AnalyticProjection,
+                         ::testing::Values(ProjectionCase{"point_perspective", true, false},
+                                           ProjectionCase{"point_orthographic", true, true},
+                                           ProjectionCase{"directional_perspective", false, false},
+                                           ProjectionCase{"directional_orthographic", false, true}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
+
+// 2D convex hull (Andrew's monotone chain), counter-clockwise.
+std::vector<glm::dvec2> convex_hull(std::vector<glm::dvec2> p) {
+    std::sort(p.begin(), p.end(), [](auto a, auto b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    std::vector<glm::dvec2> h(2 * p.size());
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        while (k >= 2 && cross2(h[k - 2], h[k - 1], p[i]) <= 0) --k;
+        h[k++] = p[i];
+    }
+    for (std::size_t i = p.size() - 1, t = k + 1; i > 0; --i) {
+        while (k >= t && cross2(h[k - 2], h[k - 1], p[i - 1]) <= 0) --k;
+        h[k++] = p[i - 1];
+    }
+    h.resize(k - 1);
+    return h;
+}
+
+bool inside_convex(glm::dvec2 q, const std::vector<glm::dvec2>& hull) {
+    for (std::size_t i = 0; i < hull.size(); ++i)
+        if (cross2(hull[i], hull[(i + 1) % hull.size()], q) < 0) return false;
+    return true;
+}
+
+// A box resting on the plane under a low sun (10 degrees): its shadow is the hull of its
+// projected corners, with no light leaking in at the contact line, and a convex box never
+// shadows its own lit faces.
+TEST(Oracle, ContactShadowOfABoxRestingOnThePlaneDoesNotLeak) {
+    SceneBuilder b;
+    std::uint32_t ground = b.quad({-30, 0, 30}, {30, 0, 30}, {30, 0, -30}, {-30, 0, -30}, false);
+    std::uint32_t box = b.box({-0.5, 0, -0.5}, {0.5, 1, 0.5});
+    double el = 10 * M_PI / 180, az = 30 * M_PI / 180;
+    glm::dvec3 d(std::cos(el) * std::cos(az), -std::sin(el), std::cos(el) * std::sin(az));
+    // Look at the contact line on the shadow side from close by.
+    Camera cam = test::look_at({2.5, 2.5, 2.0}, {0.6, 0.0, 0.4}, 50);
+    Scenario sc = test::make_scenario(b.build(), cam, {test::directional(d)}, 400, 300);
+    OracleResult res = run_oracle(sc);
+    const OracleFrame& f = res.frame;
+    const OracleLightImage& img = f.lights[0];
+    std::vector<glm::dvec2> corners;
+    for (int i = 0; i < 8; ++i)
+        corners.push_back(project_along(d, {i & 1 ? 0.5 : -0.5, i & 2 ? 1.0 : 0.0, i & 4 ? 0.5 : -0.5}));
+    auto hull = convex_hull(corners);
+    std::size_t wrong = 0, near_contact = 0, box_lit_faces = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+        if (img.U[i] != 0 || f.A[i] == 0) continue;
+        if (f.prim[i] >= box && f.prim[i] < box + 12) {
+            if (img.lightable[i] != 0) {
+                ++box_lit_faces;
+                EXPECT_EQ(img.V[i], 1.0f) << "lit face of a convex box self-shadowed at pixel " << i;
+            }
+            continue;
+        }
+        ASSERT_TRUE(f.prim[i] == ground || f.prim[i] == ground + 1);
+        glm::dvec3 p = world_point(f, i);
+        bool expect = inside_convex({p.x, p.z}, hull);
+        wrong += (img.V[i] == 0.0f) != expect;
+        // Within 2 cm of the box's base: where leaks would show.
+        if (std::max(std::abs(p.x), std::abs(p.z)) < 0.52) ++near_contact;
+    }
+    EXPECT_EQ(wrong, 0u);
+    EXPECT_GT(near_contact, 100u) << "the camera must see the contact line";
+    EXPECT_GT(box_lit_faces, 1000u);
+}
+
+struct GrazingCase {
+    const char* name;
+    bool tessellated;
+    double offset;  // scenario translated by (offset, 0, offset)
+};
+
+class GrazingLight : public ::testing::TestWithParam<GrazingCase> {};
+
+// Light 89.9 degrees from the normal: no self-shadowing, neither on one pair of huge triangles
+// nor on a finely tessellated plane, near the origin or a million metres from it.
+TEST_P(GrazingLight, DoesNotSelfShadowAPlane) {
+    const GrazingCase gc = GetParam();
+    const glm::dvec3 o(gc.offset, 0, gc.offset);
+    SceneBuilder b;
+    if (gc.tessellated)
+        b.grid(o + glm::dvec3(-10, 0, 10), {20, 0, 0}, {0, 0, -20}, 200, 200);
+    else
+        b.quad(o + glm::dvec3(-1000, 0, 1000), o + glm::dvec3(1000, 0, 1000), o + glm::dvec3(1000, 0, -1000),
+               o + glm::dvec3(-1000, 0, -1000), false);
+    double el = 0.1 * M_PI / 180;
+    Light sun = test::directional({std::cos(el) * 0.6, -std::sin(el), std::cos(el) * -0.8});
+    Camera cam = test::look_at(o + glm::dvec3(0, 2, 5), o + glm::dvec3(0, 0, -5), 60);
+    Scenario sc = test::make_scenario(b.build(), cam, {sun}, 320, 240);
+    OracleResult res = run_oracle(sc);
+    const OracleLightImage& img = res.frame.lights[0];
+    std::size_t surface = 0, shadowed = 0, ambiguous = 0;
+    for (std::size_t i = 0; i < res.frame.pixel_count(); ++i) {
+        if (res.frame.A[i] == 0) continue;
+        ++surface;
+        ASSERT_EQ(img.lightable[i], 1.0f);
+        ambiguous += img.U[i] != 0;
+        shadowed += img.U[i] == 0 && img.V[i] == 0;
+    }
+    EXPECT_GT(surface, 30000u);
+    EXPECT_EQ(shadowed, 0u);
+    EXPECT_EQ(ambiguous, 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Oracle, GrazingLight,
+                         ::testing::Values(GrazingCase{"two_huge_triangles", false, 0},
+                                           GrazingCase{"tessellated", true, 0},
+                                           GrazingCase{"two_huge_triangles_far", false, 1e6},
+                                           GrazingCase{"tessellated_far", true, 1e6}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
+
+TEST(Oracle, SpotLightsLightOnlyInsideTheirCone) {
+    SceneBuilder b;
+    b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
+    glm::dvec3 pos(0.5, 4, 0.3), axis = glm::normalize(glm::dvec3(0.2, -1, -0.1));
+    double outer = 25 * M_PI / 180;
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 10, 8}, {0, 0, 0}, 50), {test::spot(pos, axis, 25)}, 320, 240);
+    OracleResult res = run_oracle(sc);
+    const OracleLightImage& img = res.frame.lights[0];
+    std::size_t inside = 0, outside = 0;
+    for (std::size_t i = 0; i < res.frame.pixel_count(); ++i) {
+        if (res.frame.A[i] == 0 || img.U[i] != 0) continue;
+        bool in = glm::dot(glm::normalize(world_point(res.frame, i) - pos), axis) >= std::cos(outer);
+        EXPECT_EQ(img.lightable[i], in ? 1.0f : 0.0f);
+        EXPECT_EQ(img.V[i], in ? 1.0f : 0.0f);
+        (in ? inside : outside)++;
+    }
+    EXPECT_GT(inside, 2000u);
+    EXPECT_GT(outside, 5000u);
+    EXPECT_LE(res.stats.shadow_rays, res.frame.pixel_count() - outside) << "no shadow rays outside the cone";
+}
+
+// A single-sided surface seen from behind is invisible to the camera but still casts a shadow.
+TEST(Oracle, SingleSidedSurfacesAreCulledForTheCameraOnly) {
+    SceneBuilder b;
+    std::uint32_t ground = b.quad({-5, 0, 5}, {5, 0, 5}, {5, 0, -5}, {-5, 0, -5}, false);
+    b.quad({-1, 1, -1}, {1, 1, -1}, {1, 1, 1}, {-1, 1, 1}, false);  // faces -y: its back faces the camera
+    Scenario sc = test::make_scenario(b.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 3, 3, {0, 0, -1}),
+                                      {test::directional({0, -1, 0})}, 64, 64);
+    OracleResult res = run_oracle(sc);
+    std::size_t centre = 32 * 64 + 32;
+    EXPECT_TRUE(res.frame.prim[centre] == ground || res.frame.prim[centre] == ground + 1);
+    EXPECT_EQ(res.frame.lights[0].V[centre], 0.0f);
+    EXPECT_NEAR(res.frame.lights[0].occluder_m[centre], 1.0, 1e-6);
+}
+
+// The distance to the nearest shadow boundary, across the light direction: for a straight edge
+// at height h under light tilted by theta it is |x - h tan(theta)| cos(theta).
+TEST(Oracle, BoundaryDistanceIsExactForAStraightEdge) {
+    const double h = 2, theta = 20 * M_PI / 180;
+    SceneBuilder b;
+    std::uint32_t ground = b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
+    b.quad({-20, h, 20}, {0, h, 20}, {0, h, -20}, {-20, h, -20});
+    const double xb = h * std::tan(theta);
+    Scenario sc = test::make_scenario(b.build(), test::look_at_ortho({xb, 10, 0}, {xb, 0, 0}, 2, 1.5, {0, 0, -1}),
+                                      {test::directional({std::sin(theta), -std::cos(theta), 0})}, 200, 150);
+    OracleResult res = run_oracle(sc);
+    const OracleFrame& f = res.frame;
+    const OracleLightImage& img = f.lights[0];
+    std::size_t checked = 0;
+    double worst = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+        if (f.prim[i] != ground && f.prim[i] != ground + 1) continue;
+        double x = world_point(f, i).x;
+        if (img.U[i] == 0) {
+            EXPECT_EQ(img.V[i], x < xb ? 0.0f : 1.0f) << "x = " << x;
+        }
+        double expect = std::abs(x - xb) * std::cos(theta);
+        worst = std::max(worst, std::abs(img.boundary_m[i] - expect));
+        ++checked;
+    }
+    EXPECT_GT(checked, 20000u);
+    // Pixel footprint is 2 cm; the boundary is located to 2^-12 of it.
+    EXPECT_LT(worst, 1e-4);
+}
+
+// ---- invariance ---------------------------------------------------------------------------
+
+Scenario invariance_scene() {
+    SceneBuilder b;
+    b.quad({-10, 0, 10}, {10, 0, 10}, {10, 0, -10}, {-10, 0, -10}, false);
+    b.box({-2.5, 0, -0.5}, {-1.5, 1, 0.5});                  // resting on the plane
+    b.box({0.2, 0, -1.51}, {0.22, 2.5, -1.49});             // a 2 cm pole
+    b.quad({-0.4, 1.6, -1.5}, {0.8, 1.6, -1.5}, {0.8, 2.2, -1.5}, {-0.4, 2.2, -1.5});  // zero-thickness sign
+    b.box({-3.3, 2.1, -0.3}, {-1.3, 2.3, 0.7});             // floating slab over the box
+    b.grid({1, 0.3, 1}, {2.5, 0.6, 0}, {0, 0.05, -2}, 8, 8); // a tilted, tessellated ramp
+    std::vector<Light> lights{test::directional({0.35, -0.7, -0.45}), test::point({1.0, 3.2, 2.5}),
+                              test::spot({-3.5, 5.0, 3.5}, {0.55, -1.0, -0.55}, 40)};
+    return test::make_scenario(b.build(), test::look_at({4.5, 4.0, 9.0}, {0, 0.6, 0}, 45), lights, 320, 180);
+}
+
+// Applies x -> s * R x + t to everything positional in the scenario.
+Scenario transformed(Scenario sc, double s, const glm::dmat3& r, const glm::dvec3& t) {
+    for (auto& p : sc.scene.positions) p = s * (r * p) + t;
+    Camera& c = sc.camera;
+    c.eye = s * (r * c.eye) + t;
+    c.forward = r * c.forward;
+    c.right = r * c.right;
+    c.up = r * c.up;
+    c.znear *= s;
+    c.zfar *= s;
+    for (auto& l : sc.lights) {
+        l.position = s * (r * l.position) + t;
+        l.direction = r * l.direction;
+    }
+    return sc;
+}
+
+struct InvarianceCase {
+    const char* name;
+    double scale;
+    double angle_deg;
+    double translation;
+};
+
+class Invariance : public ::testing::TestWithParam<InvarianceCase> {};
+
+TEST_P(Invariance, GivesTheSameVerdictOutsideAmbiguousPixels) {
+    const InvarianceCase ic = GetParam();
+    Scenario base = invariance_scene();
+    glm::dmat3 r(glm::rotate(glm::dmat4(1.0), ic.angle_deg * M_PI / 180, glm::normalize(glm::dvec3(1, 2, 3))));
+    Scenario moved = transformed(base, ic.scale, r, glm::dvec3(ic.translation, -0.5 * ic.translation, 0.7 * ic.translation));
+    OracleResult a = run_oracle(base), b = run_oracle(moved);
+    std::size_t pixels = a.frame.pixel_count(), prim_differs = 0, compared = 0, wrong = 0, ambiguous = 0, shadowed = 0;
+    for (std::size_t i = 0; i < pixels; ++i) {
+        if (a.frame.prim[i] != b.frame.prim[i]) {
+            ++prim_differs;
+            continue;
+        }
+        if (a.frame.A[i] == 0) continue;
+        for (std::size_t li = 0; li < a.frame.lights.size(); ++li) {
+            const auto &la = a.frame.lights[li], &lb = b.frame.lights[li];
+            if (la.U[i] != 0 || lb.U[i] != 0) {
+                ++ambiguous;
+                continue;
+            }
+            ++compared;
+            bool same = la.V[i] == lb.V[i] && la.lightable[i] == lb.lightable[i];
+            wrong += !same;
+            if (!same && wrong < 5)
+                ADD_FAILURE() << ic.name << ": light " << li << " pixel " << i % a.frame.width << "," << i / a.frame.width
+                              << " V " << la.V[i] << " vs " << lb.V[i] << ", boundary " << la.boundary_m[i];
+            if (same && la.V[i] == 0 && la.lightable[i] != 0) {
+                ++shadowed;
+                // Embree's t carries an absolute float error of ~eps x the scene's coordinates (10 m).
+                EXPECT_NEAR(lb.occluder_m[i], ic.scale * la.occluder_m[i], ic.scale * (1e-4 * la.occluder_m[i] + 1e-5));
+            }
+        }
+    }
+    EXPECT_EQ(wrong, 0u);
+    EXPECT_LT(prim_differs, pixels / 500) << "only silhouette pixels may see another primitive";
+    EXPECT_LT(ambiguous, compared / 500);
+    EXPECT_GT(shadowed, 5000u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Oracle, Invariance,
+                         ::testing::Values(InvarianceCase{"translated_1e7", 1, 0, 1e7},
+                                           InvarianceCase{"scaled_1em4", 1e-4, 0, 0},
+                                           InvarianceCase{"scaled_1e4", 1e4, 0, 0},
+                                           InvarianceCase{"rotated", 1, 37, 0},
+                                           InvarianceCase{"all_at_once", 1e3, 71, 1e7}),
+                         [](const auto& param_info) { return std::string(param_info.param.name); });
+
+TEST(Oracle, IsBitIdenticalWhateverTheThreadCount) {
+    Scenario sc = invariance_scene();
+    OracleSettings one, two;
+    one.threads = 1;
+    two.threads = 2;
+    OracleResult a = run_oracle(sc, one), b = run_oracle(sc, two);
+    auto same = [](const auto& x, const auto& y) {
+        return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+    };
+    EXPECT_TRUE(same(a.frame.prim, b.frame.prim));
+    EXPECT_TRUE(same(a.frame.P, b.frame.P));
+    for (std::size_t li = 0; li < a.frame.lights.size(); ++li) {
+        EXPECT_TRUE(same(a.frame.lights[li].V, b.frame.lights[li].V));
+        EXPECT_TRUE(same(a.frame.lights[li].U, b.frame.lights[li].U));
+        EXPECT_TRUE(same(a.frame.lights[li].occluder_m, b.frame.lights[li].occluder_m));
+        EXPECT_TRUE(same(a.frame.lights[li].boundary_m, b.frame.lights[li].boundary_m));
+    }
+}
+
+TEST(Oracle, TracesNothingForAbsentLightsOrBackground) {
+    SceneBuilder b;
+    b.quad({-1, 0, 1}, {1, 0, 1}, {1, 0, -1}, {-1, 0, -1}, false);
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 3, 3}, {0, 0, 0}, 30), {}, 64, 48);
+    OracleResult res = run_oracle(sc);
+    EXPECT_EQ(res.stats.shadow_rays, 0u);
+    EXPECT_EQ(res.stats.boundary_rays, 0u);
+    // With a light below the plane every pixel faces away from it: no shadow rays either.
+    sc.lights = {test::directional({0, 1, 0})};
+    res = run_oracle(sc);
+    EXPECT_EQ(res.stats.shadow_rays, 0u);
+    EXPECT_GT(res.stats.lights[0].surface, 100u);
+    EXPECT_EQ(res.stats.lights[0].lightable, 0u);
+}
+
+}  // namespace
+}  // namespace penumbra
