@@ -25,22 +25,35 @@ bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::d
     return true;
 }
 
-PrimaryRay primary_ray(const Camera& camera, int width, int height, double px, double py) {
-    // NDC of the sample point; pixel centres are at (x + 0.5, y + 0.5), row 0 at the top.
-    double nx = 2.0 * px / width - 1.0;
-    double ny = 1.0 - 2.0 * py / height;
-    PrimaryRay ray;
+PrimaryRays::PrimaryRays(const Camera& camera, int width, int height)
+    : camera_(camera), inv_w2_(2.0 / width), inv_h2_(2.0 / height) {
     if (camera.type == ProjectionType::perspective) {
         double tan_half = std::tan(0.5 * camera.yfov_rad);
-        double aspect = static_cast<double>(width) / height;
-        ray.origin = glm::dvec3(0.0);
-        ray.direction = camera.forward + (nx * tan_half * aspect) * camera.right +
-                        (ny * tan_half) * camera.up;
+        sx_ = tan_half * static_cast<double>(width) / height;
+        sy_ = tan_half;
     } else {
-        ray.origin = (nx * camera.xmag) * camera.right + (ny * camera.ymag) * camera.up;
-        ray.direction = camera.forward;
+        sx_ = camera.xmag;
+        sy_ = camera.ymag;
+    }
+}
+
+PrimaryRay PrimaryRays::at(double px, double py) const {
+    // NDC of the sample point; pixel centres are at (x + 0.5, y + 0.5), row 0 at the top.
+    double nx = px * inv_w2_ - 1.0;
+    double ny = 1.0 - py * inv_h2_;
+    PrimaryRay ray;
+    if (camera_.type == ProjectionType::perspective) {
+        ray.origin = glm::dvec3(0.0);
+        ray.direction = camera_.forward + (nx * sx_) * camera_.right + (ny * sy_) * camera_.up;
+    } else {
+        ray.origin = (nx * sx_) * camera_.right + (ny * sy_) * camera_.up;
+        ray.direction = camera_.forward;
     }
     return ray;
+}
+
+PrimaryRay primary_ray(const Camera& camera, int width, int height, double px, double py) {
+    return PrimaryRays(camera, width, height).at(px, py);
 }
 
 }  // namespace penumbra

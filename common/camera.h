@@ -21,4 +21,16 @@ struct PrimaryRay {
 };
 PrimaryRay primary_ray(const Camera& camera, int width, int height, double px, double py);
 
+// The same rays with the per-camera constants computed once (hot loops).
+class PrimaryRays {
+  public:
+    PrimaryRays(const Camera& camera, int width, int height);
+    PrimaryRay at(double px, double py) const;
+
+  private:
+    const Camera& camera_;
+    double inv_w2_, inv_h2_;   // 2 / width, 2 / height
+    double sx_, sy_;           // NDC to camera plane: tan(yfov/2) * aspect, tan(yfov/2) (or xmag, ymag)
+};
+
 }  // namespace penumbra

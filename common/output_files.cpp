@@ -49,6 +49,8 @@ void OutputTransaction::write_exr(const std::string& name, int width, int height
         pixel_bytes += 4;
     }
     spec.attribute("compression", "zip");
+    // OIIO stamps the write time unless told a date; a fixed one keeps files bit-identical.
+    spec.attribute("DateTime", "1970:01:01 00:00:00");
     // Interleave per pixel in each channel's native format (OIIO's TypeUnknown convention).
     const std::size_t n = static_cast<std::size_t>(width) * height;
     std::vector<unsigned char> data(n * pixel_bytes);

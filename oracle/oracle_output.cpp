@@ -41,33 +41,27 @@ std::vector<ExrChannel> exr_channels(const OracleFrame& f) {
     return ch;
 }
 
-// A picture a person can read: surfaces shaded by how many lights reach them, ambiguous
-// pixels in magenta, background dark.
+// A picture a person can read: each light adds its own tint where it reaches the surface, so a
+// shadow shows the colour of the light it blocks as missing; ambiguous pixels are magenta.
 std::vector<float> preview(const OracleFrame& f) {
+    static const glm::vec3 kTints[] = {{1.0f, 0.86f, 0.62f}, {0.55f, 0.72f, 1.0f}, {0.62f, 1.0f, 0.66f},
+                                       {1.0f, 0.62f, 0.85f}, {0.85f, 0.85f, 0.85f}};
     const std::size_t n = f.pixel_count();
+    const float share = f.lights.empty() ? 1.0f : 1.0f / static_cast<float>(f.lights.size());
     std::vector<float> rgb(3 * n);
     for (std::size_t i = 0; i < n; ++i) {
-        float r = 0.06f, g = 0.07f, b = 0.09f;
+        glm::vec3 c(0.06f, 0.07f, 0.09f);
         if (f.A[i] != 0) {
-            float lit = 0;
+            float shape = 0.6f + 0.4f * std::abs(f.N[i].y);  // a little relief from the normal
+            glm::vec3 light(f.lights.empty() ? 1.0f : 0.0f);
             bool uncertain = false;
-            for (const auto& img : f.lights) {
-                lit += img.V[i];
-                uncertain |= img.U[i] != 0;
+            for (std::size_t li = 0; li < f.lights.size(); ++li) {
+                light += share * f.lights[li].V[i] * kTints[li % 5];
+                uncertain |= f.lights[li].U[i] != 0;
             }
-            float k = f.lights.empty() ? 1.0f : lit / static_cast<float>(f.lights.size());
-            glm::vec3 n3 = f.N[i];
-            float facing = 0.55f + 0.45f * std::abs(n3.y);  // a little shape from the normal
-            r = g = b = facing * (0.12f + 0.78f * k);
-            if (uncertain) {
-                r = 0.95f;
-                g = 0.1f;
-                b = 0.9f;
-            }
+            c = uncertain ? glm::vec3(0.95f, 0.1f, 0.9f) : shape * (0.1f + 0.85f * light);
         }
-        rgb[3 * i] = r;
-        rgb[3 * i + 1] = g;
-        rgb[3 * i + 2] = b;
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = c[k];
     }
     return rgb;
 }

@@ -245,6 +245,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     RTCIntersectContext coherent;
     rtcInitIntersectContext(&coherent);
     coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    const PrimaryRays rays(cam, W, H);
 
     for (int by = y0; by < std::min(y0 + size, H); by += 4) {
         for (int bx = x0; bx < std::min(x0 + size, W); bx += 4) {
@@ -256,7 +257,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 int x = bx + (k & 3), y = by + (k >> 2);
                 valid[k] = (x < W && y < H) ? -1 : 0;
                 pixel[k] = valid[k] ? y * W + x : -1;
-                PrimaryRay r = primary_ray(cam, W, H, x + 0.5, y + 0.5);
+                PrimaryRay r = rays.at(x + 0.5, y + 0.5);
                 ray_dir[k] = r.direction;
                 set_lane(rh.ray, k, to_float(r.origin), to_float(r.direction), znear, zfar);
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
