@@ -1,14 +1,14 @@
 // penumbra: where shadow maps are wrong, pixel by pixel, and why. The command-line front end:
 // parses arguments, wires the modules together, maps failures to the exit codes of design.md.
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <new>
 #include <string>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
-#include <unistd.h>
 
 #include "common/errors.h"
 #include "common/output_files.h"
@@ -55,9 +55,8 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     out.commit();
     if (!c.quiet) {
         const auto& s = result.stats;
-        fmt::print("oracle: {}x{} px, {} triangles, {} lights; trace {:.3f} s, boundaries {:.3f} s\n",
-                   scenario.width, scenario.height, scenario.scene.triangle_count(), scenario.lights.size(),
-                   s.trace_s, s.boundary_s);
+        fmt::print("oracle: {}x{} px, {} triangles, {} lights; trace {:.3f} s, boundaries {:.3f} s\n", scenario.width,
+                   scenario.height, scenario.scene.triangle_count(), scenario.lights.size(), s.trace_s, s.boundary_s);
         for (std::size_t li = 0; li < s.lights.size(); ++li)
             fmt::print("  light {} ({}): {} lightable px, {} shadowed, {} ambiguous\n", li,
                        to_string(scenario.lights[li].type), s.lights[li].lightable, s.lights[li].shadowed,

@@ -6,17 +6,17 @@
 // quick Embree renderer does. It runs twice: with closest-hit shadow rays (rtcIntersect16, what
 // the oracle needs for occluder distances) and with any-hit ones (rtcOccluded16).
 // Prints Mrays/s for each and the oracle's ratio; best of --repeat runs.
+#include <embree3/rtcore.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <string>
-
-#include <embree3/rtcore.h>
 #include <glm/geometric.hpp>
-#include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
+#include <string>
 
 #include "common/camera.h"
 #include "oracle/oracle.h"
@@ -70,8 +70,10 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, s.scene.positions.size()));
-    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, s.scene.triangles.size()));
+    auto* vb = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, s.scene.positions.size()));
+    auto* ib = static_cast<unsigned*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, s.scene.triangles.size()));
     for (std::size_t i = 0; i < s.scene.positions.size(); ++i)
         for (int c = 0; c < 3; ++c) vb[3 * i + c] = static_cast<float>(s.scene.positions[i][c] - s.camera.eye[c]);
     for (std::size_t i = 0; i < s.scene.triangles.size(); ++i)
@@ -101,10 +103,18 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
                     for (int k = 0; k < 16; ++k) {
                         PrimaryRay pr = camera_rays.at(bx + (k & 3) + 0.5, by + (k >> 2) + 0.5);
                         valid[k] = -1;
-                        rh.ray.org_x[k] = 0; rh.ray.org_y[k] = 0; rh.ray.org_z[k] = 0;
-                        rh.ray.dir_x[k] = float(pr.direction.x); rh.ray.dir_y[k] = float(pr.direction.y); rh.ray.dir_z[k] = float(pr.direction.z);
-                        rh.ray.tnear[k] = float(s.camera.znear); rh.ray.tfar[k] = 3e38f;
-                        rh.ray.time[k] = 0; rh.ray.mask[k] = ~0u; rh.ray.id[k] = k; rh.ray.flags[k] = 0;
+                        rh.ray.org_x[k] = 0;
+                        rh.ray.org_y[k] = 0;
+                        rh.ray.org_z[k] = 0;
+                        rh.ray.dir_x[k] = float(pr.direction.x);
+                        rh.ray.dir_y[k] = float(pr.direction.y);
+                        rh.ray.dir_z[k] = float(pr.direction.z);
+                        rh.ray.tnear[k] = float(s.camera.znear);
+                        rh.ray.tfar[k] = 3e38f;
+                        rh.ray.time[k] = 0;
+                        rh.ray.mask[k] = ~0u;
+                        rh.ray.id[k] = k;
+                        rh.ray.flags[k] = 0;
                         rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                     }
                     rtcIntersect16(valid, scene, &ctx, &rh);
@@ -120,10 +130,18 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
                         if (glm::dot(n, L) <= 0) continue;
                         glm::vec3 o = rh.ray.tfar[k] * d + 1e-3f * n;  // the fixed epsilon an oracle must not use
                         svalid[k] = -1;
-                        sh.ray.org_x[k] = o.x; sh.ray.org_y[k] = o.y; sh.ray.org_z[k] = o.z;
-                        sh.ray.dir_x[k] = L.x; sh.ray.dir_y[k] = L.y; sh.ray.dir_z[k] = L.z;
-                        sh.ray.tnear[k] = 0; sh.ray.tfar[k] = 3e38f;
-                        sh.ray.time[k] = 0; sh.ray.mask[k] = ~0u; sh.ray.id[k] = k; sh.ray.flags[k] = 0;
+                        sh.ray.org_x[k] = o.x;
+                        sh.ray.org_y[k] = o.y;
+                        sh.ray.org_z[k] = o.z;
+                        sh.ray.dir_x[k] = L.x;
+                        sh.ray.dir_y[k] = L.y;
+                        sh.ray.dir_z[k] = L.z;
+                        sh.ray.tnear[k] = 0;
+                        sh.ray.tfar[k] = 3e38f;
+                        sh.ray.time[k] = 0;
+                        sh.ray.mask[k] = ~0u;
+                        sh.ray.id[k] = k;
+                        sh.ray.flags[k] = 0;
                         sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                         ++local;
                     }
@@ -148,16 +166,20 @@ int main(int argc, char** argv) {
     for (int i = 1; i + 1 < argc; i += 2) {
         std::string a = argv[i];
         int v = std::atoi(argv[i + 1]);
-        if (a == "--size") size = v;
-        else if (a == "--grid") grid = v;
-        else if (a == "--repeat") repeat = std::max(1, v);
-        else if (a == "--threads") threads = v;
+        if (a == "--size")
+            size = v;
+        else if (a == "--grid")
+            grid = v;
+        else if (a == "--repeat")
+            repeat = std::max(1, v);
+        else if (a == "--threads")
+            threads = v;
     }
     Scenario s = terrain_scenario(grid, size);
     OracleSettings settings;
     settings.threads = threads;
-    std::printf("scene: %zu triangles, %dx%d pixels, 1 directional light, %d threads\n", s.scene.triangle_count(),
-                size, size, threads > 0 ? threads : int(std::thread::hardware_concurrency()));
+    std::printf("scene: %zu triangles, %dx%d pixels, 1 directional light, %d threads\n", s.scene.triangle_count(), size,
+                size, threads > 0 ? threads : int(std::thread::hardware_concurrency()));
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                               threads > 0 ? threads : std::thread::hardware_concurrency());
     double best_oracle = 1e30, best_closest = 1e30, best_any = 1e30, boundary = 0;

@@ -1,13 +1,11 @@
 #include "common/camera.h"
 
 #include <cmath>
-
 #include <glm/geometric.hpp>
 
 namespace penumbra {
 
-bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up,
-                   Camera& camera) {
+bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up, Camera& camera) {
     glm::dvec3 f = target - eye;
     double lf = glm::length(f);
     if (!(lf > 0) || !std::isfinite(lf)) return false;

@@ -9,8 +9,7 @@ namespace penumbra {
 
 // Builds an orthonormal look-at basis: forward = normalize(target - eye),
 // right = normalize(forward x up), up' = right x forward. Returns false when degenerate.
-bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up,
-                   Camera& camera);
+bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up, Camera& camera);
 
 // A primary ray through the centre of pixel (x, y), relative to the camera eye. The direction
 // is not normalised: its component along `forward` is 1, so the hit parameter t is the view
@@ -29,8 +28,8 @@ class PrimaryRays {
 
   private:
     const Camera& camera_;
-    double inv_w2_, inv_h2_;   // 2 / width, 2 / height
-    double sx_, sy_;           // NDC to camera plane: tan(yfov/2) * aspect, tan(yfov/2) (or xmag, ymag)
+    double inv_w2_, inv_h2_;  // 2 / width, 2 / height
+    double sx_, sy_;          // NDC to camera plane: tan(yfov/2) * aspect, tan(yfov/2) (or xmag, ymag)
 };
 
 }  // namespace penumbra

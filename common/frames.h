@@ -3,11 +3,10 @@
 #pragma once
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 namespace penumbra {
 
@@ -21,17 +20,18 @@ struct OracleLightImage {
     std::vector<float> U;           // 1 where the truth is within float error of a boundary
     std::vector<float> lightable;   // 1 where the surface faces the light (and lies in a spot cone)
     std::vector<float> occluder_m;  // metres along the shadow ray to the nearest occluder; inf if none
-    std::vector<float> boundary_m;  // metres (across the light direction) to the nearest shadow boundary; inf if none seen
+    std::vector<float>
+        boundary_m;  // metres (across the light direction) to the nearest shadow boundary; inf if none seen
 };
 
 struct OracleFrame {
     int width = 0, height = 0;
-    glm::dvec3 frame_origin{0.0};      // world position of the local frame (the camera eye)
-    std::vector<float> A;              // 1 surface, 0 background
-    std::vector<std::uint32_t> prim;   // triangle index into Scene::triangles, kNoPrimitive if none
-    std::vector<float> depth;          // view depth (metres along the camera's forward axis)
-    std::vector<glm::vec3> P;          // surface point relative to frame_origin
-    std::vector<glm::vec3> N;          // unit geometric normal on the side the camera sees
+    glm::dvec3 frame_origin{0.0};     // world position of the local frame (the camera eye)
+    std::vector<float> A;             // 1 surface, 0 background
+    std::vector<std::uint32_t> prim;  // triangle index into Scene::triangles, kNoPrimitive if none
+    std::vector<float> depth;         // view depth (metres along the camera's forward axis)
+    std::vector<glm::vec3> P;         // surface point relative to frame_origin
+    std::vector<glm::vec3> N;         // unit geometric normal on the side the camera sees
     std::vector<OracleLightImage> lights;
 
     std::size_t pixel_count() const { return static_cast<std::size_t>(width) * height; }

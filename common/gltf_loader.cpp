@@ -1,17 +1,17 @@
 #include "common/gltf_loader.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <cstring>
 #include <fstream>
-#include <limits>
-#include <sstream>
-
-#include <fmt/format.h>
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
@@ -76,19 +76,24 @@ void check_uri(const Context& ctx, const std::string& element, const std::string
     bool bad = false;
     std::string decoded = percent_decode(uri, bad);
     if (bad) fail(ctx, element, fmt::format("malformed percent-encoding in uri \"{}\"", uri));
-    if (decoded.find('\0') != std::string::npos)
-        fail(ctx, element, "uri contains a NUL character");
+    if (decoded.find('\0') != std::string::npos) fail(ctx, element, "uri contains a NUL character");
     if (decoded.find("://") != std::string::npos)
-        fail(ctx, element, fmt::format("uri \"{}\" names a scheme; only relative paths and data: "
-                                       "URIs are allowed (use --allow-external-paths to lift this)", uri));
-    bool absolute = !decoded.empty() && (decoded[0] == '/' || decoded[0] == '\\' ||
-                                         (decoded.size() > 1 && decoded[1] == ':'));
+        fail(ctx, element,
+             fmt::format("uri \"{}\" names a scheme; only relative paths and data: "
+                         "URIs are allowed (use --allow-external-paths to lift this)",
+                         uri));
+    bool absolute =
+        !decoded.empty() && (decoded[0] == '/' || decoded[0] == '\\' || (decoded.size() > 1 && decoded[1] == ':'));
     if (absolute)
-        fail(ctx, element, fmt::format("uri \"{}\" is an absolute path; external files must lie in "
-                                       "the scene's folder (use --allow-external-paths to lift this)", uri));
+        fail(ctx, element,
+             fmt::format("uri \"{}\" is an absolute path; external files must lie in "
+                         "the scene's folder (use --allow-external-paths to lift this)",
+                         uri));
     if (!inside(ctx.dir, ctx.dir / decoded))
-        fail(ctx, element, fmt::format("uri \"{}\" resolves outside the scene's folder (use "
-                                       "--allow-external-paths to lift this)", uri));
+        fail(ctx, element,
+             fmt::format("uri \"{}\" resolves outside the scene's folder (use "
+                         "--allow-external-paths to lift this)",
+                         uri));
 }
 
 // Reads the JSON part of a .gltf or .glb and vets its types and URIs before tinygltf sees it.
@@ -151,8 +156,7 @@ bool fs_write(std::string* err, const std::string&, const std::vector<unsigned c
     *err += "penumbra never writes glTF files\n";
     return false;
 }
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                const unsigned char*, int, void*) {
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
     return true;  // images carry no geometry; never decoded
 }
 
@@ -166,23 +170,24 @@ struct AccessorView {
 };
 
 // Validates an accessor against its buffer view and buffer, overflow-safely.
-AccessorView checked_accessor(const Context& ctx, const tinygltf::Model& m, int index,
-                              const std::string& user, int want_type,
-                              std::initializer_list<int> want_components) {
+AccessorView checked_accessor(const Context& ctx, const tinygltf::Model& m, int index, const std::string& user,
+                              int want_type, std::initializer_list<int> want_components) {
     std::string element = fmt::format("accessors[{}]", index);
     if (index < 0 || index >= static_cast<int>(m.accessors.size()))
         fail(ctx, user, fmt::format("accessor index {} out of range ({} accessors)", index, m.accessors.size()));
     const tinygltf::Accessor& a = m.accessors[index];
     if (a.sparse.isSparse) fail(ctx, element, "sparse accessors are not supported");
     if (a.type != want_type)
-        fail(ctx, element, fmt::format("type {} where {} expects {}", a.type, user, want_type == TINYGLTF_TYPE_VEC3 ? "VEC3" : "SCALAR"));
+        fail(ctx, element,
+             fmt::format("type {} where {} expects {}", a.type, user,
+                         want_type == TINYGLTF_TYPE_VEC3 ? "VEC3" : "SCALAR"));
     bool ok_component = false;
     for (int c : want_components) ok_component |= (a.componentType == c);
-    if (!ok_component)
-        fail(ctx, element, fmt::format("componentType {} is not allowed for {}", a.componentType, user));
+    if (!ok_component) fail(ctx, element, fmt::format("componentType {} is not allowed for {}", a.componentType, user));
     if (a.count == 0) return {};
     if (a.bufferView < 0 || a.bufferView >= static_cast<int>(m.bufferViews.size()))
-        fail(ctx, element, fmt::format("bufferView {} out of range ({} bufferViews)", a.bufferView, m.bufferViews.size()));
+        fail(ctx, element,
+             fmt::format("bufferView {} out of range ({} bufferViews)", a.bufferView, m.bufferViews.size()));
     const tinygltf::BufferView& bv = m.bufferViews[a.bufferView];
     if (bv.buffer < 0 || bv.buffer >= static_cast<int>(m.buffers.size()))
         fail(ctx, fmt::format("bufferViews[{}]", a.bufferView), fmt::format("buffer {} out of range", bv.buffer));
@@ -191,8 +196,8 @@ AccessorView checked_accessor(const Context& ctx, const tinygltf::Model& m, int 
     if (__builtin_add_overflow(std::uint64_t(bv.byteOffset), std::uint64_t(bv.byteLength), &view_end) ||
         view_end > buf.data.size())
         fail(ctx, fmt::format("bufferViews[{}]", a.bufferView),
-             fmt::format("byteOffset + byteLength exceeds buffer {} ({} + {} > {} bytes)", bv.buffer,
-                         bv.byteOffset, bv.byteLength, buf.data.size()));
+             fmt::format("byteOffset + byteLength exceeds buffer {} ({} + {} > {} bytes)", bv.buffer, bv.byteOffset,
+                         bv.byteLength, buf.data.size()));
     int comp_size = tinygltf::GetComponentSizeInBytes(static_cast<std::uint32_t>(a.componentType));
     int ncomp = tinygltf::GetNumComponentsInType(static_cast<std::uint32_t>(a.type));
     std::size_t elem = static_cast<std::size_t>(comp_size * ncomp);
@@ -235,8 +240,7 @@ std::vector<glm::dvec3> read_positions(const Context& ctx, const tinygltf::Model
 std::vector<std::uint32_t> read_indices(const Context& ctx, const tinygltf::Model& m, int index,
                                         const std::string& user, std::size_t vertex_count) {
     AccessorView v = checked_accessor(ctx, m, index, user, TINYGLTF_TYPE_SCALAR,
-                                      {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
-                                       TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                      {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
                                        TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT});
     std::vector<std::uint32_t> out(v.count);
     for (std::size_t i = 0; i < v.count; ++i) {
@@ -252,8 +256,10 @@ std::vector<std::uint32_t> read_indices(const Context& ctx, const tinygltf::Mode
             std::memcpy(&idx, p, 4);
         }
         if (idx >= vertex_count)
-            fail(ctx, user, fmt::format("index {} (element {} of accessors[{}]) is out of range: "
-                                        "POSITION has {} vertices", idx, i, index, vertex_count));
+            fail(ctx, user,
+                 fmt::format("index {} (element {} of accessors[{}]) is out of range: "
+                             "POSITION has {} vertices",
+                             idx, i, index, vertex_count));
         out[i] = idx;
     }
     return out;
@@ -275,8 +281,7 @@ glm::dmat4 local_transform(const Context& ctx, const tinygltf::Node& n, int inde
     check(n.scale, 3, "scale");
     if (!n.matrix.empty()) return glm::make_mat4(n.matrix.data());  // column-major, as glTF
     glm::dmat4 t(1.0), r(1.0), s(1.0);
-    if (!n.translation.empty())
-        t[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
+    if (!n.translation.empty()) t[3] = glm::dvec4(n.translation[0], n.translation[1], n.translation[2], 1.0);
     if (!n.rotation.empty()) {
         glm::dquat q(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]);
         double len = glm::length(q);
@@ -329,7 +334,8 @@ struct Flattener {
         bool double_sided = false;
         if (p.material >= 0) {
             if (p.material >= static_cast<int>(m.materials.size()))
-                fail(ctx, element, fmt::format("material {} out of range ({} materials)", p.material, m.materials.size()));
+                fail(ctx, element,
+                     fmt::format("material {} out of range ({} materials)", p.material, m.materials.size()));
             double_sided = m.materials[p.material].doubleSided;
         }
         std::vector<glm::dvec3> local = read_positions(ctx, m, pos->second, element + ".attributes.POSITION");
@@ -361,12 +367,15 @@ struct Flattener {
             glm::dvec3 w = glm::dvec3(world * glm::dvec4(local[i], 1.0));
             for (int c = 0; c < 3; ++c)
                 if (!(std::abs(w[c]) <= kMaxCoordinate))
-                    fail(ctx, element, fmt::format("vertex {} lies at {} m from the origin after node {}'s "
-                                                   "transform (limit {:g} m)", i, w[c], node_index, kMaxCoordinate));
+                    fail(ctx, element,
+                         fmt::format("vertex {} lies at {} m from the origin after node {}'s "
+                                     "transform (limit {:g} m)",
+                                     i, w[c], node_index, kMaxCoordinate));
             scene.positions.push_back(w);
         }
         for (auto t : tris) {
-            glm::dvec3 a = scene.positions[base + t.x], b = scene.positions[base + t.y], c = scene.positions[base + t.z];
+            glm::dvec3 a = scene.positions[base + t.x], b = scene.positions[base + t.y],
+                       c = scene.positions[base + t.z];
             if (glm::length(glm::cross(b - a, c - a)) == 0.0) {  // no area: can neither be seen nor occlude
                 ++degenerate;
                 continue;
@@ -447,21 +456,26 @@ struct Flattener {
         for (std::size_t i = 0; i < n; ++i)
             for (int c : m.nodes[i].children) {
                 if (c < 0 || static_cast<std::size_t>(c) >= n)
-                    fail(ctx, fmt::format("nodes[{}].children", i), fmt::format("node {} out of range ({} nodes)", c, n));
+                    fail(ctx, fmt::format("nodes[{}].children", i),
+                         fmt::format("node {} out of range ({} nodes)", c, n));
                 if (static_cast<std::size_t>(c) == i)
                     fail(ctx, fmt::format("nodes[{}]", i), "node hierarchy has a cycle (node is its own child)");
                 if (parent[c] >= 0)
-                    fail(ctx, fmt::format("nodes[{}]", c), fmt::format("node has two parents (nodes {} and {}); "
-                                                                        "glTF node hierarchies must be trees", parent[c], i));
+                    fail(ctx, fmt::format("nodes[{}]", c),
+                         fmt::format("node has two parents (nodes {} and {}); "
+                                     "glTF node hierarchies must be trees",
+                                     parent[c], i));
                 parent[c] = static_cast<int>(i);
             }
         for (std::size_t i = 0; i < n; ++i) {  // a cycle shows up as a walk up that never ends
             std::size_t steps = 0;
             for (int p = parent[i]; p >= 0; p = parent[p])
-                if (++steps > n)
-                    fail(ctx, fmt::format("nodes[{}]", i), "node hierarchy has a cycle");
+                if (++steps > n) fail(ctx, fmt::format("nodes[{}]", i), "node hierarchy has a cycle");
         }
-        struct Item { int node; glm::dmat4 world; };
+        struct Item {
+            int node;
+            glm::dmat4 world;
+        };
         std::vector<Item> stack;
         for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
             if (*it < 0 || static_cast<std::size_t>(*it) >= n)
@@ -477,15 +491,15 @@ struct Flattener {
             glm::dmat4 world = item.world * local_transform(ctx, node, item.node);
             if (node.mesh >= 0) {
                 if (node.mesh >= static_cast<int>(m.meshes.size()))
-                    fail(ctx, fmt::format("nodes[{}].mesh", item.node), fmt::format("mesh {} out of range ({} meshes)", node.mesh, m.meshes.size()));
+                    fail(ctx, fmt::format("nodes[{}].mesh", item.node),
+                         fmt::format("mesh {} out of range ({} meshes)", node.mesh, m.meshes.size()));
                 for (std::size_t p = 0; p < m.meshes[node.mesh].primitives.size(); ++p)
                     add_primitive(item.node, node.mesh, static_cast<int>(p), world);
             }
             if (node.camera >= 0) add_camera(item.node, node.camera, world);
             int li = node_light(ctx, node, item.node, m.lights.size());
             if (li >= 0) add_light(item.node, li, world);
-            for (auto it = node.children.rbegin(); it != node.children.rend(); ++it)
-                stack.push_back({*it, world});
+            for (auto it = node.children.rbegin(); it != node.children.rend(); ++it) stack.push_back({*it, world});
         }
     }
 };
@@ -520,14 +534,17 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
     tinygltf::Model model;
     std::string err, warn;
     std::string base_dir = ctx.dir.string();
-    bool ok = binary
-        ? loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
-                                      static_cast<unsigned int>(bytes.size()), base_dir)
-        : loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()), base_dir);
+    bool ok =
+        binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                             static_cast<unsigned int>(bytes.size()), base_dir)
+               : loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()),
+                                            base_dir);
     if (!ok) {
         while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-        for (auto& ch : err) if (ch == '\n') ch = ';';
-        throw InputError(fmt::format("{}: not a valid glTF 2.0 file: {}", ctx.label, err.empty() ? "unknown error" : err));
+        for (auto& ch : err)
+            if (ch == '\n') ch = ';';
+        throw InputError(
+            fmt::format("{}: not a valid glTF 2.0 file: {}", ctx.label, err.empty() ? "unknown error" : err));
     }
 
     Scene scene;
@@ -551,8 +568,8 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
     Flattener flat{ctx, model, scene};
     flat.traverse(roots);
     if (flat.skipped_points_lines)
-        scene.warnings.push_back(fmt::format("{}: {} point/line primitives skipped (they cast no shadows)",
-                                             ctx.label, flat.skipped_points_lines));
+        scene.warnings.push_back(fmt::format("{}: {} point/line primitives skipped (they cast no shadows)", ctx.label,
+                                             flat.skipped_points_lines));
     if (flat.degenerate)
         scene.warnings.push_back(fmt::format("{}: {} zero-area triangles dropped", ctx.label, flat.degenerate));
     return scene;

@@ -1,8 +1,8 @@
 #include "common/gltf_schema.h"
 
-#include <vector>
-
 #include <fmt/format.h>
+
+#include <vector>
 
 #include "common/errors.h"
 
@@ -12,7 +12,18 @@ namespace {
 
 using nlohmann::json;
 
-enum class Kind { uint, number, string, boolean, object, uint_array, number_array, string_array, object_array, uint_map };
+enum class Kind {
+    uint,
+    number,
+    string,
+    boolean,
+    object,
+    uint_array,
+    number_array,
+    string_array,
+    object_array,
+    uint_map
+};
 
 struct Schema;
 struct Field {
@@ -26,48 +37,89 @@ struct Schema {
 };
 
 const Schema kAny{};
-const Schema kTextureInfo{{{"index", Kind::uint, nullptr, true}, {"texCoord", Kind::uint},
-                           {"scale", Kind::number}, {"strength", Kind::number}}};
-const Schema kPbr{{{"baseColorFactor", Kind::number_array}, {"baseColorTexture", Kind::object, &kTextureInfo},
-                   {"metallicFactor", Kind::number}, {"roughnessFactor", Kind::number},
+const Schema kTextureInfo{{{"index", Kind::uint, nullptr, true},
+                           {"texCoord", Kind::uint},
+                           {"scale", Kind::number},
+                           {"strength", Kind::number}}};
+const Schema kPbr{{{"baseColorFactor", Kind::number_array},
+                   {"baseColorTexture", Kind::object, &kTextureInfo},
+                   {"metallicFactor", Kind::number},
+                   {"roughnessFactor", Kind::number},
                    {"metallicRoughnessTexture", Kind::object, &kTextureInfo}}};
-const Schema kMaterial{{{"pbrMetallicRoughness", Kind::object, &kPbr}, {"normalTexture", Kind::object, &kTextureInfo},
+const Schema kMaterial{{{"pbrMetallicRoughness", Kind::object, &kPbr},
+                        {"normalTexture", Kind::object, &kTextureInfo},
                         {"occlusionTexture", Kind::object, &kTextureInfo},
-                        {"emissiveTexture", Kind::object, &kTextureInfo}, {"emissiveFactor", Kind::number_array},
-                        {"alphaMode", Kind::string}, {"alphaCutoff", Kind::number}, {"doubleSided", Kind::boolean}}};
-const Schema kPrimitive{{{"attributes", Kind::uint_map, nullptr, true}, {"indices", Kind::uint},
-                         {"material", Kind::uint}, {"mode", Kind::uint}, {"targets", Kind::object_array, &kAny}}};
+                        {"emissiveTexture", Kind::object, &kTextureInfo},
+                        {"emissiveFactor", Kind::number_array},
+                        {"alphaMode", Kind::string},
+                        {"alphaCutoff", Kind::number},
+                        {"doubleSided", Kind::boolean}}};
+const Schema kPrimitive{{{"attributes", Kind::uint_map, nullptr, true},
+                         {"indices", Kind::uint},
+                         {"material", Kind::uint},
+                         {"mode", Kind::uint},
+                         {"targets", Kind::object_array, &kAny}}};
 const Schema kMesh{{{"primitives", Kind::object_array, &kPrimitive, true}, {"weights", Kind::number_array}}};
-const Schema kNode{{{"camera", Kind::uint}, {"children", Kind::uint_array}, {"skin", Kind::uint},
-                    {"matrix", Kind::number_array}, {"mesh", Kind::uint}, {"rotation", Kind::number_array},
-                    {"scale", Kind::number_array}, {"translation", Kind::number_array}, {"weights", Kind::number_array}}};
+const Schema kNode{{{"camera", Kind::uint},
+                    {"children", Kind::uint_array},
+                    {"skin", Kind::uint},
+                    {"matrix", Kind::number_array},
+                    {"mesh", Kind::uint},
+                    {"rotation", Kind::number_array},
+                    {"scale", Kind::number_array},
+                    {"translation", Kind::number_array},
+                    {"weights", Kind::number_array}}};
 const Schema kScene{{{"nodes", Kind::uint_array}}};
-const Schema kAccessor{{{"bufferView", Kind::uint}, {"byteOffset", Kind::uint}, {"componentType", Kind::uint, nullptr, true},
-                        {"normalized", Kind::boolean}, {"count", Kind::uint, nullptr, true},
-                        {"type", Kind::string, nullptr, true}, {"max", Kind::number_array},
-                        {"min", Kind::number_array}, {"sparse", Kind::object, &kAny}}};
-const Schema kBufferView{{{"buffer", Kind::uint, nullptr, true}, {"byteOffset", Kind::uint},
-                          {"byteLength", Kind::uint, nullptr, true}, {"byteStride", Kind::uint}, {"target", Kind::uint}}};
+const Schema kAccessor{{{"bufferView", Kind::uint},
+                        {"byteOffset", Kind::uint},
+                        {"componentType", Kind::uint, nullptr, true},
+                        {"normalized", Kind::boolean},
+                        {"count", Kind::uint, nullptr, true},
+                        {"type", Kind::string, nullptr, true},
+                        {"max", Kind::number_array},
+                        {"min", Kind::number_array},
+                        {"sparse", Kind::object, &kAny}}};
+const Schema kBufferView{{{"buffer", Kind::uint, nullptr, true},
+                          {"byteOffset", Kind::uint},
+                          {"byteLength", Kind::uint, nullptr, true},
+                          {"byteStride", Kind::uint},
+                          {"target", Kind::uint}}};
 const Schema kBuffer{{{"uri", Kind::string}, {"byteLength", Kind::uint, nullptr, true}}};
-const Schema kPerspective{{{"aspectRatio", Kind::number}, {"yfov", Kind::number, nullptr, true},
-                           {"zfar", Kind::number}, {"znear", Kind::number, nullptr, true}}};
-const Schema kOrthographic{{{"xmag", Kind::number, nullptr, true}, {"ymag", Kind::number, nullptr, true},
-                            {"zfar", Kind::number, nullptr, true}, {"znear", Kind::number, nullptr, true}}};
-const Schema kCamera{{{"type", Kind::string, nullptr, true}, {"perspective", Kind::object, &kPerspective},
+const Schema kPerspective{{{"aspectRatio", Kind::number},
+                           {"yfov", Kind::number, nullptr, true},
+                           {"zfar", Kind::number},
+                           {"znear", Kind::number, nullptr, true}}};
+const Schema kOrthographic{{{"xmag", Kind::number, nullptr, true},
+                            {"ymag", Kind::number, nullptr, true},
+                            {"zfar", Kind::number, nullptr, true},
+                            {"znear", Kind::number, nullptr, true}}};
+const Schema kCamera{{{"type", Kind::string, nullptr, true},
+                      {"perspective", Kind::object, &kPerspective},
                       {"orthographic", Kind::object, &kOrthographic}}};
 const Schema kImage{{{"uri", Kind::string}, {"mimeType", Kind::string}, {"bufferView", Kind::uint}}};
 const Schema kTexture{{{"sampler", Kind::uint}, {"source", Kind::uint}}};
-const Schema kSampler{{{"magFilter", Kind::uint}, {"minFilter", Kind::uint}, {"wrapS", Kind::uint}, {"wrapT", Kind::uint}}};
-const Schema kAsset{{{"version", Kind::string, nullptr, true}, {"minVersion", Kind::string},
-                     {"generator", Kind::string}, {"copyright", Kind::string}}};
-const Schema kRoot{{{"asset", Kind::object, &kAsset, true}, {"scene", Kind::uint},
-                    {"scenes", Kind::object_array, &kScene}, {"nodes", Kind::object_array, &kNode},
-                    {"meshes", Kind::object_array, &kMesh}, {"materials", Kind::object_array, &kMaterial},
-                    {"accessors", Kind::object_array, &kAccessor}, {"bufferViews", Kind::object_array, &kBufferView},
-                    {"buffers", Kind::object_array, &kBuffer}, {"cameras", Kind::object_array, &kCamera},
-                    {"images", Kind::object_array, &kImage}, {"textures", Kind::object_array, &kTexture},
-                    {"samplers", Kind::object_array, &kSampler}, {"animations", Kind::object_array, &kAny},
-                    {"skins", Kind::object_array, &kAny}, {"extensionsUsed", Kind::string_array},
+const Schema kSampler{
+    {{"magFilter", Kind::uint}, {"minFilter", Kind::uint}, {"wrapS", Kind::uint}, {"wrapT", Kind::uint}}};
+const Schema kAsset{{{"version", Kind::string, nullptr, true},
+                     {"minVersion", Kind::string},
+                     {"generator", Kind::string},
+                     {"copyright", Kind::string}}};
+const Schema kRoot{{{"asset", Kind::object, &kAsset, true},
+                    {"scene", Kind::uint},
+                    {"scenes", Kind::object_array, &kScene},
+                    {"nodes", Kind::object_array, &kNode},
+                    {"meshes", Kind::object_array, &kMesh},
+                    {"materials", Kind::object_array, &kMaterial},
+                    {"accessors", Kind::object_array, &kAccessor},
+                    {"bufferViews", Kind::object_array, &kBufferView},
+                    {"buffers", Kind::object_array, &kBuffer},
+                    {"cameras", Kind::object_array, &kCamera},
+                    {"images", Kind::object_array, &kImage},
+                    {"textures", Kind::object_array, &kTexture},
+                    {"samplers", Kind::object_array, &kSampler},
+                    {"animations", Kind::object_array, &kAny},
+                    {"skins", Kind::object_array, &kAny},
+                    {"extensionsUsed", Kind::string_array},
                     {"extensionsRequired", Kind::string_array}}};
 
 bool is_uint(const json& v) {
@@ -164,8 +216,8 @@ void check_gltf_schema(const json& doc, const std::string& label) {
     if (doc.contains("extensionsRequired"))
         for (const auto& e : doc["extensionsRequired"])
             if (!harmless_extension(e.get<std::string>()))
-                c.fail("extensionsRequired", fmt::format("requires \"{}\", which penumbra does not support",
-                                                         e.get<std::string>()));
+                c.fail("extensionsRequired",
+                       fmt::format("requires \"{}\", which penumbra does not support", e.get<std::string>()));
 }
 
 }  // namespace penumbra

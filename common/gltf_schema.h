@@ -2,9 +2,8 @@
 // a "primitives" object where an array belongs, a string where a number belongs, ...).
 #pragma once
 
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 namespace penumbra {
 

@@ -1,11 +1,11 @@
 #include "common/json_reader.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "common/errors.h"
 
@@ -31,8 +31,7 @@ json parse_json_strict(const std::string& text, const std::string& file_label) {
             case json::parse_event_t::object_start: open_objects.emplace_back(); break;
             case json::parse_event_t::object_end: open_objects.pop_back(); break;
             case json::parse_event_t::key:
-                if (!open_objects.empty() &&
-                    !open_objects.back().insert(parsed.get<std::string>()).second &&
+                if (!open_objects.empty() && !open_objects.back().insert(parsed.get<std::string>()).second &&
                     duplicate.empty())
                     duplicate = parsed.get<std::string>();
                 break;
@@ -48,13 +47,11 @@ json parse_json_strict(const std::string& text, const std::string& file_label) {
     try {
         result = json::parse(text, callback, /*allow_exceptions=*/true, /*ignore_comments=*/false);
     } catch (const json::parse_error& e) {
-        throw InputError(fmt::format("{}: invalid JSON at byte {}: {}", file_label, e.byte,
-                                     e.what()));
+        throw InputError(fmt::format("{}: invalid JSON at byte {}: {}", file_label, e.byte, e.what()));
     } catch (const json::exception& e) {  // e.g. out_of_range for 1e999
         throw InputError(fmt::format("{}: invalid JSON: {}", file_label, e.what()));
     }
-    if (!duplicate.empty())
-        throw InputError(fmt::format("{}: duplicate key \"{}\"", file_label, duplicate));
+    if (!duplicate.empty()) throw InputError(fmt::format("{}: duplicate key \"{}\"", file_label, duplicate));
     return result;
 }
 
@@ -68,8 +65,7 @@ json read_json_file(const std::filesystem::path& file) {
 
 JsonObject::JsonObject(const json& value, std::string file_label, std::string path)
     : value_(value), file_(std::move(file_label)), path_(std::move(path)) {
-    if (!value_.is_object())
-        fail_here(fmt::format("expected an object, got {}", type_name(value_)));
+    if (!value_.is_object()) fail_here(fmt::format("expected an object, got {}", type_name(value_)));
 }
 
 std::string JsonObject::path_of(const std::string& key) const {
@@ -114,22 +110,19 @@ double JsonObject::number_in(const std::string& key, double lo, double hi, const
     return d;
 }
 
-double JsonObject::number_in(const std::string& key, double fallback, double lo, double hi,
-                             const std::string& what) {
+double JsonObject::number_in(const std::string& key, double fallback, double lo, double hi, const std::string& what) {
     read_.insert(key);
     return has(key) ? number_in(key, lo, hi, what) : fallback;
 }
 
 long long JsonObject::integer(const std::string& key, long long lo, long long hi) {
     const json& v = get(key);
-    if (!v.is_number_integer())
-        fail(key, fmt::format("expected an integer, got {}", type_name(v)));
+    if (!v.is_number_integer()) fail(key, fmt::format("expected an integer, got {}", type_name(v)));
     // Unsigned values beyond int64 come back as number_unsigned; compare in that domain.
     if (v.is_number_unsigned() && v.get<unsigned long long>() > static_cast<unsigned long long>(hi))
         fail(key, fmt::format("expected an integer in [{}, {}] (got {})", lo, hi, v.dump()));
     long long i = v.get<long long>();
-    if (i < lo || i > hi)
-        fail(key, fmt::format("expected an integer in [{}, {}] (got {})", lo, hi, i));
+    if (i < lo || i > hi) fail(key, fmt::format("expected an integer in [{}, {}] (got {})", lo, hi, i));
     return i;
 }
 
@@ -159,8 +152,7 @@ std::string JsonObject::string(const std::string& key, const std::string& fallba
 
 glm::dvec3 JsonObject::vec3(const std::string& key) {
     const json& v = get(key);
-    if (!v.is_array() || v.size() != 3)
-        fail(key, "expected an array of 3 numbers");
+    if (!v.is_array() || v.size() != 3) fail(key, "expected an array of 3 numbers");
     glm::dvec3 out;
     for (int i = 0; i < 3; ++i) {
         if (!v[i].is_number()) fail(key, fmt::format("element {} is not a number", i));

@@ -3,12 +3,11 @@
 #pragma once
 
 #include <filesystem>
+#include <glm/vec3.hpp>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
-
-#include <glm/vec3.hpp>
-#include <nlohmann/json.hpp>
 
 namespace penumbra {
 
@@ -35,8 +34,7 @@ class JsonObject {
     double number(const std::string& key, double fallback);
     // Finite number inside [lo, hi]; `what` phrases the expectation in the error.
     double number_in(const std::string& key, double lo, double hi, const std::string& what);
-    double number_in(const std::string& key, double fallback, double lo, double hi,
-                     const std::string& what);
+    double number_in(const std::string& key, double fallback, double lo, double hi, const std::string& what);
     long long integer(const std::string& key, long long lo, long long hi);
     long long integer(const std::string& key, long long fallback, long long lo, long long hi);
     bool boolean(const std::string& key, bool fallback);

@@ -1,12 +1,12 @@
 #include "common/output_files.h"
 
-#include <cmath>
-#include <cstring>
-#include <fstream>
-
 #include <OpenImageIO/imageio.h>
 #include <fmt/format.h>
 #include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
 
 #include "common/errors.h"
 
@@ -57,14 +57,15 @@ void OutputTransaction::write_exr(const std::string& name, int width, int height
     for (std::size_t i = 0; i < n; ++i) {
         unsigned char* p = data.data() + i * pixel_bytes;
         for (const ExrChannel& c : channels) {
-            std::memcpy(p, c.u32.empty() ? static_cast<const void*>(&c.f32[i]) : static_cast<const void*>(&c.u32[i]), 4);
+            std::memcpy(p, c.u32.empty() ? static_cast<const void*>(&c.f32[i]) : static_cast<const void*>(&c.u32[i]),
+                        4);
             p += 4;
         }
     }
     auto out = OIIO::ImageOutput::create("openexr");
     if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeUnknown, data.data()) || !out->close())
-        throw EnvironmentError(fmt::format("{}: cannot write EXR: {}", (dir_ / name).string(),
-                                           out ? out->geterror() : OIIO::geterror()));
+        throw EnvironmentError(
+            fmt::format("{}: cannot write EXR: {}", (dir_ / name).string(), out ? out->geterror() : OIIO::geterror()));
 }
 
 void OutputTransaction::write_png(const std::string& name, int width, int height, const std::vector<float>& rgb) {
@@ -77,9 +78,10 @@ void OutputTransaction::write_png(const std::string& name, int width, int height
     }
     OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
     auto out = OIIO::ImageOutput::create("png");
-    if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) || !out->close())
-        throw EnvironmentError(fmt::format("{}: cannot write PNG: {}", (dir_ / name).string(),
-                                           out ? out->geterror() : OIIO::geterror()));
+    if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
+        !out->close())
+        throw EnvironmentError(
+            fmt::format("{}: cannot write PNG: {}", (dir_ / name).string(), out ? out->geterror() : OIIO::geterror()));
 }
 
 void OutputTransaction::write_json(const std::string& name, const nlohmann::json& value) {
@@ -98,7 +100,8 @@ void OutputTransaction::commit() {
     for (auto& [tmp, final_path] : files_) {
         std::error_code ec;
         fs::rename(tmp, final_path, ec);
-        if (ec) throw EnvironmentError(fmt::format("{}: cannot move into place: {}", final_path.string(), ec.message()));
+        if (ec)
+            throw EnvironmentError(fmt::format("{}: cannot move into place: {}", final_path.string(), ec.message()));
     }
     committed_ = true;
 }

@@ -1,10 +1,10 @@
 #include "common/scenario.h"
 
-#include <cmath>
-#include <limits>
-
 #include <fmt/format.h>
+
+#include <cmath>
 #include <glm/geometric.hpp>
+#include <limits>
 
 #include "common/camera.h"
 #include "common/errors.h"
@@ -76,9 +76,11 @@ Light read_light(JsonObject o) {
         l.type = LightType::spot;
         l.position = position(o, "position");
         l.direction = glm::normalize(o.nonzero_vec3("direction"));
-        l.outer_cone_rad = o.number_in("outer_cone_deg", 1e-3, 90.0, "expected a half-angle in [0.001, 90] degrees") * kDeg;
+        l.outer_cone_rad =
+            o.number_in("outer_cone_deg", 1e-3, 90.0, "expected a half-angle in [0.001, 90] degrees") * kDeg;
         l.inner_cone_rad = o.number_in("inner_cone_deg", 0.0, 0.0, l.outer_cone_rad / kDeg,
-                                       "expected 0 <= inner_cone_deg <= outer_cone_deg") * kDeg;
+                                       "expected 0 <= inner_cone_deg <= outer_cone_deg") *
+                           kDeg;
     } else if (type == "point") {
         l.type = LightType::point;
         l.position = position(o, "position");
@@ -124,9 +126,7 @@ void validate_camera(const Camera& c, const std::string& where) {
 }
 
 void validate_light(const Light& l, const std::string& where) {
-    auto finite3 = [](const glm::dvec3& v) {
-        return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-    };
+    auto finite3 = [](const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
     if (!finite3(l.position) || !finite3(l.direction))
         throw InputError(fmt::format("{}: light position or direction is not finite", where));
 }

@@ -2,10 +2,9 @@
 #pragma once
 
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "common/scene.h"
 
@@ -24,7 +23,7 @@ struct Scenario {
     std::string label;                 // file name for messages
     int width = 0, height = 0;
     Camera camera;
-    std::vector<Light> lights;         // from the scenario, or the glTF's when "lights": "gltf"
+    std::vector<Light> lights;                            // from the scenario, or the glTF's when "lights": "gltf"
     nlohmann::json technique = nlohmann::json::object();  // raw: validated by the raster path
     nlohmann::json gate = nlohmann::json::object();       // raw: validated by metrics
     Scene scene;

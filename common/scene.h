@@ -3,10 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 namespace penumbra {
 
@@ -34,8 +33,8 @@ struct Camera {
     ProjectionType type = ProjectionType::perspective;
     glm::dvec3 eye{0.0};
     glm::dvec3 forward{0, 0, -1}, right{1, 0, 0}, up{0, 1, 0};  // orthonormal
-    double yfov_rad = 0.785398;  // perspective
-    double xmag = 1, ymag = 1;   // orthographic half-extents
+    double yfov_rad = 0.785398;                                 // perspective
+    double xmag = 1, ymag = 1;                                  // orthographic half-extents
     double znear = 0.1, zfar = 1e30;
 };
 
@@ -49,15 +48,15 @@ struct Bounds {
 
 // A flattened triangle soup; triangle index = primitive id in every output (oracle and raster).
 struct Scene {
-    std::vector<glm::dvec3> positions;   // world space
-    std::vector<glm::u32vec3> triangles; // counter-clockwise = front face
-    std::vector<std::uint8_t> double_sided;  // per triangle (glTF material.doubleSided)
+    std::vector<glm::dvec3> positions;         // world space
+    std::vector<glm::u32vec3> triangles;       // counter-clockwise = front face
+    std::vector<std::uint8_t> double_sided;    // per triangle (glTF material.doubleSided)
     std::vector<std::uint32_t> triangle_node;  // per triangle: glTF node index
-    std::vector<Camera> cameras;         // glTF cameras, placed by their first node; index = camera index
-    std::vector<bool> camera_placed;     // false where no node of the scene uses that camera
-    std::vector<Light> lights;           // KHR_lights_punctual, placed by nodes
+    std::vector<Camera> cameras;               // glTF cameras, placed by their first node; index = camera index
+    std::vector<bool> camera_placed;           // false where no node of the scene uses that camera
+    std::vector<Light> lights;                 // KHR_lights_punctual, placed by nodes
     Bounds bounds;
-    std::vector<std::string> warnings;   // skipped points/lines, degenerate triangles, ...
+    std::vector<std::string> warnings;  // skipped points/lines, degenerate triangles, ...
 
     std::size_t triangle_count() const { return triangles.size(); }
 };

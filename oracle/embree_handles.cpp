@@ -9,8 +9,8 @@ namespace penumbra {
 EmbreeDevice::EmbreeDevice(const std::string& config) {
     device_ = rtcNewDevice(config.empty() ? nullptr : config.c_str());
     if (!device_)
-        throw EnvironmentError(fmt::format("Embree: cannot create a device ({})",
-                                           static_cast<int>(rtcGetDeviceError(nullptr))));
+        throw EnvironmentError(
+            fmt::format("Embree: cannot create a device ({})", static_cast<int>(rtcGetDeviceError(nullptr))));
     // Registered first thing so that no error goes unseen (Embree tutorials do the same).
     rtcSetDeviceErrorFunction(device_, &EmbreeDevice::on_error, this);
 }
@@ -28,8 +28,7 @@ void EmbreeDevice::on_error(void* self, RTCError code, const char* message) {
 
 void EmbreeDevice::check(const char* what) const {
     std::lock_guard lock(mutex_);
-    if (!first_error_.empty())
-        throw EnvironmentError(fmt::format("Embree error during {}: {}", what, first_error_));
+    if (!first_error_.empty()) throw EnvironmentError(fmt::format("Embree error during {}: {}", what, first_error_));
 }
 
 std::string EmbreeDevice::version() const {

@@ -2,10 +2,10 @@
 // kept (the callback must not throw through Embree) and raised by check() as EnvironmentError.
 #pragma once
 
+#include <embree3/rtcore.h>
+
 #include <mutex>
 #include <string>
-
-#include <embree3/rtcore.h>
 
 namespace penumbra {
 

@@ -1,14 +1,14 @@
 #include "oracle/oracle.h"
 
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <mutex>
 #include <thread>
-
-#include <tbb/global_control.h>
-#include <tbb/parallel_for.h>
-#include <unistd.h>
 
 #include "oracle/tracer.h"
 
@@ -47,8 +47,8 @@ void allocate(OracleFrame& frame, const Scenario& scenario, std::size_t lights) 
 
 OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings) {
     using namespace oracle_detail;
-    const int threads = settings.threads > 0 ? settings.threads
-                                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    const int threads =
+        settings.threads > 0 ? settings.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
 
     OracleResult result;

@@ -12,8 +12,8 @@
 namespace penumbra {
 
 struct OracleSettings {
-    int threads = 0;        // 0: all hardware threads
-    bool progress = false;  // progress line on stderr
+    int threads = 0;                    // 0: all hardware threads
+    bool progress = false;              // progress line on stderr
     int boundary_bisection_steps = 12;  // each step halves the boundary's position interval
 };
 
@@ -24,7 +24,7 @@ struct OracleLightStats {
 struct OracleStats {
     std::uint64_t primary_rays = 0;
     std::uint64_t shadow_rays = 0;
-    std::uint64_t boundary_rays = 0;  // bisection rays locating shadow boundaries
+    std::uint64_t boundary_rays = 0;      // bisection rays locating shadow boundaries
     std::uint64_t verified_retraces = 0;  // rays re-traced with double-precision hit checks
     double build_s = 0, trace_s = 0, boundary_s = 0;
     int threads = 0;

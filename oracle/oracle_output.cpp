@@ -1,9 +1,9 @@
 #include "oracle/oracle_output.h"
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cmath>
-
-#include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 namespace penumbra {
@@ -13,9 +13,7 @@ namespace {
 std::vector<ExrChannel> exr_channels(const OracleFrame& f) {
     const std::size_t n = f.pixel_count();
     std::vector<ExrChannel> ch;
-    auto add = [&](std::string name, std::vector<float> data) {
-        ch.push_back({std::move(name), std::move(data), {}});
-    };
+    auto add = [&](std::string name, std::vector<float> data) { ch.push_back({std::move(name), std::move(data), {}}); };
     add("A", f.A);
     ch.push_back({"prim", {}, f.prim});
     add("depth", f.depth);
@@ -44,8 +42,8 @@ std::vector<ExrChannel> exr_channels(const OracleFrame& f) {
 // A picture a person can read: each light adds its own tint where it reaches the surface, so a
 // shadow shows the colour of the light it blocks as missing; ambiguous pixels are magenta.
 std::vector<float> preview(const OracleFrame& f) {
-    static const glm::vec3 kTints[] = {{1.0f, 0.86f, 0.62f}, {0.55f, 0.72f, 1.0f}, {0.62f, 1.0f, 0.66f},
-                                       {1.0f, 0.62f, 0.85f}, {0.85f, 0.85f, 0.85f}};
+    static const glm::vec3 kTints[] = {
+        {1.0f, 0.86f, 0.62f}, {0.55f, 0.72f, 1.0f}, {0.62f, 1.0f, 0.66f}, {1.0f, 0.62f, 0.85f}, {0.85f, 0.85f, 0.85f}};
     const std::size_t n = f.pixel_count();
     const float share = f.lights.empty() ? 1.0f : 1.0f / static_cast<float>(f.lights.size());
     std::vector<float> rgb(3 * n);
@@ -83,8 +81,11 @@ void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, cons
         lights.push_back({{"index", li},
                           {"type", to_string(scenario.lights[li].type)},
                           {"source", scenario.lights[li].origin},
-                          {"pixels", {{"surface", l.surface}, {"lightable", l.lightable},
-                                      {"shadowed", l.shadowed}, {"uncertain", l.uncertain}}}});
+                          {"pixels",
+                           {{"surface", l.surface},
+                            {"lightable", l.lightable},
+                            {"shadowed", l.shadowed},
+                            {"uncertain", l.uncertain}}}});
     }
     double trace_total = s.trace_s + s.boundary_s;
     std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces;
@@ -94,11 +95,18 @@ void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, cons
         {"image", {{"width", f.width}, {"height", f.height}}},
         {"triangles", scenario.scene.triangle_count()},
         {"frame_origin", {f.frame_origin.x, f.frame_origin.y, f.frame_origin.z}},
-        {"rays", {{"primary", s.primary_rays}, {"shadow", s.shadow_rays}, {"boundary", s.boundary_rays},
-                  {"verified_retraces", s.verified_retraces}}},
+        {"rays",
+         {{"primary", s.primary_rays},
+          {"shadow", s.shadow_rays},
+          {"boundary", s.boundary_rays},
+          {"verified_retraces", s.verified_retraces}}},
         {"mrays_per_s", trace_total > 0 ? rays / trace_total * 1e-6 : 0.0},
-        {"seconds", {{"load", timings.load_s}, {"build", s.build_s}, {"trace", s.trace_s},
-                     {"boundary", s.boundary_s}, {"write", write_s}}},
+        {"seconds",
+         {{"load", timings.load_s},
+          {"build", s.build_s},
+          {"trace", s.trace_s},
+          {"boundary", s.boundary_s},
+          {"write", write_s}}},
         {"threads", s.threads},
         {"embree", s.embree_version},
         {"lights", lights},

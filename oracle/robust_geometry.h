@@ -8,12 +8,12 @@
 // neighbour, whatever its size or distance from the origin.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
-
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
+#include <limits>
 
 namespace penumbra::robust {
 
@@ -45,30 +45,29 @@ inline glm::vec3 offset_ray_origin(const glm::dvec3& p, const glm::dvec3& n, con
 }
 
 enum class HitVerdict {
-    real,       // the segment from p along dir enters the triangle's interior at t > 0
-    spurious,   // no intersection in exact arithmetic (self, coplanar neighbour, behind)
-    edge,       // passes within double error of an edge: counted as a hit, pixel flagged ambiguous
-    in_plane,   // the ray lies in the triangle's plane: counted as a miss, pixel flagged ambiguous
+    real,      // the segment from p along dir enters the triangle's interior at t > 0
+    spurious,  // no intersection in exact arithmetic (self, coplanar neighbour, behind)
+    edge,      // passes within double error of an edge: counted as a hit, pixel flagged ambiguous
+    in_plane,  // the ray lies in the triangle's plane: counted as a miss, pixel flagged ambiguous
 };
 
 // Judges in double whether the ray from the true surface point p (unit dir) meets triangle
 // (v0, v1, v2). A point lying on the triangle's plane cannot be occluded by it: touching is
 // not occluding (a contact point is lit or shadowed by what lies beyond it).
-inline HitVerdict verify_hit(const glm::dvec3& p, const glm::dvec3& dir, const glm::dvec3& v0,
-                             const glm::dvec3& v1, const glm::dvec3& v2, double* t_out = nullptr) {
+inline HitVerdict verify_hit(const glm::dvec3& p, const glm::dvec3& dir, const glm::dvec3& v0, const glm::dvec3& v1,
+                             const glm::dvec3& v2, double* t_out = nullptr) {
     glm::dvec3 n = glm::cross(v1 - v0, v2 - v0);
     double n_len = glm::length(n);
     if (!(n_len > 0)) return HitVerdict::spurious;
     n /= n_len;
-    double scale = std::max({glm::length(v0), glm::length(v1), glm::length(v2), glm::length(p),
-                             std::numeric_limits<double>::min()});
+    double scale = std::max(
+        {glm::length(v0), glm::length(v1), glm::length(v2), glm::length(p), std::numeric_limits<double>::min()});
     // Double rounding of p and of the normal is ~1e-16 * scale; 1e-13 leaves three decades of
     // margin yet stays five decades below float error, the thing being corrected.
     double tol_plane = 1e-13 * scale;
     double s = glm::dot(n, p - v0);
     double cos_dir = glm::dot(n, dir);
-    if (std::abs(s) <= tol_plane)
-        return std::abs(cos_dir) <= 1e-12 ? HitVerdict::in_plane : HitVerdict::spurious;
+    if (std::abs(s) <= tol_plane) return std::abs(cos_dir) <= 1e-12 ? HitVerdict::in_plane : HitVerdict::spurious;
     if (cos_dir == 0.0 || (s > 0) == (cos_dir > 0)) return HitVerdict::spurious;  // plane is behind
     double t = -s / cos_dir;
     glm::dvec3 q = p + t * dir;

@@ -11,9 +11,8 @@
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
 // silhouette) are not seen; pixels farther from every seen boundary report inf.
 #include <cmath>
-#include <limits>
-
 #include <glm/geometric.hpp>
+#include <limits>
 
 #include "oracle/tracer.h"
 
@@ -74,7 +73,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
                     const glm::dvec3& v0 = tr.vertex(pi, 0);
                     auto on_plane = [&](const glm::dvec3& q) { return q - glm::dot(q - v0, n) * n; };
                     glm::dvec3 n_lit = glm::dot(n, direction_to_light(light, a)) > 0 ? n : -n;
-                    glm::dvec3 vabs = glm::max(glm::abs(tr.vertex(pi, 0)), glm::max(glm::abs(tr.vertex(pi, 1)), glm::abs(tr.vertex(pi, 2))));
+                    glm::dvec3 vabs = glm::max(glm::abs(tr.vertex(pi, 0)),
+                                               glm::max(glm::abs(tr.vertex(pi, 1)), glm::abs(tr.vertex(pi, 2))));
                     float va = img.V[i];
                     a = on_plane(a);
                     b = on_plane(b);
@@ -109,7 +109,7 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     }
 
     // ---- 2. propagate the nearest boundary point across the surface pixels ----
-    auto sweep = [&](int x, int y, const int (*offsets)[2]) {
+    auto sweep = [&](int x, int y, const int(*offsets)[2]) {
         const int i = y * W + x;
         if (frame.A[i] == 0) return;
         for (int k = 0; k < 4; ++k) {

@@ -1,9 +1,9 @@
 #include "oracle/tracer.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 #include <glm/geometric.hpp>
 
 #include "common/camera.h"
@@ -45,7 +45,10 @@ void shadow_filter(const RTCFilterFunctionNArguments* args) {
         switch (ctx->tracer->verify(prim, ctx->p, ctx->dir, ctx->self_prim)) {
             case robust::HitVerdict::real: break;
             case robust::HitVerdict::edge: ctx->ambiguous = true; break;
-            case robust::HitVerdict::in_plane: ctx->ambiguous = true; args->valid[i] = 0; break;
+            case robust::HitVerdict::in_plane:
+                ctx->ambiguous = true;
+                args->valid[i] = 0;
+                break;
             case robust::HitVerdict::spurious: args->valid[i] = 0; break;
         }
     }
@@ -60,8 +63,12 @@ void camera_cull_filter(const RTCFilterFunctionNArguments* args) {
 }
 
 void set_ray(RTCRay& r, const glm::vec3& o, const glm::vec3& d, float tnear, float tfar) {
-    r.org_x = o.x; r.org_y = o.y; r.org_z = o.z;
-    r.dir_x = d.x; r.dir_y = d.y; r.dir_z = d.z;
+    r.org_x = o.x;
+    r.org_y = o.y;
+    r.org_z = o.z;
+    r.dir_x = d.x;
+    r.dir_y = d.y;
+    r.dir_z = d.z;
     r.tnear = tnear;
     r.tfar = tfar;
     r.time = 0;
@@ -71,8 +78,12 @@ void set_ray(RTCRay& r, const glm::vec3& o, const glm::vec3& d, float tnear, flo
 }
 
 void set_lane(RTCRay16& r, int k, const glm::vec3& o, const glm::vec3& d, float tnear, float tfar) {
-    r.org_x[k] = o.x; r.org_y[k] = o.y; r.org_z[k] = o.z;
-    r.dir_x[k] = d.x; r.dir_y[k] = d.y; r.dir_z[k] = d.z;
+    r.org_x[k] = o.x;
+    r.org_y[k] = o.y;
+    r.org_z[k] = o.z;
+    r.dir_x[k] = d.x;
+    r.dir_y[k] = d.y;
+    r.dir_z[k] = d.z;
     r.tnear[k] = tnear;
     r.tfar[k] = tfar;
     r.time[k] = 0;
@@ -123,7 +134,10 @@ ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s) {
 }
 
 Tracer::Tracer(const Scenario& scenario)
-    : scenario_(scenario), device_("verbose=0"), scene_(device_), tris_(scenario.scene.triangles),
+    : scenario_(scenario),
+      device_("verbose=0"),
+      scene_(device_),
+      tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided) {}
 
 void Tracer::build() {
@@ -141,9 +155,9 @@ void Tracer::build() {
     if (!tris_.empty()) {
         RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
         auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                                3 * sizeof(float), vertices_.size()));
+                                                               3 * sizeof(float), vertices_.size()));
         auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                   3 * sizeof(unsigned), tris_.size()));
+                                                                  3 * sizeof(unsigned), tris_.size()));
         device_.check("buffer allocation");
         if (!vb || !ib) throw EnvironmentError("Embree: cannot allocate geometry buffers");
         for (std::size_t i = 0; i < vertices_.size(); ++i) {
@@ -162,8 +176,8 @@ void Tracer::build() {
     device_.check("BVH build");
     for (const Light& l : scenario_.lights) {
         if (is_area_light(l.type))
-            throw InputError(fmt::format("{}: {}: {} lights are not supported by the oracle yet",
-                                         scenario_.label, l.origin, to_string(l.type)));
+            throw InputError(fmt::format("{}: {}: {} lights are not supported by the oracle yet", scenario_.label,
+                                         l.origin, to_string(l.type)));
         LocalLight ll;
         ll.type = l.type;
         ll.position = l.position - frame_origin_;
@@ -216,7 +230,8 @@ SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double 
     return s;
 }
 
-ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p, std::uint32_t self_prim) const {
+ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p,
+                                           std::uint32_t self_prim) const {
     FilterContext ctx;
     rtcInitIntersectContext(&ctx.embree);
     ctx.embree.filter = &shadow_filter;

@@ -3,10 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <glm/vec3.hpp>
 #include <limits>
 #include <vector>
-
-#include <glm/vec3.hpp>
 
 #include "common/frames.h"
 #include "common/scenario.h"

@@ -1,11 +1,11 @@
 #include "tests/test_support.h"
 
+#include <unistd.h>
+
 #include <atomic>
 #include <cstring>
 #include <fstream>
-
 #include <glm/geometric.hpp>
-#include <unistd.h>
 
 #include "common/camera.h"
 
@@ -115,7 +115,8 @@ Scenario make_scenario(Scene scene, Camera camera, std::vector<Light> lights, in
 
 TempDir::TempDir() {
     static std::atomic<int> counter{0};
-    path_ = fs::temp_directory_path() / ("penumbra-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    path_ =
+        fs::temp_directory_path() / ("penumbra-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
     fs::remove_all(path_);
     fs::create_directories(path_);
 }
@@ -137,11 +138,17 @@ GltfFixture::GltfFixture() {
         {"scenes", {{{"nodes", {0}}}}},
         {"nodes", {{{"mesh", 0}}}},
         {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}}}}}}},
-        {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 4}, {"type", "VEC3"},
-                        {"min", {0, 0, -1}}, {"max", {1, 0, 0}}},
-                       {{"bufferView", 1}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}},
-        {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", sizeof pos}},
-                         {{"buffer", 0}, {"byteOffset", sizeof pos}, {"byteLength", sizeof idx}}}},
+        {"accessors",
+         {{{"bufferView", 0},
+           {"componentType", 5126},
+           {"count", 4},
+           {"type", "VEC3"},
+           {"min", {0, 0, -1}},
+           {"max", {1, 0, 0}}},
+          {{"bufferView", 1}, {"componentType", 5123}, {"count", 6}, {"type", "SCALAR"}}}},
+        {"bufferViews",
+         {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", sizeof pos}},
+          {{"buffer", 0}, {"byteOffset", sizeof pos}, {"byteLength", sizeof idx}}}},
         {"buffers", {{{"uri", "scene.bin"}, {"byteLength", bin.size()}}}},
     };
 }

@@ -3,11 +3,10 @@
 #pragma once
 
 #include <filesystem>
-#include <string>
-#include <vector>
-
 #include <glm/vec3.hpp>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "common/scenario.h"
 

@@ -1,13 +1,13 @@
 // glTF input: topology, hierarchy and transforms are read exactly; malformed files are
 // refused with the file and element named.
+#include "common/gltf_loader.h"
+
 #include <gtest/gtest.h>
 
 #include <cstring>
-
 #include <glm/geometric.hpp>
 
 #include "common/errors.h"
-#include "common/gltf_loader.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -45,7 +45,8 @@ TEST(GltfLoader, ComposesTheHierarchyAndFlipsWindingUnderMirrors) {
     Scene s = load_gltf(g.write(dir));
     ASSERT_EQ(s.triangle_count(), 2u);
     for (std::size_t t = 0; t < 2; ++t) {
-        glm::dvec3 a = s.positions[s.triangles[t][0]], b = s.positions[s.triangles[t][1]], c = s.positions[s.triangles[t][2]];
+        glm::dvec3 a = s.positions[s.triangles[t][0]], b = s.positions[s.triangles[t][1]],
+                   c = s.positions[s.triangles[t][2]];
         EXPECT_EQ(a.y, 10.0);
         // The fixture's quad faces +Y (CCW seen from above); mirrored, it must still face +Y.
         EXPECT_GT(glm::cross(b - a, c - a).y, 0.0) << "triangle " << t;
@@ -90,8 +91,9 @@ TEST(GltfLoader, RefusesOutOfRangeIndices) {
     TempDir dir;
     GltfFixture g;
     g.bin[48] = 9;  // first index
-    EXPECT_NE(error_of(g.write(dir)).find("meshes[0].primitives[0].indices: index 9 (element 0 of accessors[1]) "
-                                          "is out of range: POSITION has 4 vertices"),
+    EXPECT_NE(error_of(g.write(dir))
+                  .find("meshes[0].primitives[0].indices: index 9 (element 0 of accessors[1]) "
+                        "is out of range: POSITION has 4 vertices"),
               std::string::npos);
 }
 
@@ -100,8 +102,9 @@ TEST(GltfLoader, RefusesNonFinitePositionsAndCycles) {
     GltfFixture g;
     float inf = std::numeric_limits<float>::infinity();
     std::memcpy(g.bin.data() + 4, &inf, 4);
-    EXPECT_NE(error_of(g.write(dir)).find("accessors[0]: element 0 of meshes[0].primitives[0].attributes.POSITION "
-                                          "is not finite"),
+    EXPECT_NE(error_of(g.write(dir))
+                  .find("accessors[0]: element 0 of meshes[0].primitives[0].attributes.POSITION "
+                        "is not finite"),
               std::string::npos);
     GltfFixture c;
     c.doc["nodes"] = {{{"mesh", 0}, {"children", {1}}}, {{"children", {2}}}, {{"children", {1}}}};
@@ -141,14 +144,12 @@ TEST_P(MalformedAssimpModel, IsRefusedWithTheFileNamed) {
 
 INSTANTIATE_TEST_SUITE_P(AssimpTestModels, MalformedAssimpModel,
                          ::testing::Values("IndexOutOfRange/IndexOutOfRange.gltf",
-                                           "IndexOutOfRange/AllIndicesOutOfRange.gltf",
-                                           "MissingBin/BoxTextured.gltf",
+                                           "IndexOutOfRange/AllIndicesOutOfRange.gltf", "MissingBin/BoxTextured.gltf",
                                            "BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb",
-                                           "RecursiveNodes/RecursiveNodes.gltf",
-                                           "wrongTypes/badArray.gltf", "wrongTypes/badNumber.gltf",
-                                           "wrongTypes/badObject.gltf", "wrongTypes/badString.gltf",
-                                           "wrongTypes/badUint.gltf", "wrongTypes/badExtension.gltf",
-                                           "SchemaFailures/sceneWrongType.gltf"));
+                                           "RecursiveNodes/RecursiveNodes.gltf", "wrongTypes/badArray.gltf",
+                                           "wrongTypes/badNumber.gltf", "wrongTypes/badObject.gltf",
+                                           "wrongTypes/badString.gltf", "wrongTypes/badUint.gltf",
+                                           "wrongTypes/badExtension.gltf", "SchemaFailures/sceneWrongType.gltf"));
 
 }  // namespace
 }  // namespace penumbra

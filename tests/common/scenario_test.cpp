@@ -1,8 +1,9 @@
 // Scenario files: every refusal names the file, the JSON path and what was expected.
+#include "common/scenario.h"
+
 #include <gtest/gtest.h>
 
 #include "common/errors.h"
-#include "common/scenario.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -115,10 +116,13 @@ TEST_F(ScenarioTest, TakesCamerasAndLightsFromTheGltf) {
     test::GltfFixture g;
     g.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.05}}}}};
     g.doc["extensionsUsed"] = {"KHR_lights_punctual"};
-    g.doc["extensions"] = {{"KHR_lights_punctual", {{"lights", {{{"type", "spot"}, {"spot", {{"outerConeAngle", 0.5}}}}}}}}};
+    g.doc["extensions"] = {
+        {"KHR_lights_punctual", {{"lights", {{{"type", "spot"}, {"spot", {{"outerConeAngle", 0.5}}}}}}}}};
     // Camera at (0, 2, 0) looking down (rotated -90 degrees about X); the light node reuses it.
     double s = std::sqrt(0.5);
-    g.doc["nodes"].push_back({{"camera", 0}, {"translation", {0, 2, 0}}, {"rotation", {-s, 0, 0, s}},
+    g.doc["nodes"].push_back({{"camera", 0},
+                              {"translation", {0, 2, 0}},
+                              {"rotation", {-s, 0, 0, s}},
                               {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
     g.doc["scenes"][0]["nodes"] = {0, 1};
     g.write(dir_);

@@ -2,17 +2,17 @@
 // (point light: the planar projection matrix of shared/reference 001; directional light), a box's
 // shadow as the convex hull of its projected corners, spot cones, grazing light, invariance
 // under translation, scaling and rotation of the whole scenario, and determinism.
+#include "oracle/oracle.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstring>
-#include <random>
-
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/mat4x4.hpp>
+#include <random>
 
-#include "oracle/oracle.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -94,8 +94,8 @@ TEST_P(AnalyticProjection, MatchesThePlanarProjectionOfEveryOccluder) {
     const glm::dvec3 light_pos(0.7, 7.5, -0.4);
     const glm::dvec3 light_dir = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
     Light light = pc.point_light ? test::point(light_pos) : test::directional(light_dir);
-    Camera cam = pc.orthographic ? test::look_at_ortho({0, 12, 6}, {0, 0, 0}, 6, 4.5)
-                                 : test::look_at({0, 9, 9}, {0, 0, 0}, 50);
+    Camera cam =
+        pc.orthographic ? test::look_at_ortho({0, 12, 6}, {0, 0, 0}, 6, 4.5) : test::look_at({0, 9, 9}, {0, 0, 0}, 50);
     Scenario sc = test::make_scenario(occ.builder.build(), cam, {light}, 320, 240);
     OracleResult res = run_oracle(sc);
     const OracleFrame& f = res.frame;
@@ -116,9 +116,11 @@ TEST_P(AnalyticProjection, MatchesThePlanarProjectionOfEveryOccluder) {
         for (const auto& t : occ.tris) {
             glm::dvec2 a, b, c;
             if (pc.point_light) {
-                a = project_from_point(light_pos, t[0]), b = project_from_point(light_pos, t[1]), c = project_from_point(light_pos, t[2]);
+                a = project_from_point(light_pos, t[0]), b = project_from_point(light_pos, t[1]),
+                c = project_from_point(light_pos, t[2]);
             } else {
-                a = project_along(light_dir, t[0]), b = project_along(light_dir, t[1]), c = project_along(light_dir, t[2]);
+                a = project_along(light_dir, t[0]), b = project_along(light_dir, t[1]),
+                c = project_along(light_dir, t[2]);
             }
             if (!inside_triangle({p.x, p.z}, a, b, c)) continue;
             expect_shadow = true;
@@ -131,9 +133,9 @@ TEST_P(AnalyticProjection, MatchesThePlanarProjectionOfEveryOccluder) {
         shadowed += got_shadow;
         if (got_shadow != expect_shadow) {
             ++wrong;
-            ADD_FAILURE_AT(__FILE__, __LINE__) << pc.name << ": pixel " << i % f.width << "," << i / f.width
-                                               << " oracle V=" << img.V[i] << " analytic " << (expect_shadow ? 0 : 1)
-                                               << " boundary_m=" << img.boundary_m[i];
+            ADD_FAILURE_AT(__FILE__, __LINE__)
+                << pc.name << ": pixel " << i % f.width << "," << i / f.width << " oracle V=" << img.V[i]
+                << " analytic " << (expect_shadow ? 0 : 1) << " boundary_m=" << img.boundary_m[i];
             if (wrong > 5) return;
         } else if (expect_shadow) {
             // The occluder distance is the nearest occluder along the ray, in metres.
@@ -270,7 +272,8 @@ TEST(Oracle, SpotLightsLightOnlyInsideTheirCone) {
     b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
     glm::dvec3 pos(0.5, 4, 0.3), axis = glm::normalize(glm::dvec3(0.2, -1, -0.1));
     double outer = 25 * M_PI / 180;
-    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 10, 8}, {0, 0, 0}, 50), {test::spot(pos, axis, 25)}, 320, 240);
+    Scenario sc =
+        test::make_scenario(b.build(), test::look_at({0, 10, 8}, {0, 0, 0}, 50), {test::spot(pos, axis, 25)}, 320, 240);
     OracleResult res = run_oracle(sc);
     const OracleLightImage& img = res.frame.lights[0];
     std::size_t inside = 0, outside = 0;
@@ -335,11 +338,11 @@ TEST(Oracle, BoundaryDistanceIsExactForAStraightEdge) {
 Scenario invariance_scene() {
     SceneBuilder b;
     b.quad({-10, 0, 10}, {10, 0, 10}, {10, 0, -10}, {-10, 0, -10}, false);
-    b.box({-2.5, 0, -0.5}, {-1.5, 1, 0.5});                  // resting on the plane
-    b.box({0.2, 0, -1.51}, {0.22, 2.5, -1.49});             // a 2 cm pole
+    b.box({-2.5, 0, -0.5}, {-1.5, 1, 0.5});                                            // resting on the plane
+    b.box({0.2, 0, -1.51}, {0.22, 2.5, -1.49});                                        // a 2 cm pole
     b.quad({-0.4, 1.6, -1.5}, {0.8, 1.6, -1.5}, {0.8, 2.2, -1.5}, {-0.4, 2.2, -1.5});  // zero-thickness sign
-    b.box({-3.3, 2.1, -0.3}, {-1.3, 2.3, 0.7});             // floating slab over the box
-    b.grid({1, 0.3, 1}, {2.5, 0.6, 0}, {0, 0.05, -2}, 8, 8); // a tilted, tessellated ramp
+    b.box({-3.3, 2.1, -0.3}, {-1.3, 2.3, 0.7});                                        // floating slab over the box
+    b.grid({1, 0.3, 1}, {2.5, 0.6, 0}, {0, 0.05, -2}, 8, 8);                           // a tilted, tessellated ramp
     std::vector<Light> lights{test::directional({0.35, -0.7, -0.45}), test::point({1.0, 3.2, 2.5}),
                               test::spot({-3.5, 5.0, 3.5}, {0.55, -1.0, -0.55}, 40)};
     return test::make_scenario(b.build(), test::look_at({4.5, 4.0, 9.0}, {0, 0.6, 0}, 45), lights, 320, 180);
@@ -375,7 +378,8 @@ TEST_P(Invariance, GivesTheSameVerdictOutsideAmbiguousPixels) {
     const InvarianceCase ic = GetParam();
     Scenario base = invariance_scene();
     glm::dmat3 r(glm::rotate(glm::dmat4(1.0), ic.angle_deg * M_PI / 180, glm::normalize(glm::dvec3(1, 2, 3))));
-    Scenario moved = transformed(base, ic.scale, r, glm::dvec3(ic.translation, -0.5 * ic.translation, 0.7 * ic.translation));
+    Scenario moved =
+        transformed(base, ic.scale, r, glm::dvec3(ic.translation, -0.5 * ic.translation, 0.7 * ic.translation));
     OracleResult a = run_oracle(base), b = run_oracle(moved);
     std::size_t pixels = a.frame.pixel_count(), prim_differs = 0, compared = 0, wrong = 0, ambiguous = 0, shadowed = 0;
     for (std::size_t i = 0; i < pixels; ++i) {
@@ -394,8 +398,9 @@ TEST_P(Invariance, GivesTheSameVerdictOutsideAmbiguousPixels) {
             bool same = la.V[i] == lb.V[i] && la.lightable[i] == lb.lightable[i];
             wrong += !same;
             if (!same && wrong < 5)
-                ADD_FAILURE() << ic.name << ": light " << li << " pixel " << i % a.frame.width << "," << i / a.frame.width
-                              << " V " << la.V[i] << " vs " << lb.V[i] << ", boundary " << la.boundary_m[i];
+                ADD_FAILURE() << ic.name << ": light " << li << " pixel " << i % a.frame.width << ","
+                              << i / a.frame.width << " V " << la.V[i] << " vs " << lb.V[i] << ", boundary "
+                              << la.boundary_m[i];
             if (same && la.V[i] == 0 && la.lightable[i] != 0) {
                 ++shadowed;
                 // Embree's t carries an absolute float error of ~eps x the scene's coordinates (10 m).
@@ -412,8 +417,7 @@ TEST_P(Invariance, GivesTheSameVerdictOutsideAmbiguousPixels) {
 INSTANTIATE_TEST_SUITE_P(Oracle, Invariance,
                          ::testing::Values(InvarianceCase{"translated_1e7", 1, 0, 1e7},
                                            InvarianceCase{"scaled_1em4", 1e-4, 0, 0},
-                                           InvarianceCase{"scaled_1e4", 1e4, 0, 0},
-                                           InvarianceCase{"rotated", 1, 37, 0},
+                                           InvarianceCase{"scaled_1e4", 1e4, 0, 0}, InvarianceCase{"rotated", 1, 37, 0},
                                            InvarianceCase{"all_at_once", 1e3, 71, 1e7}),
                          [](const auto& param_info) { return std::string(param_info.param.name); });
 

@@ -1,11 +1,10 @@
 // The two primitives the oracle's robustness rests on, tested against exact arithmetic in double.
+#include "oracle/robust_geometry.h"
+
 #include <gtest/gtest.h>
 
-#include <random>
-
 #include <glm/geometric.hpp>
-
-#include "oracle/robust_geometry.h"
+#include <random>
 
 namespace penumbra {
 namespace {
@@ -25,8 +24,8 @@ TEST(RobustGeometry, OffsetOriginLeavesTheFloatTriangle) {
     // (distance from the origin, triangle size): from 1 mm triangles at the origin to 1 km
     // triangles a million metres out; pairs where float rounding alone exceeds 1% of the size
     // are meaningless for a float tracer and left out.
-    const std::pair<double, double> cases[] = {{0, 1e-3}, {0, 1}, {0, 1e3}, {1e3, 0.1}, {1e3, 1}, {1e3, 1e3},
-                                               {1e6, 1e3}, {1e6, 10}};
+    const std::pair<double, double> cases[] = {{0, 1e-3}, {0, 1},     {0, 1e3},   {1e3, 0.1},
+                                               {1e3, 1},  {1e3, 1e3}, {1e6, 1e3}, {1e6, 10}};
     for (auto [offset, size] : cases) {
         {
             for (int i = 0; i < 20000; ++i, ++trials) {
@@ -39,7 +38,8 @@ TEST(RobustGeometry, OffsetOriginLeavesTheFloatTriangle) {
                 n = glm::normalize(n);
                 double b1 = b(rng), b2 = b(rng) * (1 - b1), b0 = 1 - b1 - b2;
                 glm::dvec3 p = b0 * v0 + b1 * v1 + b2 * v2;
-                glm::dvec3 err = robust::surface_error_bound(p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2));
+                glm::dvec3 err =
+                    robust::surface_error_bound(p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2));
                 glm::dvec3 o(robust::offset_ray_origin(p, n, err));
                 glm::dvec3 f0 = rounded(v0), f1 = rounded(v1), f2 = rounded(v2);
                 glm::dvec3 fn = glm::normalize(glm::cross(f1 - f0, f2 - f0));
@@ -61,7 +61,8 @@ TEST(RobustGeometry, VerifyHitJudgesInDouble) {
     const glm::dvec3 v0(0, 0, 0), v1(1, 0, 0), v2(0, 0, -1);  // faces +y
     double t = 0;
     // A point of the plane never hits the plane's triangles again (coplanar neighbour).
-    EXPECT_EQ(robust::verify_hit({0.5, 0, 0.5}, glm::normalize(glm::dvec3(0.1, 0.001, -1)), v0, v1, v2), HitVerdict::spurious);
+    EXPECT_EQ(robust::verify_hit({0.5, 0, 0.5}, glm::normalize(glm::dvec3(0.1, 0.001, -1)), v0, v1, v2),
+              HitVerdict::spurious);
     // From above, going down through the interior: a real hit at the right distance.
     EXPECT_EQ(robust::verify_hit({0.2, 2, -0.2}, {0, -1, 0}, v0, v1, v2, &t), HitVerdict::real);
     EXPECT_DOUBLE_EQ(t, 2.0);
