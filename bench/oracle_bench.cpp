@@ -60,6 +60,23 @@ Scenario terrain_scenario(int grid, int size) {
     return s;
 }
 
+// One lane of a 16-wide ray packet, reset for a new query.
+void set_lane(RTCRayHit16& rh, int k, const glm::vec3& o, const glm::vec3& d, float tnear) {
+    rh.ray.org_x[k] = o.x;
+    rh.ray.org_y[k] = o.y;
+    rh.ray.org_z[k] = o.z;
+    rh.ray.dir_x[k] = d.x;
+    rh.ray.dir_y[k] = d.y;
+    rh.ray.dir_z[k] = d.z;
+    rh.ray.tnear[k] = tnear;
+    rh.ray.tfar[k] = 3e38f;
+    rh.ray.time[k] = 0;
+    rh.ray.mask[k] = ~0u;
+    rh.ray.id[k] = static_cast<unsigned>(k);
+    rh.ray.flags[k] = 0;
+    rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+}
+
 struct BareResult {
     double seconds;
     std::uint64_t rays;
@@ -103,19 +120,7 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
                     for (int k = 0; k < 16; ++k) {
                         PrimaryRay pr = camera_rays.at(bx + (k & 3) + 0.5, by + (k >> 2) + 0.5);
                         valid[k] = -1;
-                        rh.ray.org_x[k] = 0;
-                        rh.ray.org_y[k] = 0;
-                        rh.ray.org_z[k] = 0;
-                        rh.ray.dir_x[k] = float(pr.direction.x);
-                        rh.ray.dir_y[k] = float(pr.direction.y);
-                        rh.ray.dir_z[k] = float(pr.direction.z);
-                        rh.ray.tnear[k] = float(s.camera.znear);
-                        rh.ray.tfar[k] = 3e38f;
-                        rh.ray.time[k] = 0;
-                        rh.ray.mask[k] = ~0u;
-                        rh.ray.id[k] = k;
-                        rh.ray.flags[k] = 0;
-                        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                        set_lane(rh, k, glm::vec3(0.0f), glm::vec3(pr.direction), float(s.camera.znear));
                     }
                     rtcIntersect16(valid, scene, &ctx, &rh);
                     local += 16;
@@ -130,19 +135,7 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
                         if (glm::dot(n, L) <= 0) continue;
                         glm::vec3 o = rh.ray.tfar[k] * d + 1e-3f * n;  // the fixed epsilon an oracle must not use
                         svalid[k] = -1;
-                        sh.ray.org_x[k] = o.x;
-                        sh.ray.org_y[k] = o.y;
-                        sh.ray.org_z[k] = o.z;
-                        sh.ray.dir_x[k] = L.x;
-                        sh.ray.dir_y[k] = L.y;
-                        sh.ray.dir_z[k] = L.z;
-                        sh.ray.tnear[k] = 0;
-                        sh.ray.tfar[k] = 3e38f;
-                        sh.ray.time[k] = 0;
-                        sh.ray.mask[k] = ~0u;
-                        sh.ray.id[k] = k;
-                        sh.ray.flags[k] = 0;
-                        sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                        set_lane(sh, k, o, L, 0.0f);
                         ++local;
                     }
                     if (closest_hit)
