@@ -11,10 +11,14 @@
 #include <string>
 
 #include "common/errors.h"
+#include "common/json_reader.h"
 #include "common/output_files.h"
 #include "common/scenario.h"
 #include "oracle/oracle.h"
 #include "oracle/oracle_output.h"
+#include "raster/raster.h"
+#include "raster/raster_output.h"
+#include "raster/technique.h"
 
 namespace {
 
@@ -66,6 +70,75 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     return kExitSuccess;
 }
 
+struct TechniqueArgs {
+    std::filesystem::path file;
+    std::string preset;
+    std::vector<std::string> sets;
+    std::string device;
+};
+
+void add_technique(CLI::App* cmd, TechniqueArgs& t) {
+    cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")");
+    cmd->add_option("--preset", t.preset, "Start from a named preset (see below)");
+    cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)");
+    cmd->add_option("--device", t.device, "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
+    std::string text = "Presets:\n";
+    for (const auto& p : raster::presets()) text += fmt::format("  {:<24}{}\n", p.name, p.description);
+    cmd->footer(text);
+}
+
+// The technique from its three sources, in order: scenario or --technique file, --preset, --set.
+raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArgs& t) {
+    nlohmann::json j = scenario.technique;
+    std::string label = scenario.label + ": technique";
+    if (!t.file.empty()) {
+        j = read_json_file(t.file);
+        label = t.file.filename().string();
+    }
+    if (!t.preset.empty()) j["preset"] = t.preset;
+    for (const auto& s : t.sets) raster::apply_override(j, s);
+    return raster::parse_technique(j, label);
+}
+
+int run_raster_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t) {
+    auto t0 = std::chrono::steady_clock::now();
+    ScenarioOptions so;
+    so.allow_external_paths = c.allow_external_paths;
+    Scenario scenario = load_scenario(scenario_file, so);
+    raster::Technique technique = resolve_technique(scenario, t);
+    raster::RasterTimings timings;
+    timings.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!c.quiet)
+        for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
+
+    auto t1 = std::chrono::steady_clock::now();
+    raster::ContextOptions co;
+    co.device = t.device;
+    raster::VulkanContext ctx(co);
+    timings.device_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    raster::RasterResult result = raster::run_raster(scenario, technique, ctx);
+
+    OutputTransaction out(c.out);
+    raster::write_raster_outputs(out, scenario, technique, result, timings);
+    out.commit();
+    if (!c.quiet) {
+        const auto& s = result.stats;
+        for (const auto& w : s.warnings) fmt::print(stderr, "warning: {}\n", w);
+        fmt::print("raster: {}x{} px, {} lights on {}; {}^2 {} map; GPU shadow {:.2f} ms, camera {:.2f} ms\n",
+                   scenario.width, scenario.height, scenario.lights.size(), s.device.name, technique.resolution,
+                   raster::to_string(technique.depth_format), s.shadow_ms, s.camera_ms + s.lookup_ms);
+        fmt::print("results: {}/raster.exr, raster.json, raster.png\n", c.out.string());
+    }
+    return kExitSuccess;
+}
+
+int run_devices_command() {
+    for (const auto& d : raster::list_devices())
+        fmt::print("{}: {} ({}, Vulkan {}, {}){}\n", d.index, d.name, d.type, d.api_version, d.driver,
+                   d.lavapipe ? " [default]" : "");
+    return kExitSuccess;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -79,6 +152,14 @@ int main(int argc, char** argv) {
     oracle->add_option("SCENARIO", scenario, "Scenario JSON file")->required();
     add_common(oracle, common);
 
+    TechniqueArgs technique;
+    CLI::App* raster = app.add_subcommand("raster", "Render the scenario's shadows with a technique (Vulkan)");
+    raster->add_option("SCENARIO", scenario, "Scenario JSON file")->required();
+    add_common(raster, common);
+    add_technique(raster, technique);
+
+    CLI::App* devices = app.add_subcommand("devices", "List the Vulkan devices --device can choose");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -87,6 +168,8 @@ int main(int argc, char** argv) {
     }
     try {
         if (*oracle) return run_oracle_command(scenario, common);
+        if (*raster) return run_raster_command(scenario, common, technique);
+        if (*devices) return run_devices_command();
     } catch (const InputError& e) {
         fmt::print(stderr, "error: {}\n", e.what());
         return kExitBadInput;

@@ -37,4 +37,32 @@ struct OracleFrame {
     std::size_t pixel_count() const { return static_cast<std::size_t>(width) * height; }
 };
 
+// Flags of RasterLightImage::flags (the values the lookup shader writes).
+inline constexpr std::uint32_t kRasterSurface = 1u;      // a triangle covers the pixel
+inline constexpr std::uint32_t kRasterBackFacing = 2u;   // N.L <= 0: V = 0 without a lookup
+inline constexpr std::uint32_t kRasterOutsideCone = 4u;  // spot light: outside the cone, V = 0
+inline constexpr std::uint32_t kRasterOutsideMap = 8u;   // the lookup fell outside the light's map (V = 1)
+
+// What a shadow-mapping technique decided for one light at every pixel, and the lookups
+// behind the decision (design.md, "Data flow").
+struct RasterLightImage {
+    std::vector<float> V;             // the technique's shadow factor, 1 lit
+    std::vector<float> ref_depth;     // receiver depth at the centre texel after every bias (map depth units)
+    std::vector<float> stored_depth;  // depth stored in the centre texel; inf outside the map
+    std::vector<std::uint32_t> stored_prim;  // triangle stored in the centre texel
+    std::vector<float> footprint_m;   // shadow-map texel size at the receiver, metres
+    std::vector<float> texel_slope;   // receiver-plane depth change across half a texel (depth units)
+    std::vector<float> bias_m;        // every bias together, as metres along the light ray (estimate)
+    std::vector<std::uint32_t> flags; // kRaster*
+};
+
+struct RasterFrame {
+    int width = 0, height = 0;
+    glm::dvec3 frame_origin{0.0};     // world position of the local frame (the camera eye)
+    std::vector<float> A;             // 1 surface, 0 background
+    std::vector<std::uint32_t> prim;  // triangle seen by the camera pass, kNoPrimitive if none
+    std::vector<RasterLightImage> lights;
+    std::size_t pixel_count() const { return static_cast<std::size_t>(width) * height; }
+};
+
 }  // namespace penumbra

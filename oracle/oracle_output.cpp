@@ -6,6 +6,8 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 
+#include "common/preview.h"
+
 namespace penumbra {
 
 namespace {
@@ -39,29 +41,12 @@ std::vector<ExrChannel> exr_channels(const OracleFrame& f) {
     return ch;
 }
 
-// A picture a person can read: each light adds its own tint where it reaches the surface, so a
-// shadow shows the colour of the light it blocks as missing; ambiguous pixels are magenta.
 std::vector<float> preview(const OracleFrame& f) {
-    static const glm::vec3 kTints[] = {
-        {1.0f, 0.86f, 0.62f}, {0.55f, 0.72f, 1.0f}, {0.62f, 1.0f, 0.66f}, {1.0f, 0.62f, 0.85f}, {0.85f, 0.85f, 0.85f}};
-    const std::size_t n = f.pixel_count();
-    const float share = f.lights.empty() ? 1.0f : 1.0f / static_cast<float>(f.lights.size());
-    std::vector<float> rgb(3 * n);
-    for (std::size_t i = 0; i < n; ++i) {
-        glm::vec3 c(0.06f, 0.07f, 0.09f);
-        if (f.A[i] != 0) {
-            float shape = 0.6f + 0.4f * std::abs(f.N[i].y);  // a little relief from the normal
-            glm::vec3 light(f.lights.empty() ? 1.0f : 0.0f);
-            bool uncertain = false;
-            for (std::size_t li = 0; li < f.lights.size(); ++li) {
-                light += share * f.lights[li].V[i] * kTints[li % 5];
-                uncertain |= f.lights[li].U[i] != 0;
-            }
-            c = uncertain ? glm::vec3(0.95f, 0.1f, 0.9f) : shape * (0.1f + 0.85f * light);
-        }
-        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = c[k];
-    }
-    return rgb;
+    std::vector<float> relief(f.pixel_count());
+    for (std::size_t i = 0; i < relief.size(); ++i) relief[i] = 0.6f + 0.4f * std::abs(f.N[i].y);
+    std::vector<PreviewLight> lights;
+    for (const auto& l : f.lights) lights.push_back({&l.V, &l.U});
+    return visibility_preview(f.A, relief, lights);
 }
 
 }  // namespace

@@ -1,0 +1,196 @@
+#include "raster/light_projection.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace penumbra::raster {
+
+namespace {
+
+struct Basis {
+    glm::dvec3 right, up, forward;
+};
+
+// A light view looking along `forward`, with an up hint that is never parallel to it.
+Basis light_basis(const glm::dvec3& forward) {
+    glm::dvec3 hint = std::abs(forward.y) < 0.99 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+    glm::dvec3 right = glm::normalize(glm::cross(forward, hint));
+    return {right, glm::cross(right, forward), forward};
+}
+
+// Orthographic clip matrix: x, y from the box's [lo, hi] to [-1, 1], depth along forward
+// from [znear, zfar] to [0, 1]. Coordinates are relative to `origin`.
+glm::dmat4 ortho_matrix(const Basis& b, glm::dvec3 lo, glm::dvec3 hi, const glm::dvec3& origin) {
+    glm::dmat4 m(0.0);
+    glm::dvec3 sx = b.right * (2.0 / (hi.x - lo.x)), sy = b.up * (2.0 / (hi.y - lo.y)),
+               sz = b.forward * (1.0 / (hi.z - lo.z));
+    // Row i of the matrix: clip_i = dot(s_i, p_rel + origin) + t_i.
+    double tx = glm::dot(sx, origin) - (hi.x + lo.x) / (hi.x - lo.x);
+    double ty = glm::dot(sy, origin) - (hi.y + lo.y) / (hi.y - lo.y);
+    double tz = glm::dot(sz, origin) - lo.z / (hi.z - lo.z);
+    for (int c = 0; c < 3; ++c) {
+        m[c][0] = sx[c];
+        m[c][1] = sy[c];
+        m[c][2] = sz[c];
+    }
+    m[3] = glm::dvec4(tx, ty, tz, 1.0);
+    return m;
+}
+
+// Perspective clip matrix (depth 0 at near, 1 at far) of a view at `eye` with a square
+// frustum of half-angle tangent `t`.
+glm::dmat4 perspective_matrix(const Basis& b, const glm::dvec3& eye_rel, double t, double near, double far) {
+    // View coordinates: x = right.(p - eye), y = up.(p - eye), f = forward.(p - eye).
+    // clip = (x / t, y / t, far (f - near) / (far - near), f).
+    glm::dmat4 m(0.0);
+    double a = far / (far - near);
+    for (int c = 0; c < 3; ++c) {
+        m[c][0] = b.right[c] / t;
+        m[c][1] = b.up[c] / t;
+        m[c][2] = b.forward[c] * a;
+        m[c][3] = b.forward[c];
+    }
+    m[3][0] = -glm::dot(b.right, eye_rel) / t;
+    m[3][1] = -glm::dot(b.up, eye_rel) / t;
+    m[3][2] = -glm::dot(b.forward, eye_rel) * a - a * near;
+    m[3][3] = -glm::dot(b.forward, eye_rel);
+    return m;
+}
+
+std::array<glm::dvec3, 8> box_corners(const Bounds& b) {
+    std::array<glm::dvec3, 8> c;
+    for (int i = 0; i < 8; ++i)
+        c[i] = glm::dvec3(i & 1 ? b.hi.x : b.lo.x, i & 2 ? b.hi.y : b.lo.y, i & 4 ? b.hi.z : b.lo.z);
+    return c;
+}
+
+double distance_to_box(const glm::dvec3& p, const Bounds& b) {
+    glm::dvec3 d = glm::max(glm::max(b.lo - p, p - b.hi), glm::dvec3(0.0));
+    return glm::length(d);
+}
+
+// The camera frustum's eight corners, far plane pulled in to the scene's extent.
+std::vector<glm::dvec3> camera_frustum_corners(const Camera& cam, int w, int h, const Bounds& scene) {
+    double far_scene = 0;
+    for (const auto& c : box_corners(scene)) far_scene = std::max(far_scene, glm::dot(c - cam.eye, cam.forward));
+    double zn = cam.znear, zf = std::max(zn * 1.0001, std::min(cam.zfar, far_scene));
+    std::vector<glm::dvec3> out;
+    for (double z : {zn, zf}) {
+        double sx, sy;
+        glm::dvec3 centre = cam.eye + cam.forward * z;
+        if (cam.type == ProjectionType::perspective) {
+            sy = std::tan(cam.yfov_rad / 2) * z;
+            sx = sy * w / h;
+        } else {
+            sx = cam.xmag;
+            sy = cam.ymag;
+        }
+        for (int i = 0; i < 4; ++i) out.push_back(centre + cam.right * (i & 1 ? sx : -sx) + cam.up * (i & 2 ? sy : -sy));
+    }
+    return out;
+}
+
+LightProjection fit_directional(const Light& light, const Scene& scene, const Camera& cam, int w, int h, Fit fit,
+                                int res, const glm::dvec3& origin) {
+    LightProjection lp;
+    Basis b = light_basis(light.direction);
+    auto to_light_space = [&](const glm::dvec3& p) {
+        return glm::dvec3(glm::dot(p, b.right), glm::dot(p, b.up), glm::dot(p, b.forward));
+    };
+    glm::dvec3 lo(1e300), hi(-1e300);
+    auto grow = [&](const glm::dvec3& p) {
+        glm::dvec3 q = to_light_space(p);
+        lo = glm::min(lo, q);
+        hi = glm::max(hi, q);
+    };
+    switch (fit) {
+        case Fit::scene_sphere: {  // reference 000: the bounding sphere of the scene
+            glm::dvec3 c = to_light_space(scene.bounds.center());
+            double r = scene.bounds.radius();
+            lo = c - r;
+            hi = c + r;
+            break;
+        }
+        case Fit::scene_bounds:  // reference 002: tight box of every vertex in light space
+            for (const auto& p : scene.positions) grow(p);
+            break;
+        case Fit::camera_frustum: {  // reference 004: the camera frustum's corners
+            for (const auto& p : camera_frustum_corners(cam, w, h, scene.bounds)) grow(p);
+            // Casters between the light and the frustum must still land in the map: pull the
+            // near plane back to the scene (depth clamp would flatten them, not drop them).
+            double lo_z = lo.z;
+            for (const auto& p : box_corners(scene.bounds)) lo_z = std::min(lo_z, to_light_space(p).z);
+            lo.z = lo_z;
+            break;
+        }
+    }
+    // A flat scene seen edge-on by its box still needs a non-empty volume.
+    double span = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-9 * std::max(1.0, glm::length(hi))});
+    for (int a = 0; a < 3; ++a)
+        if (hi[a] - lo[a] < 1e-6 * span) {
+            double pad = 0.5e-3 * span;
+            lo[a] -= pad;
+            hi[a] += pad;
+        }
+    lp.view_proj.push_back(ortho_matrix(b, lo, hi, origin));
+    lp.axis.push_back(b.forward);
+    lp.half_extent = glm::dvec2(hi.x - lo.x, hi.y - lo.y) * 0.5;
+    lp.metres_per_texel = std::max(hi.x - lo.x, hi.y - lo.y) / res;
+    lp.near = 0;
+    lp.far = hi.z - lo.z;
+    return lp;
+}
+
+// Near and far planes of a perspective light that contain the scene.
+void perspective_range(const glm::dvec3& pos, const Scene& scene, LightProjection& lp) {
+    double far = 0;
+    for (const auto& c : box_corners(scene.bounds)) far = std::max(far, glm::length(c - pos));
+    far *= 1.001;
+    lp.far = std::max(far, 1e-6);
+    lp.near = std::max(distance_to_box(pos, scene.bounds), lp.far * 5e-4);
+}
+
+}  // namespace
+
+LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
+                          int image_height, Fit fit, int resolution, const glm::dvec3& origin) {
+    if (light.type == LightType::directional)
+        return fit_directional(light, scene, camera, image_width, image_height, fit, resolution, origin);
+
+    LightProjection lp;
+    lp.perspective = true;
+    perspective_range(light.position, scene, lp);
+    glm::dvec3 eye_rel = light.position - origin;
+    if (light.type == LightType::spot) {
+        constexpr double kMaxHalfAngle = 80.0 * 3.14159265358979323846 / 180.0;
+        double half = light.outer_cone_rad;
+        if (half > kMaxHalfAngle) {
+            lp.warnings.push_back(fmt::format(
+                "{}: a {:.1f} degree cone does not fit one perspective map; the map covers 80 degrees and lookups "
+                "outside it read as lit",
+                light.origin, half * 360.0 / 3.14159265358979323846));
+            half = kMaxHalfAngle;
+        }
+        double t = std::tan(half);
+        Basis b = light_basis(light.direction);
+        lp.view_proj.push_back(perspective_matrix(b, eye_rel, t, lp.near, lp.far));
+        lp.axis.push_back(b.forward);
+        lp.tan_per_texel = 2.0 * t / resolution;
+        return lp;
+    }
+    // Point light: six exact 90-degree faces.
+    const glm::dvec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (const auto& f : axes) {
+        glm::dvec3 up = std::abs(f.y) > 0.5 ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
+        glm::dvec3 right = glm::cross(f, up);
+        lp.view_proj.push_back(perspective_matrix({right, up, f}, eye_rel, 1.0, lp.near, lp.far));
+        lp.axis.push_back(f);
+    }
+    lp.tan_per_texel = 2.0 / resolution;
+    return lp;
+}
+
+}  // namespace penumbra::raster

@@ -1,0 +1,33 @@
+// Where each light's shadow map looks: the fits of design.md ("fit") for directional lights,
+// the cone for spot lights, six 90-degree faces for point lights. Pure double-precision math
+// (no Vulkan), in the camera-centred frame the raster path renders in.
+#pragma once
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+#include <string>
+#include <vector>
+
+#include "common/scene.h"
+#include "raster/technique.h"
+
+namespace penumbra::raster {
+
+struct LightProjection {
+    bool perspective = false;
+    // Per layer (1, or 6 cube faces +X -X +Y -Y +Z -Z): Vulkan clip space (depth 0..1, no y
+    // flip) from positions relative to the frame origin.
+    std::vector<glm::dmat4> view_proj;
+    std::vector<glm::dvec3> axis;  // per layer: unit forward axis of the light's view
+    double metres_per_texel = 0;   // orthographic: texel size (larger of the two axes)
+    double tan_per_texel = 0;      // perspective: 2 tan(fov/2) / resolution, texel size per metre of depth
+    double near = 0, far = 0;      // metres along the axis (orthographic: from the box's front face)
+    glm::dvec2 half_extent{0.0};   // orthographic: half width and height of the box, metres
+    std::vector<std::string> warnings;
+};
+
+// `origin` is the world position of the frame the vertices are expressed in (the camera eye).
+LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
+                          int image_height, Fit fit, int resolution, const glm::dvec3& origin);
+
+}  // namespace penumbra::raster

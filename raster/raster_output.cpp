@@ -1,0 +1,129 @@
+#include "raster/raster_output.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+
+#include "common/preview.h"
+
+namespace penumbra::raster {
+
+namespace {
+
+std::vector<ExrChannel> exr_channels(const RasterFrame& f) {
+    std::vector<ExrChannel> ch;
+    auto add = [&](std::string name, const std::vector<float>& data) { ch.push_back({std::move(name), data, {}}); };
+    auto add_u = [&](std::string name, const std::vector<std::uint32_t>& data) {
+        ch.push_back({std::move(name), {}, data});
+    };
+    add("A", f.A);
+    add_u("prim", f.prim);
+    for (std::size_t li = 0; li < f.lights.size(); ++li) {
+        const RasterLightImage& img = f.lights[li];
+        std::string p = fmt::format("light{}.", li);
+        add(p + "V", img.V);
+        add(p + "ref_depth", img.ref_depth);
+        add(p + "stored_depth", img.stored_depth);
+        add_u(p + "stored_prim", img.stored_prim);
+        add(p + "footprint_m", img.footprint_m);
+        add(p + "texel_slope", img.texel_slope);
+        add(p + "bias_m", img.bias_m);
+        add_u(p + "flags", img.flags);
+    }
+    return ch;
+}
+
+nlohmann::json matrix_json(const glm::dmat4& m) {
+    nlohmann::json rows = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r) rows.push_back({m[0][r], m[1][r], m[2][r], m[3][r]});
+    return rows;
+}
+
+const char* projection_name(const Light& l) {
+    return l.type == LightType::directional ? "orthographic" : l.type == LightType::spot ? "perspective" : "cube";
+}
+
+}  // namespace
+
+nlohmann::json raster_json(const Scenario& scenario, const Technique& technique, const RasterResult& result,
+                           const RasterTimings& timings) {
+    const RasterStats& s = result.stats;
+    const RasterFrame& f = result.frame;
+    static const char* kFaces[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+    nlohmann::json lights = nlohmann::json::array();
+    for (std::size_t li = 0; li < s.lights.size(); ++li) {
+        const RasterLightStats& l = s.lights[li];
+        const Light& light = scenario.lights[li];
+        nlohmann::json layers = nlohmann::json::array();
+        for (std::size_t k = 0; k < l.projection.view_proj.size(); ++k) {
+            nlohmann::json layer = {{"view_proj", matrix_json(l.projection.view_proj[k])},
+                                    {"rendered", (l.layers_sampled >> k & 1u) != 0}};
+            if (light.type == LightType::point) layer["face"] = kFaces[k];
+            layers.push_back(layer);
+        }
+        std::size_t surface = 0, lit = 0, outside = 0;
+        for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+            if (!(f.lights[li].flags[i] & kRasterSurface)) continue;
+            ++surface;
+            lit += f.lights[li].V[i] >= 1.0f;
+            outside += (f.lights[li].flags[i] & kRasterOutsideMap) != 0;
+        }
+        nlohmann::json j = {{"index", li},
+                            {"type", to_string(light.type)},
+                            {"source", light.origin},
+                            {"projection", projection_name(light)},
+                            {"near", l.projection.near},
+                            {"far", l.projection.far},
+                            {"layers", layers},
+                            {"layers_rendered", l.layers_rendered},
+                            {"pixels", {{"surface", surface}, {"fully_lit", lit}, {"outside_map", outside}}},
+                            {"gpu_ms", {{"shadow", l.shadow_ms}, {"lookup", l.lookup_ms}}}};
+        if (l.projection.perspective)
+            j["texel_per_metre_depth"] = l.projection.tan_per_texel;
+        else {
+            j["metres_per_texel"] = l.projection.metres_per_texel;
+            j["half_extent"] = {l.projection.half_extent.x, l.projection.half_extent.y};
+        }
+        lights.push_back(j);
+    }
+    return {
+        {"scenario", scenario.file.string()},
+        {"scene", scenario.scene_file.string()},
+        {"image", {{"width", f.width}, {"height", f.height}}},
+        {"triangles", scenario.scene.triangle_count()},
+        {"technique", technique.to_json()},
+        {"hw2x2", s.hw2x2},
+        {"frame_origin", {f.frame_origin.x, f.frame_origin.y, f.frame_origin.z}},
+        {"matrices_note", "view_proj maps world positions minus frame_origin to Vulkan clip space (depth 0..1)"},
+        {"device",
+         {{"name", s.device.name},
+          {"type", s.device.type},
+          {"driver", s.device.driver},
+          {"vulkan", s.device.api_version}}},
+        {"gpu_ms",
+         {{"shadow", s.shadow_ms},
+          {"camera", s.camera_ms + s.lookup_ms},
+          {"camera_raster", s.camera_ms},
+          {"lookup", s.lookup_ms},
+          {"layer_mask", s.mask_ms}}},
+        {"seconds",
+         {{"load", timings.load_s}, {"device", timings.device_s}, {"setup", s.setup_s}, {"render", s.render_s}}},
+        {"lights", lights},
+        {"warnings", s.warnings},
+    };
+}
+
+void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, const Technique& technique,
+                          const RasterResult& result, const RasterTimings& timings) {
+    const RasterFrame& f = result.frame;
+    auto t0 = std::chrono::steady_clock::now();
+    out.write_exr("raster.exr", f.width, f.height, exr_channels(f));
+    std::vector<PreviewLight> lights;
+    for (const auto& l : f.lights) lights.push_back({&l.V, nullptr});
+    out.write_png("raster.png", f.width, f.height, visibility_preview(f.A, {}, lights));
+    nlohmann::json j = raster_json(scenario, technique, result, timings);
+    j["seconds"]["write"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.write_json("raster.json", j);
+}
+
+}  // namespace penumbra::raster

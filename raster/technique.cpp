@@ -1,0 +1,211 @@
+#include "raster/technique.h"
+
+#include <fmt/format.h>
+
+#include "common/errors.h"
+#include "common/json_reader.h"
+
+namespace penumbra::raster {
+
+using nlohmann::json;
+
+const char* to_string(Fit f) {
+    switch (f) {
+        case Fit::scene_sphere:
+            return "scene_sphere";
+        case Fit::scene_bounds:
+            return "scene_bounds";
+        case Fit::camera_frustum:
+            return "camera_frustum";
+    }
+    return "?";
+}
+const char* to_string(DepthFormat f) {
+    switch (f) {
+        case DepthFormat::d16:
+            return "d16";
+        case DepthFormat::d24:
+            return "d24";
+        case DepthFormat::d32:
+            return "d32";
+    }
+    return "?";
+}
+const char* to_string(Cull c) {
+    switch (c) {
+        case Cull::none:
+            return "none";
+        case Cull::back:
+            return "back";
+        case Cull::front:
+            return "front";
+    }
+    return "?";
+}
+const char* to_string(FilterType f) {
+    switch (f) {
+        case FilterType::none:
+            return "none";
+        case FilterType::hw2x2:
+            return "hw2x2";
+        case FilterType::pcf:
+            return "pcf";
+        case FilterType::poisson:
+            return "poisson";
+    }
+    return "?";
+}
+
+const std::vector<Preset>& presets() {
+    // The configurations of shared/reference, in design.md's keys.
+    static const std::vector<Preset> kPresets = {
+        {"d3d12-textbook",
+         "references 000/003: D3D12 textbook demo. Sphere fit, D24, DepthBias 100000 (r = 2^-24, the same r in "
+         "Vulkan), SlopeScaledDepthBias 1.0, no clamp, 3x3 PCF of hardware 2x2 compare taps, 2048^2",
+         json{{"resolution", 2048},
+              {"depth_format", "d24"},
+              {"fit", "scene_sphere"},
+              {"cull", "back"},
+              {"bias", {{"constant", 100000}, {"slope", 1.0}, {"clamp", 0.0}}},
+              {"filter", {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}}}},
+        {"diligent-tutorial13",
+         "reference 002: Diligent Engine Tutorial13. Light-space scene-extent fit, depth clip off (clamp), 2x2 "
+         "comparison filter; no bias",
+         json{{"fit", "scene_bounds"}, {"cull", "back"}, {"filter", {{"type", "hw2x2"}}}}},
+        {"camera-frustum-article",
+         "reference 004: MonoGame-style article. Ortho box fitted to the camera frustum's corners in light space, "
+         "float depth, constant bias subtracted in the shader (0.001: the article leaves the value to the reader), "
+         "single tap, 4096^2",
+         json{{"resolution", 4096},
+              {"depth_format", "d32"},
+              {"fit", "camera_frustum"},
+              {"cull", "none"},
+              {"bias", {{"shader_depth", 0.001}}},
+              {"filter", {{"type", "none"}}}}},
+    };
+    return kPresets;
+}
+
+namespace {
+
+template <typename E>
+E pick(JsonObject& o, const std::string& key, E fallback, std::initializer_list<E> values) {
+    if (!o.has(key)) return fallback;
+    std::string s = o.string(key);
+    std::string expected;
+    for (E v : values) {
+        if (s == to_string(v)) return v;
+        expected += fmt::format("{}\"{}\"", expected.empty() ? "" : ", ", to_string(v));
+    }
+    o.fail(key, fmt::format("\"{}\" is not one of {}", s, expected));
+}
+
+}  // namespace
+
+Technique parse_technique(const json& value, const std::string& label) {
+    if (!value.is_object()) throw InputError(fmt::format("{}: expected an object", label));
+    json merged = value;
+    if (value.contains("preset")) {
+        const json& name = value["preset"];
+        const Preset* found = nullptr;
+        for (const auto& p : presets())
+            if (name.is_string() && p.name == name.get<std::string>()) found = &p;
+        if (!found) {
+            std::string names;
+            for (const auto& p : presets()) names += fmt::format("{}\"{}\"", names.empty() ? "" : ", ", p.name);
+            throw InputError(fmt::format("{}.preset: {} is not a preset (have {})", label, name.dump(), names));
+        }
+        merged = found->technique;
+        merged.merge_patch(value);  // the user's keys win over the preset's
+    }
+
+    // `label` is "file: technique" or a file name; JsonObject prefixes paths with it.
+    auto colon = label.find(": ");
+    std::string file = colon == std::string::npos ? label : label.substr(0, colon);
+    std::string path = colon == std::string::npos ? "" : label.substr(colon + 2);
+    JsonObject o(merged, file, path);
+    Technique t;
+    t.preset = o.string("preset", "");
+    t.resolution = static_cast<int>(o.integer("resolution", 2048, 16, 16384));
+    t.depth_format = pick(o, "depth_format", DepthFormat::d32, {DepthFormat::d16, DepthFormat::d24, DepthFormat::d32});
+    t.fit = pick(o, "fit", Fit::scene_bounds, {Fit::scene_sphere, Fit::scene_bounds, Fit::camera_frustum});
+    t.cull = pick(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
+    if (o.has("bias")) {
+        JsonObject b = o.object("bias");
+        t.bias.constant = b.number_in("constant", 0.0, -1e9, 1e9, "a depth-bias constant factor within +-1e9");
+        t.bias.slope = b.number_in("slope", 0.0, -1e4, 1e4, "a slope factor within +-1e4");
+        t.bias.clamp = b.number_in("clamp", 0.0, -1.0, 1.0, "a clamp within [-1, 1] depth units");
+        t.bias.world = b.number_in("world", 0.0, -1e6, 1e6, "metres within +-1e6");
+        t.bias.normal_offset = b.number_in("normal_offset", 0.0, -1e3, 1e3, "texel footprints within +-1000");
+        t.bias.shader_depth = b.number_in("shader_depth", 0.0, -1.0, 1.0, "depth units within [-1, 1]");
+        t.bias.receiver_plane = b.boolean("receiver_plane", false);
+        b.finish();
+    }
+    if (o.has("filter")) {
+        JsonObject f = o.object("filter");
+        if (f.has("type") && f.get("type") == "pcss")
+            f.fail("type", "\"pcss\" needs an area light and arrives with the soft-shadow work (issue #5)");
+        t.filter.type = pick(f, "type", FilterType::none,
+                             {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson});
+        t.filter.size = static_cast<int>(f.integer("size", 3, 1, 15));
+        t.filter.taps = static_cast<int>(f.integer("taps", 16, 1, 64));
+        t.filter.radius_texels = f.number_in("radius_texels", 1.5, 0.0, 64.0, "texels in [0, 64]");
+        t.filter.bilinear_taps = f.boolean("bilinear_taps", false);
+        f.finish();
+    }
+    o.finish();
+    return t;
+}
+
+json Technique::to_json() const {
+    json j{{"resolution", resolution},
+           {"depth_format", to_string(depth_format)},
+           {"fit", to_string(fit)},
+           {"cull", to_string(cull)},
+           {"bias",
+            {{"constant", bias.constant},
+             {"slope", bias.slope},
+             {"clamp", bias.clamp},
+             {"world", bias.world},
+             {"normal_offset", bias.normal_offset},
+             {"shader_depth", bias.shader_depth},
+             {"receiver_plane", bias.receiver_plane}}},
+           {"filter",
+            {{"type", to_string(filter.type)},
+             {"size", filter.size},
+             {"taps", filter.taps},
+             {"radius_texels", filter.radius_texels},
+             {"bilinear_taps", filter.bilinear_taps}}}};
+    if (!preset.empty()) j["preset"] = preset;
+    return j;
+}
+
+void apply_override(json& technique, const std::string& assignment) {
+    auto eq = assignment.find('=');
+    if (eq == std::string::npos || eq == 0)
+        throw InputError(fmt::format("--set {}: expected key.path=value", assignment));
+    std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+    json value;
+    try {
+        value = parse_json_strict(text, "--set " + key);
+    } catch (const InputError&) {
+        value = text;  // a bare word such as pcf or d24
+    }
+    json* node = &technique;
+    std::size_t start = 0;
+    for (;;) {
+        auto dot = key.find('.', start);
+        std::string part = key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+        if (part.empty()) throw InputError(fmt::format("--set {}: empty key segment", assignment));
+        if (!node->is_object()) throw InputError(fmt::format("--set {}: '{}' is not an object", assignment, part));
+        if (dot == std::string::npos) {
+            (*node)[part] = value;
+            return;
+        }
+        node = &(*node)[part];
+        if (node->is_null()) *node = json::object();
+        start = dot + 1;
+    }
+}
+
+}  // namespace penumbra::raster

@@ -1,0 +1,66 @@
+// The raster technique (design.md, "Technique"): what a shadow-mapping implementation does,
+// as a validated value. Named presets reproduce the seed systems of shared/reference.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace penumbra::raster {
+
+enum class Fit { scene_sphere, scene_bounds, camera_frustum };
+enum class DepthFormat { d16, d24, d32 };
+enum class Cull { none, back, front };
+enum class FilterType { none, hw2x2, pcf, poisson };
+
+struct Bias {
+    double constant = 0;       // Vulkan depthBiasConstantFactor, units of the format's r
+    double slope = 0;          // Vulkan depthBiasSlopeFactor
+    double clamp = 0;          // Vulkan depthBiasClamp, depth units (0 = unclamped)
+    double world = 0;          // receiver moved towards the light, metres
+    double normal_offset = 0;  // receiver moved along its normal, shadow-map texel footprints
+    double shader_depth = 0;   // subtracted from the receiver depth in the shader, depth units
+    bool receiver_plane = false;
+};
+
+struct Filter {
+    FilterType type = FilterType::none;
+    int size = 3;                // pcf: taps per side
+    int taps = 16;               // poisson: number of taps
+    double radius_texels = 1.5;  // poisson: disk radius
+    bool bilinear_taps = false;  // pcf, poisson: each tap a 2x2 bilinear compare (reference 000)
+};
+
+struct Technique {
+    std::string preset;  // empty when none
+    int resolution = 2048;
+    DepthFormat depth_format = DepthFormat::d32;
+    Fit fit = Fit::scene_bounds;
+    Cull cull = Cull::back;
+    Bias bias;
+    Filter filter;
+
+    nlohmann::json to_json() const;  // every key, resolved
+};
+
+struct Preset {
+    std::string name;
+    std::string description;
+    nlohmann::json technique;
+};
+const std::vector<Preset>& presets();
+
+// Validates a technique object; `label` names its source ("scene.json: technique").
+// A "preset" key supplies defaults for the keys the object leaves out.
+Technique parse_technique(const nlohmann::json& value, const std::string& label);
+
+// Applies `--set key.path=value` overrides: value is parsed as JSON when it is JSON
+// (numbers, true/false, quoted strings), else taken as a string.
+void apply_override(nlohmann::json& technique, const std::string& assignment);
+
+const char* to_string(Fit f);
+const char* to_string(DepthFormat f);
+const char* to_string(Cull c);
+const char* to_string(FilterType f);
+
+}  // namespace penumbra::raster

@@ -1,0 +1,103 @@
+// A headless Vulkan 1.3 device: instance, the chosen physical device, one queue, memory
+// helpers and, when asked, the Khronos validation layer with every message recorded.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "raster/vk_check.h"
+
+namespace penumbra::raster {
+
+struct DeviceInfo {
+    std::uint32_t index = 0;
+    std::string name;
+    std::string type;  // "cpu", "discrete-gpu", ...
+    std::string driver;
+    std::string api_version;
+    bool lavapipe = false;
+};
+
+// Every Vulkan device the loader reports. Throws EnvironmentError when there is none.
+std::vector<DeviceInfo> list_devices();
+
+struct ContextOptions {
+    // Device index or a case-insensitive part of its name; empty: $PENUMBRA_VK_DEVICE, else
+    // lavapipe when present, else device 0.
+    std::string device;
+    // Khronos validation layer; also on when $PENUMBRA_VK_VALIDATION=1.
+    bool validation = false;
+};
+
+class VulkanContext {
+  public:
+    explicit VulkanContext(const ContextOptions& options = {});
+    ~VulkanContext();
+    VulkanContext(const VulkanContext&) = delete;
+    VulkanContext& operator=(const VulkanContext&) = delete;
+
+    VkDevice device() const { return device_; }
+    VkPhysicalDevice physical() const { return physical_; }
+    VkQueue queue() const { return queue_; }
+    std::uint32_t queue_family() const { return queue_family_; }
+    const DeviceInfo& info() const { return info_; }
+    const VkPhysicalDeviceLimits& limits() const { return limits_; }
+    bool validation_enabled() const { return validation_; }
+    // Validation messages (errors and warnings) since the context was made.
+    const std::vector<std::string>& validation_messages() const { return messages_; }
+
+    std::uint32_t memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags wanted) const;
+    bool supports_linear_depth_compare(VkFormat format) const;
+    bool supports_depth_attachment(VkFormat format) const;
+
+    // Records with `record` into a one-time command buffer, submits and waits.
+    void submit_and_wait(const std::function<void(VkCommandBuffer)>& record) const;
+
+  private:
+    void release();  // destroys what the constructor made; safe on a half-made context
+    static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT,
+                                                     VkDebugUtilsMessageTypeFlagsEXT,
+                                                     const VkDebugUtilsMessengerCallbackDataEXT*, void*);
+
+    VkInstance instance_ = VK_NULL_HANDLE;
+    VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
+    VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+    VkDevice device_ = VK_NULL_HANDLE;
+    VkQueue queue_ = VK_NULL_HANDLE;
+    std::uint32_t queue_family_ = 0;
+    DeviceInfo info_;
+    VkPhysicalDeviceLimits limits_{};
+    VkPhysicalDeviceMemoryProperties memory_{};
+    bool validation_ = false;
+    std::vector<std::string> messages_;
+    UniqueCommandPool command_pool_;
+};
+
+// A buffer with its own memory, persistently mapped when host-visible.
+struct GpuBuffer {
+    UniqueBuffer buffer;
+    UniqueMemory memory;
+    void* mapped = nullptr;
+    VkDeviceSize size = 0;
+};
+GpuBuffer create_buffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage, bool host_visible);
+
+// An image with its own memory and one view over all layers (a 2D-array view when `array`).
+struct GpuImage {
+    UniqueImage image;
+    UniqueMemory memory;
+    UniqueImageView view;
+    VkFormat format = VK_FORMAT_UNDEFINED;
+    std::uint32_t width = 0, height = 0, layers = 1;
+};
+GpuImage create_image(const VulkanContext& ctx, VkFormat format, std::uint32_t width, std::uint32_t height,
+                      std::uint32_t layers, VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array);
+// A view of one layer, for rendering into it.
+UniqueImageView create_layer_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t layer,
+                                  VkImageAspectFlags aspect);
+
+}  // namespace penumbra::raster

@@ -1,0 +1,232 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Lookup pass, one dispatch per light: rebuild the surface point the oracle uses (the pixel
+// centre's ray against the triangle the camera pass saw), apply the technique's receiver
+// biases, and filter the shadow map. Every compare is done here on texelFetch'd depths, so a
+// verdict is reproducible bit for bit; the linear comparison sampler is used only for
+// "hw2x2" on devices that support it.
+#include "penumbra_shared.h"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// Ids must match kSpec* in penumbra_shared.h (GLSL wants literals here).
+layout(constant_id = 0) const uint kLightKind = 0;
+layout(constant_id = 1) const uint kFilterType = 0;
+layout(constant_id = 2) const uint kPcfSize = 3;
+layout(constant_id = 3) const uint kPoissonTapCount = 16;
+layout(constant_id = 4) const uint kBilinearTaps = 0;
+layout(constant_id = 5) const uint kReceiverPlane = 0;
+layout(constant_id = 6) const uint kHardwareCompare = 0;
+layout(constant_id = 7) const uint kMode = 0;
+
+layout(binding = kBindingGBufferPrim, r32ui) uniform readonly uimage2D gbuffer_prim;
+layout(std430, binding = kBindingPositions) readonly buffer Positions { float positions[]; };
+layout(std430, binding = kBindingIndices) readonly buffer Indices { uint indices[]; };
+layout(binding = kBindingShadowDepth) uniform sampler2DArray shadow_depth;
+layout(binding = kBindingShadowPrim) uniform usampler2DArray shadow_prim;
+layout(binding = kBindingShadowCompare) uniform sampler2DArrayShadow shadow_compare;
+layout(std140, binding = kBindingLookupParams) uniform Params { LookupParams p; };
+layout(std430, binding = kBindingLookupOut) writeonly buffer Out { LookupTexel texels[]; };
+layout(std430, binding = kBindingFaceMask) buffer FaceMask { uint face_mask; };
+
+vec3 vertex(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+
+// Cube faces in the order +X, -X, +Y, -Y, +Z, -Z; each is an exact 90-degree frustum.
+uint select_layer(vec3 P) {
+    if (kLightKind != kLightPoint) return 0u;
+    vec3 d = P - p.light_pos.xyz;
+    vec3 a = abs(d);
+    if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0u : 1u;
+    if (a.y >= a.z) return d.y > 0.0 ? 2u : 3u;
+    return d.z > 0.0 ? 4u : 5u;
+}
+
+// Continuous texel coordinates (texel i spans [i, i+1)) and depth in the layer.
+vec3 to_map(vec3 X, uint layer) {
+    vec4 c = p.view_proj[layer] * vec4(X, 1.0);
+    vec3 n = c.xyz / c.w;
+    return vec3((n.xy * 0.5 + 0.5) * p.map.x, n.z);
+}
+
+float depth_units_ref(float z) {
+    // UNORM formats clamp the reference to [0, 1] before the compare (Vulkan spec, 16.3.4).
+    return p.bias2.z > 0.0 ? clamp(z, 0.0, 1.0) : z;
+}
+
+// One point compare at texel t; 1 = lit (reference <= stored, LESS_OR_EQUAL).
+float tap_point(ivec2 t, uint layer, float ref) {
+    int res = int(p.map.x);
+    if (kLightKind == kLightPoint) {
+        t = clamp(t, ivec2(0), ivec2(res - 1));  // a cube face clamps to its edge
+    } else if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(res)))) {
+        return 1.0;  // outside the map: the border is lit
+    }
+    float stored = texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r;
+    return depth_units_ref(ref) <= stored ? 1.0 : 0.0;
+}
+
+// Reference depth at texel t: the receiver plane extrapolated to the texel centre when
+// receiver-plane bias is on, else the receiver's own depth.
+float ref_at(ivec2 t, vec3 m, vec2 dz) {
+    if (kReceiverPlane == 0u) return m.z;
+    return m.z + dot(dz, vec2(t) + 0.5 - m.xy);
+}
+
+float tap_at(vec2 uv, uint layer, vec3 m, vec2 dz) {
+    ivec2 t = ivec2(floor(uv));
+    return tap_point(t, layer, ref_at(t, m, dz));
+}
+
+// Bilinearly weighted 2x2 compare around uv, as a linear comparison sampler does.
+float tap_bilinear(vec2 uv, uint layer, vec3 m, vec2 dz) {
+    if (kHardwareCompare != 0u) {
+        float ref = m.z + (kReceiverPlane != 0u ? dot(dz, uv - m.xy) : 0.0);
+        return textureGrad(shadow_compare, vec4(uv * p.map.y, float(layer), depth_units_ref(ref)), vec2(0.0),
+                           vec2(0.0));
+    }
+    vec2 st = uv - 0.5;
+    vec2 base = floor(st);
+    vec2 f = st - base;
+    ivec2 t = ivec2(base);
+    float s00 = tap_point(t, layer, ref_at(t, m, dz));
+    float s10 = tap_point(t + ivec2(1, 0), layer, ref_at(t + ivec2(1, 0), m, dz));
+    float s01 = tap_point(t + ivec2(0, 1), layer, ref_at(t + ivec2(0, 1), m, dz));
+    float s11 = tap_point(t + ivec2(1, 1), layer, ref_at(t + ivec2(1, 1), m, dz));
+    return mix(mix(s00, s10, f.x), mix(s01, s11, f.x), f.y);
+}
+
+float grid_tap(vec2 uv, uint layer, vec3 m, vec2 dz) {
+    return kBilinearTaps != 0u ? tap_bilinear(uv, layer, m, dz) : tap_at(uv, layer, m, dz);
+}
+
+// Per-pixel rotation of the Poisson disk from an integer hash: deterministic, no texture.
+float pixel_angle(uvec2 pix) {
+    uint h = pix.x * 0x8da6b343u ^ pix.y * 0xd8163841u;
+    h ^= h >> 16;
+    h *= 0x7feb352du;
+    h ^= h >> 15;
+    return float(h & 0xFFFFu) * (6.28318530718 / 65536.0);
+}
+
+float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz) {
+    if (kFilterType == kFilterHw2x2) return tap_bilinear(m.xy, layer, m, dz);
+    if (kFilterType == kFilterPcf) {
+        float sum = 0.0;
+        float half_span = 0.5 * float(kPcfSize - 1u);
+        for (uint j = 0u; j < kPcfSize; ++j)
+            for (uint i = 0u; i < kPcfSize; ++i)
+                sum += grid_tap(m.xy + vec2(float(i) - half_span, float(j) - half_span), layer, m, dz);
+        return sum / float(kPcfSize * kPcfSize);
+    }
+    if (kFilterType == kFilterPoisson) {
+        float a = pixel_angle(pix);
+        mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a));
+        float sum = 0.0;
+        for (uint k = 0u; k < kPoissonTapCount; ++k) {
+            vec4 pair = p.poisson[k >> 1];
+            vec2 d = (k & 1u) == 0u ? pair.xy : pair.zw;
+            sum += grid_tap(m.xy + rot * d * p.map.z, layer, m, dz);
+        }
+        return sum / float(kPoissonTapCount);
+    }
+    return tap_at(m.xy, layer, m, dz);
+}
+
+void main() {
+    uvec2 pix = gl_GlobalInvocationID.xy;
+    uint W = uint(p.image.x), H = uint(p.image.y);
+    if (pix.x >= W || pix.y >= H) return;
+    uint out_index = pix.y * W + pix.x;
+
+    LookupTexel o;
+    o.V = 0.0;
+    o.ref_depth = 0.0;
+    o.stored_depth = 0.0;
+    o.footprint_m = 0.0;
+    o.texel_slope = 0.0;
+    o.bias_m = 0.0;
+    o.stored_prim = kNoPrim;
+    o.flags = 0u;
+
+    uint id = imageLoad(gbuffer_prim, ivec2(pix)).r;
+    if (id == kNoPrim) {
+        if (kMode == kModeLookup) texels[out_index] = o;
+        return;
+    }
+    o.flags = kFlagSurface;
+
+    // The surface point the oracle uses: the pixel-centre ray against the triangle's plane.
+    vec3 v0 = vertex(indices[3 * id]), v1 = vertex(indices[3 * id + 1]), v2 = vertex(indices[3 * id + 2]);
+    vec3 n = normalize(cross(v1 - v0, v2 - v0));
+    vec2 ndc = vec2((float(pix.x) + 0.5) * 2.0 * p.image.z - 1.0, 1.0 - (float(pix.y) + 0.5) * 2.0 * p.image.w);
+    vec3 lateral = ndc.x * p.cam_right.w * p.cam_right.xyz + ndc.y * p.cam_up.w * p.cam_up.xyz;
+    bool perspective = p.cam_forward.w > 0.5;
+    vec3 ray_o = perspective ? vec3(0.0) : lateral;
+    vec3 ray_d = perspective ? p.cam_forward.xyz + lateral : p.cam_forward.xyz;
+    float denom = dot(ray_d, n);
+    vec3 P = abs(denom) > 1e-30 ? ray_o + ray_d * (dot(v0 - ray_o, n) / denom) : (v0 + v1 + v2) / 3.0;
+    if (denom > 0.0) n = -n;  // the side the camera sees
+
+    vec3 to_light = kLightKind == kLightDirectional ? -p.light_dir.xyz : normalize(p.light_pos.xyz - P);
+    if (dot(n, to_light) <= 0.0) {
+        o.flags |= kFlagBackFacing;
+        if (kMode == kModeLookup) texels[out_index] = o;
+        return;
+    }
+    if (kLightKind == kLightSpot && dot(-to_light, p.light_dir.xyz) < p.light_dir.w) {
+        o.flags |= kFlagOutsideCone;
+        if (kMode == kModeLookup) texels[out_index] = o;
+        return;
+    }
+
+    // Shadow-map texel size at the receiver, before any offset.
+    uint layer = select_layer(P);
+    float footprint = kLightKind == kLightDirectional
+                          ? p.footprint.x
+                          : p.footprint.y * dot(P - p.light_pos.xyz, p.light_axis[layer].xyz);
+    // Receiver biases: towards the light by metres, along the normal by texel footprints.
+    vec3 Pb = P + to_light * p.bias.x + n * (p.bias.y * footprint);
+    layer = select_layer(Pb);
+    if (kMode == kModeFaceMask) {
+        atomicOr(face_mask, 1u << layer);
+        return;
+    }
+
+    vec3 m = to_map(Pb, layer);
+    // Depth gradient of the receiver plane in texel units, from two tangent steps of one footprint.
+    vec3 t1 = normalize(abs(n.x) > 0.9 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
+    vec3 t2 = cross(n, t1);
+    float h = max(footprint, 1e-30);
+    vec3 m1 = to_map(Pb + t1 * h, layer), m2 = to_map(Pb + t2 * h, layer);
+    mat2 J = mat2(m1.xy - m.xy, m2.xy - m.xy);
+    float det = determinant(J);
+    vec2 dz = abs(det) > 1e-20 ? vec2(m1.z - m.z, m2.z - m.z) * inverse(J) : vec2(0.0);
+    m.z -= p.bias.z;  // shader-side constant bias, depth units
+
+    // Everything expressed as metres along the light ray, for the peter-panning rule.
+    float z_toward = to_map(Pb + to_light * h, layer).z - p.bias.z;
+    float metres_per_depth = abs(m.z - z_toward) > 0.0 ? h / abs(m.z - z_toward) : 0.0;
+    float max_slope = max(abs(dz.x), abs(dz.y));
+    float r = p.bias2.z > 0.0 ? p.bias2.z : exp2(float(int(floor(log2(max(m.z, 1e-30)))) - 23));
+    float hw = p.bias.w * r + p.bias2.x * max_slope;
+    if (p.bias2.y > 0.0) hw = min(hw, p.bias2.y);
+    if (p.bias2.y < 0.0) hw = max(hw, p.bias2.y);
+    o.bias_m = p.bias.x + p.bias.y * footprint + (hw + p.bias.z) * metres_per_depth;
+
+    ivec2 centre = ivec2(floor(m.xy));
+    int res = int(p.map.x);
+    bool inside = all(greaterThanEqual(centre, ivec2(0))) && all(lessThan(centre, ivec2(res)));
+    o.footprint_m = footprint;
+    o.texel_slope = 0.5 * (abs(dz.x) + abs(dz.y));
+    o.ref_depth = ref_at(centre, m, dz);
+    if (inside || kLightKind == kLightPoint) {
+        ivec3 c = ivec3(clamp(centre, ivec2(0), ivec2(res - 1)), int(layer));
+        o.stored_depth = texelFetch(shadow_depth, c, 0).r;
+        o.stored_prim = texelFetch(shadow_prim, c, 0).r;
+    } else {
+        o.stored_depth = 1.0 / 0.0;
+        o.flags |= kFlagOutsideMap;
+    }
+    o.V = filter_visibility(pix, layer, m, dz);
+    texels[out_index] = o;
+}
