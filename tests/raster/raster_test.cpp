@@ -1,0 +1,380 @@
+// The Vulkan raster path against analytic answers and against the oracle. Every test runs
+// with the Khronos validation layer on and fails on any validation message.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/errors.h"
+#include "oracle/oracle.h"
+#include "raster/raster.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+class Raster : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        raster::ContextOptions o;
+        o.validation = true;
+        ctx_ = std::make_unique<raster::VulkanContext>(o);
+    }
+    void TearDown() override {
+        EXPECT_TRUE(ctx_->validation_messages().empty())
+            << ctx_->validation_messages().size() << " validation messages, first: " << ctx_->validation_messages()[0];
+    }
+    raster::RasterResult render(const Scenario& sc, const nlohmann::json& technique) {
+        return raster::run_raster(sc, raster::parse_technique(technique, "test: technique"), *ctx_);
+    }
+    std::unique_ptr<raster::VulkanContext> ctx_;
+};
+
+// Pixel (x, y) lies on an edge of the oracle's image of triangles: a neighbour sees another one.
+bool on_triangle_edge(const OracleFrame& f, int x, int y) {
+    std::uint32_t p = f.prim[static_cast<std::size_t>(y) * f.width + x];
+    for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+            int nx = x + dx, ny = y + dy;
+            if (nx < 0 || ny < 0 || nx >= f.width || ny >= f.height) continue;
+            if (f.prim[static_cast<std::size_t>(ny) * f.width + nx] != p) return true;
+        }
+    return false;
+}
+
+void expect_same_primitives(const OracleFrame& o, const RasterFrame& r) {
+    std::size_t same = 0, off_edge = 0;
+    for (int y = 0; y < o.height; ++y)
+        for (int x = 0; x < o.width; ++x) {
+            std::size_t i = static_cast<std::size_t>(y) * o.width + x;
+            if (o.prim[i] == r.prim[i]) {
+                ++same;
+            } else if (!on_triangle_edge(o, x, y)) {
+                ++off_edge;
+            }
+        }
+    double agreement = static_cast<double>(same) / o.pixel_count();
+    EXPECT_GE(agreement, 0.995);
+    EXPECT_EQ(off_edge, 0u) << "mismatches away from triangle edges";
+}
+
+Scenario default_scenario() { return load_scenario(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json"); }
+
+Scenario perspective_scene() {
+    test::SceneBuilder b;
+    b.grid({-6, 0, -6}, {0, 0, 12}, {12, 0, 0}, 8, 8);
+    b.box({-1, 0, -1}, {1, 1.5, 1});
+    b.box({1.5, 0.3, 0.5}, {2.5, 0.6, 2.5});
+    b.triangle({-3, 0.2, 2}, {-2, 2.5, 2.5}, {-1.5, 0.2, 3}, false);
+    return test::make_scenario(b.build(), test::look_at({3, 4, 7}, {0, 0.5, 0}, 50),
+                               {test::directional({-0.4, -1, -0.3})}, 480, 320);
+}
+
+TEST_F(Raster, CameraPassSeesTheOraclesPrimitivesOnTheDefaultScene) {
+    Scenario sc = default_scenario();
+    OracleResult o = run_oracle(sc);
+    raster::RasterResult r = render(sc, nlohmann::json::object());
+    expect_same_primitives(o.frame, r.frame);
+}
+
+TEST_F(Raster, CameraPassSeesTheOraclesPrimitivesOnAPerspectiveScene) {
+    Scenario sc = perspective_scene();
+    OracleResult o = run_oracle(sc);
+    raster::RasterResult r = render(sc, nlohmann::json::object());
+    expect_same_primitives(o.frame, r.frame);
+}
+
+// With enough bias the technique must agree with the truth wherever the truth is not within a
+// few texels of a shadow boundary: a wrong light matrix, face or cone would break this.
+TEST_F(Raster, AgreesWithTheOracleAwayFromShadowBoundaries) {
+    Scenario sc = default_scenario();
+    OracleResult o = run_oracle(sc);
+    raster::RasterResult r = render(sc, {{"bias", {{"normal_offset", 1.5}, {"slope", 1.5}}}});
+    for (std::size_t li = 0; li < sc.lights.size(); ++li) {
+        const auto& ol = o.frame.lights[li];
+        const auto& rl = r.frame.lights[li];
+        std::size_t scored = 0, agree = 0;
+        for (std::size_t i = 0; i < o.frame.pixel_count(); ++i) {
+            if (o.frame.prim[i] == kNoPrimitive || o.frame.prim[i] != r.frame.prim[i] || ol.U[i] != 0) continue;
+            if (ol.lightable[i] == 0) {
+                EXPECT_EQ(rl.V[i], 0.0f);  // back-facing or outside the cone: V = 0 in both paths
+                continue;
+            }
+            if (ol.boundary_m[i] < 4.0f * rl.footprint_m[i] + 0.05f) continue;
+            ++scored;
+            agree += (rl.V[i] >= 0.5f) == (ol.V[i] >= 0.5f);
+        }
+        ASSERT_GT(scored, 10000u) << "light " << li;
+        EXPECT_GE(static_cast<double>(agree) / scored, 0.998) << "light " << li;
+    }
+}
+
+Scene plane_scene() {
+    test::SceneBuilder b;
+    b.quad({-10, 0, -10}, {-10, 0, 10}, {10, 0, 10}, {10, 0, -10});
+    return b.build();
+}
+
+TEST_F(Raster, ZeroBiasSelfShadowsAPlaneAndSlopeBiasCuresIt) {
+    double elev = 35.0 * M_PI / 180.0;
+    Light sun = test::directional({std::cos(elev), -std::sin(elev), 0.3});
+    Scenario sc = test::make_scenario(plane_scene(), test::look_at({0, 8, 8}, {0, 0, 0}, 50), {sun}, 320, 240);
+    std::size_t dark = 0, self = 0;
+    auto acne = [&](const raster::RasterResult& r) {
+        std::size_t surface = 0;
+        dark = self = 0;
+        for (std::size_t i = 0; i < r.frame.pixel_count(); ++i) {
+            if (r.frame.prim[i] == kNoPrimitive) continue;
+            ++surface;
+            if (r.frame.lights[0].V[i] < 1.0f) {
+                ++dark;
+                self += r.frame.lights[0].stored_prim[i] == r.frame.prim[i];
+            }
+        }
+        return static_cast<double>(dark) / surface;
+    };
+    EXPECT_GT(acne(render(sc, {{"resolution", 1024}})), 0.2);  // nothing occludes the plane: all of it is acne
+    // The texel that darkened the pixel holds the very triangle the camera sees.
+    EXPECT_GT(static_cast<double>(self), 0.9 * static_cast<double>(dark));
+    EXPECT_LT(acne(render(sc, {{"resolution", 1024}, {"bias", {{"slope", 2.0}, {"constant", 4}}}})), 1e-3);
+    // Receiver-plane depth bias compares against the plane's depth at the texel centre: with
+    // it a few ulps of constant bias suffice where the same constant alone changes nothing.
+    nlohmann::json tiny = {{"constant", 4}};
+    EXPECT_GT(acne(render(sc, {{"resolution", 1024}, {"bias", tiny}})), 0.4);
+    tiny["receiver_plane"] = true;
+    raster::RasterResult planar = render(sc, {{"resolution", 1024}, {"bias", tiny}});
+    EXPECT_LT(acne(planar), 1e-3);
+}
+
+// A thin wall on the ground, light from the side at elevation a: with a world bias b the
+// receiver is moved b towards the light, so the shadow starts b cos(a) away from the wall.
+TEST_F(Raster, WorldBiasDetachesAThinWallsShadowByThePredictedDistance) {
+    double a = 30.0 * M_PI / 180.0, b = 0.5, h = 2.0;
+    test::SceneBuilder sb;
+    sb.quad({-6, 0, -6}, {-6, 0, 6}, {6, 0, 6}, {6, 0, -6});
+    sb.quad({0, 0, -4}, {0, h, -4}, {0, h, 4}, {0, 0, 4});
+    Light sun = test::directional({std::cos(a), -std::sin(a), 0});
+    const int W = 1024;
+    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({2, 10, 0}, {2, 0, 0}, 4, 1, {0, 0, -1}),
+                                      {sun}, W, 256);
+    raster::RasterResult r =
+        render(sc, {{"resolution", 4096}, {"cull", "none"}, {"bias", {{"world", b}}}});
+    int row = 128;
+    double px = 8.0 / W, first = 1e9, last = -1e9;
+    for (int x = 0; x < W; ++x) {
+        std::size_t i = static_cast<std::size_t>(row) * W + x;
+        double wx = 2.0 - 4.0 + (x + 0.5) * px;
+        if (wx > 0.0 && r.frame.lights[0].V[i] < 0.5f) {
+            first = std::min(first, wx);
+            last = std::max(last, wx);
+        }
+    }
+    double texel = 0.01;  // about 12 m of scene over 4096 texels, with margin
+    EXPECT_NEAR(first, b * std::cos(a), px + 2 * texel);
+    EXPECT_NEAR(last, h / std::tan(a), px + 2 * texel);  // the far edge does not move
+}
+
+struct FilterCase {
+    const char* name;
+    nlohmann::json filter;
+    double (*profile)(double s);  // V as a function of s = x / texel, edge at s = 0
+};
+
+double ramp(double s) { return std::clamp(s + 0.5, 0.0, 1.0); }
+
+const FilterCase kFilterCases[] = {
+    {"none", {{"type", "none"}}, [](double s) { return s >= 0 ? 1.0 : 0.0; }},
+    {"hw2x2", {{"type", "hw2x2"}}, ramp},
+    {"pcf3", {{"type", "pcf"}, {"size", 3}},
+     [](double s) {
+         double v = 0;
+         for (int k = -1; k <= 1; ++k) v += std::floor(s + k) >= 0 ? 1.0 : 0.0;
+         return v / 3;
+     }},
+    {"pcf4", {{"type", "pcf"}, {"size", 4}},
+     [](double s) {
+         double v = 0;
+         for (int k = 0; k < 4; ++k) v += std::floor(s + k - 1.5) >= 0 ? 1.0 : 0.0;
+         return v / 4;
+     }},
+    {"pcf3bilinear", {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}},
+     [](double s) { return (ramp(s - 1) + ramp(s) + ramp(s + 1)) / 3; }},
+};
+
+class FilterProfile : public Raster, public ::testing::WithParamInterface<FilterCase> {};
+
+// A straight shadow edge on a texel boundary, light straight down: each filter's V across the
+// edge must follow its analytic profile.
+TEST_P(FilterProfile, MatchesTheAnalyticProfileOfAStraightEdge) {
+    test::SceneBuilder sb;
+    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
+    // Occluder over x < 0, single-sided and facing down: the camera above culls it and sees
+    // the ground, the light (culling nothing) still sees it.
+    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
+    const int W = 256, res = 64;
+    const double texel = 16.0 / res;
+    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1, 0.25, {0, 0, -1}),
+                                      {test::directional({0, -1, 0})}, W, 64);
+    raster::RasterResult r = render(
+        sc, {{"resolution", res}, {"cull", "none"}, {"bias", {{"world", 0.05}}}, {"filter", GetParam().filter}});
+    double worst = 0;
+    for (int x = 0; x < W; ++x) {
+        double wx = -1.0 + (x + 0.5) * (2.0 / W);
+        double expected = GetParam().profile(wx / texel);
+        double got = r.frame.lights[0].V[static_cast<std::size_t>(32) * W + x];
+        worst = std::max(worst, std::abs(got - expected));
+        if (std::abs(got - expected) > 0.01) ADD_FAILURE() << "x " << wx << " V " << got << " expected " << expected;
+    }
+    EXPECT_LT(worst, 0.01) << GetParam().name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Raster, FilterProfile, ::testing::ValuesIn(kFilterCases),
+                         [](const ::testing::TestParamInfo<FilterCase>& param_info) {
+                             return std::string(param_info.param.name);
+                         });
+
+TEST_F(Raster, PoissonFilterIsBoundedBySymmetricAboutTheEdge) {
+    test::SceneBuilder sb;
+    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
+    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
+    const int W = 256, H = 64, res = 64;
+    const double texel = 16.0 / res, radius = 2.0;
+    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1.5, 0.375, {0, 0, -1}),
+                                      {test::directional({0, -1, 0})}, W, H);
+    raster::RasterResult r = render(sc, {{"resolution", res},
+                                         {"cull", "none"},
+                                         {"bias", {{"world", 0.05}}},
+                                         {"filter", {{"type", "poisson"}, {"taps", 24}, {"radius_texels", radius}}}});
+    double left = 0, right = 0;
+    std::size_t n = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W / 2; ++x) {
+            double wx = -1.5 + (x + 0.5) * (3.0 / W);  // mirror pixel: W - 1 - x
+            double vl = r.frame.lights[0].V[static_cast<std::size_t>(y) * W + x];
+            double vr = r.frame.lights[0].V[static_cast<std::size_t>(y) * W + (W - 1 - x)];
+            if (-wx > (radius + 1) * texel) {
+                EXPECT_EQ(vl, 0.0);
+                EXPECT_EQ(vr, 1.0);
+            }
+            left += vl;
+            right += vr;
+            ++n;
+        }
+    EXPECT_NEAR((left + right) / n, 1.0, 0.05);  // V(-x) + V(x) = 1 on average
+}
+
+// Winding conventions: single-sided surfaces seen from behind are culled for the camera, and
+// "back"/"front" culling in the shadow pass drop the faces turned from/towards the light.
+TEST_F(Raster, CullingFollowsTheWindingAsSeenFromCameraAndLight) {
+    test::SceneBuilder sb;
+    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
+    std::uint32_t up_facing = sb.quad({-1, 1, -1}, {-1, 1, 1}, {1, 1, 1}, {1, 1, -1}, false);  // normal +y
+    // Light slanted along +x so that the occluder's shadow falls beside it, in view.
+    Scenario sc = test::make_scenario(sb.build(), test::look_at({0, 6, 0.01}, {0, 0, 0}, 40),
+                                      {test::directional({0.5, -1, 0})}, 64, 64);
+    std::size_t centre = 32 * 64 + 32;
+    auto shadowed_under = [&](const char* cull) {
+        raster::RasterResult r = render(sc, {{"cull", cull}, {"bias", {{"world", 0.05}}}});
+        return r;
+    };
+    raster::RasterResult back = shadowed_under("back");
+    EXPECT_TRUE(back.frame.prim[centre] == up_facing || back.frame.prim[centre] == up_facing + 1);
+    // The light looks at the occluder's front: back culling keeps it, front culling drops it.
+    std::size_t ground_px = 0, dark_back = 0, dark_front = 0, dark_none = 0;
+    raster::RasterResult front = shadowed_under("front"), none = shadowed_under("none");
+    for (std::size_t i = 0; i < back.frame.pixel_count(); ++i) {
+        if (back.frame.prim[i] >= 2) continue;  // the ground around the occluder only
+        ++ground_px;
+        dark_back += back.frame.lights[0].V[i] < 0.5f;
+        dark_front += front.frame.lights[0].V[i] < 0.5f;
+        dark_none += none.frame.lights[0].V[i] < 0.5f;
+    }
+    ASSERT_GT(ground_px, 0u);
+    EXPECT_EQ(dark_front, 0u);
+    EXPECT_GT(dark_back, 0u);
+    EXPECT_EQ(dark_back, dark_none);
+
+    // Seen from below, the single-sided quad disappears for the camera.
+    Scenario below = test::make_scenario(sc.scene, test::look_at({0, -6, 0.01}, {0, 0, 0}, 40),
+                                         {test::directional({0, -1, 0})}, 64, 64);
+    raster::RasterResult r = render(below, nlohmann::json::object());
+    EXPECT_TRUE(r.frame.prim[centre] < 2u) << "sees the ground (double-sided), not the single-sided quad";
+}
+
+TEST_F(Raster, PointLightRendersOnlyTheCubeFacesThatReceiversSample) {
+    test::SceneBuilder sb;
+    sb.quad({-10, 0, -10}, {-10, 0, 10}, {10, 0, 10}, {10, 0, -10});
+    sb.box({-0.5, 0, -0.5}, {0.5, 1, 0.5});
+    Light lamp = test::point({0.3, 3, 0.2});
+    Scenario sc = test::make_scenario(sb.build(), test::look_at({0, 12, 0.5}, {0, 0, 0}, 30), {lamp}, 256, 256);
+    OracleResult o = run_oracle(sc);
+    raster::RasterResult r = render(sc, {{"resolution", 1024}, {"bias", {{"normal_offset", 1.5}, {"slope", 1.0}}}});
+    const auto& st = r.stats.lights[0];
+    EXPECT_FALSE(st.layers_sampled & (1u << 2)) << "+Y sees nothing the camera sees";
+    EXPECT_TRUE(st.layers_sampled & (1u << 3)) << "-Y looks at the ground under the lamp";
+    EXPECT_LT(st.layers_rendered, 6);
+    std::size_t scored = 0, agree = 0;
+    for (std::size_t i = 0; i < o.frame.pixel_count(); ++i) {
+        const auto& ol = o.frame.lights[0];
+        if (o.frame.prim[i] != r.frame.prim[i] || o.frame.prim[i] == kNoPrimitive || ol.U[i] != 0 ||
+            ol.lightable[i] == 0 || ol.boundary_m[i] < 4 * r.frame.lights[0].footprint_m[i] + 0.02f)
+            continue;
+        ++scored;
+        agree += (r.frame.lights[0].V[i] >= 0.5f) == (ol.V[i] >= 0.5f);
+    }
+    ASSERT_GT(scored, 20000u);
+    EXPECT_GE(static_cast<double>(agree) / scored, 0.999);
+}
+
+TEST_F(Raster, FarFromTheOriginGivesTheSameVerdicts) {
+    Scenario a = perspective_scene(), b = perspective_scene();
+    glm::dvec3 shift(3e6, -2e6, 1e6);
+    for (auto& p : b.scene.positions) p += shift;
+    b.scene.bounds.lo += shift;
+    b.scene.bounds.hi += shift;
+    b.camera.eye += shift;
+    nlohmann::json t = {{"bias", {{"normal_offset", 1.0}, {"slope", 1.0}}}};
+    raster::RasterResult ra = render(a, t), rb = render(b, t);
+    std::size_t same_prim = 0, same_v = 0;
+    for (std::size_t i = 0; i < ra.frame.pixel_count(); ++i) {
+        same_prim += ra.frame.prim[i] == rb.frame.prim[i];
+        same_v += ra.frame.lights[0].V[i] == rb.frame.lights[0].V[i];
+    }
+    EXPECT_GE(static_cast<double>(same_prim) / ra.frame.pixel_count(), 0.999);
+    EXPECT_GE(static_cast<double>(same_v) / ra.frame.pixel_count(), 0.995);
+}
+
+TEST_F(Raster, PresetsRunAndRecordWhichBilinearCompareRan) {
+    Scenario sc = perspective_scene();
+    for (const auto& p : raster::presets()) {
+        raster::RasterResult r = render(sc, {{"preset", p.name}});
+        bool bilinear = p.name != "camera-frustum-article";
+        EXPECT_EQ(r.stats.hw2x2 == "unused", !bilinear) << p.name;
+        EXPECT_GT(r.stats.lights[0].layers_rendered, 0) << p.name;
+    }
+}
+
+TEST_F(Raster, LightsWithoutReceiversAndAbsentLightsCostNoPasses) {
+    Scenario sc = perspective_scene();
+    sc.lights.clear();
+    raster::RasterResult r = render(sc, nlohmann::json::object());
+    EXPECT_TRUE(r.frame.lights.empty());
+    EXPECT_GT(std::count(r.frame.A.begin(), r.frame.A.end(), 1.0f), 0);
+    // A spot light pointing away from everything the camera sees renders nothing.
+    sc.lights = {test::spot({0, 5, 0}, {0, 1, 0}, 20)};
+    r = render(sc, nlohmann::json::object());
+    EXPECT_EQ(r.stats.lights[0].layers_rendered, 0);
+}
+
+TEST_F(Raster, AreaLightsAndOversizedMapsAreRefusedAsBadInput) {
+    Scenario sc = perspective_scene();
+    Light rect;
+    rect.type = LightType::rect;
+    rect.position = {0, 5, 0};
+    rect.u = {1, 0, 0};
+    rect.v = {0, 0, 1};
+    sc.lights.push_back(rect);
+    EXPECT_THROW(render(sc, nlohmann::json::object()), InputError);
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,148 @@
+// The technique contract and the light fits: pure code, no Vulkan.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <glm/mat4x4.hpp>
+
+#include "common/errors.h"
+#include "raster/light_projection.h"
+#include "raster/technique.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+using raster::parse_technique;
+using ::testing::HasSubstr;
+
+std::string error_of(const nlohmann::json& j) {
+    try {
+        parse_technique(j, "s.json: technique");
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(Technique, DefaultsAreDocumented) {
+    raster::Technique t = parse_technique(nlohmann::json::object(), "s.json: technique");
+    EXPECT_EQ(t.resolution, 2048);
+    EXPECT_EQ(t.depth_format, raster::DepthFormat::d32);
+    EXPECT_EQ(t.fit, raster::Fit::scene_bounds);
+    EXPECT_EQ(t.cull, raster::Cull::back);
+    EXPECT_EQ(t.filter.type, raster::FilterType::none);
+    EXPECT_EQ(t.bias.constant, 0.0);
+}
+
+TEST(Technique, ErrorsNameTheKeyPath) {
+    EXPECT_THAT(error_of({{"bias", {{"slope", "x"}}}}), HasSubstr("s.json: technique.bias.slope"));
+    EXPECT_THAT(error_of({{"filter", {{"type", "gaussian"}}}}), HasSubstr("technique.filter.type"));
+    EXPECT_THAT(error_of({{"filter", {{"type", "gaussian"}}}}), HasSubstr("\"poisson\""));
+    EXPECT_THAT(error_of({{"resolution", 100000}}), HasSubstr("technique.resolution"));
+    EXPECT_THAT(error_of({{"bias", {{"wrold", 1}}}}), HasSubstr("technique.bias.wrold: unknown key"));
+    EXPECT_THAT(error_of({{"preset", "nope"}}), HasSubstr("d3d12-textbook"));
+    EXPECT_THAT(error_of({{"filter", {{"type", "pcss"}}}}), HasSubstr("area light"));
+}
+
+TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
+    raster::Technique t = parse_technique({{"preset", "d3d12-textbook"}}, "x");
+    EXPECT_EQ(t.depth_format, raster::DepthFormat::d24);
+    EXPECT_EQ(t.fit, raster::Fit::scene_sphere);
+    EXPECT_EQ(t.bias.constant, 100000.0);
+    EXPECT_EQ(t.bias.slope, 1.0);
+    EXPECT_EQ(t.filter.type, raster::FilterType::pcf);
+    EXPECT_EQ(t.filter.size, 3);
+    EXPECT_TRUE(t.filter.bilinear_taps);
+    EXPECT_EQ(t.resolution, 2048);
+
+    t = parse_technique({{"preset", "diligent-tutorial13"}}, "x");
+    EXPECT_EQ(t.fit, raster::Fit::scene_bounds);
+    EXPECT_EQ(t.filter.type, raster::FilterType::hw2x2);
+
+    t = parse_technique({{"preset", "camera-frustum-article"}}, "x");
+    EXPECT_EQ(t.fit, raster::Fit::camera_frustum);
+    EXPECT_EQ(t.resolution, 4096);
+    EXPECT_GT(t.bias.shader_depth, 0.0);
+    EXPECT_EQ(t.filter.type, raster::FilterType::none);
+
+    // The user's keys win over the preset's; the rest of the preset stays.
+    t = parse_technique({{"preset", "d3d12-textbook"}, {"bias", {{"slope", 2.5}}}}, "x");
+    EXPECT_EQ(t.bias.slope, 2.5);
+    EXPECT_EQ(t.bias.constant, 100000.0);
+}
+
+TEST(Technique, OverridesSetOneKeyAndParseJsonValues) {
+    nlohmann::json j = {{"bias", {{"slope", 1.0}}}};
+    raster::apply_override(j, "bias.slope=1.5");
+    raster::apply_override(j, "filter.type=pcf");
+    raster::apply_override(j, "bias.receiver_plane=true");
+    raster::Technique t = parse_technique(j, "x");
+    EXPECT_EQ(t.bias.slope, 1.5);
+    EXPECT_EQ(t.filter.type, raster::FilterType::pcf);
+    EXPECT_TRUE(t.bias.receiver_plane);
+    EXPECT_THROW(raster::apply_override(j, "noequals"), InputError);
+    EXPECT_THROW(raster::apply_override(j, "bias..x=1"), InputError);
+}
+
+glm::dvec3 clip_of(const glm::dmat4& m, const glm::dvec3& p) {
+    glm::dvec4 c = m * glm::dvec4(p, 1.0);
+    return glm::dvec3(c) / c.w;
+}
+
+// Every fit must put every receiver it is meant to cover inside the map, wherever the scene is.
+class Fits : public ::testing::TestWithParam<std::tuple<raster::Fit, double>> {};
+
+TEST_P(Fits, ContainTheSceneInsideTheMap) {
+    auto [fit, offset] = GetParam();
+    test::SceneBuilder b;
+    glm::dvec3 o(offset, 0, -offset);
+    b.quad(o + glm::dvec3(-5, 0, -5), o + glm::dvec3(-5, 0, 5), o + glm::dvec3(5, 0, 5), o + glm::dvec3(5, 0, -5));
+    b.box(o + glm::dvec3(-1, 0, -1), o + glm::dvec3(1, 2, 1));
+    Scenario sc = test::make_scenario(b.build(), test::look_at(o + glm::dvec3(0, 12, 12), o, 60),
+                                      {test::directional({-0.3, -1, -0.2})}, 64, 48);
+    raster::LightProjection lp =
+        raster::fit_light(sc.lights[0], sc.scene, sc.camera, 64, 48, fit, 1024, sc.camera.eye);
+    ASSERT_EQ(lp.view_proj.size(), 1u);
+    // The frustum fit covers what the camera sees, not the whole scene; its depth range
+    // still starts at the scene's front so that every caster lands in the map.
+    bool whole_scene = fit != raster::Fit::camera_frustum;
+    for (const auto& p : sc.scene.positions) {
+        glm::dvec3 c = clip_of(lp.view_proj[0], p - sc.camera.eye);
+        if (whole_scene) {
+            EXPECT_LE(std::abs(c.x), 1.0 + 1e-9);
+            EXPECT_LE(std::abs(c.y), 1.0 + 1e-9);
+            EXPECT_LE(c.z, 1.0 + 1e-9);
+        }
+        EXPECT_GE(c.z, -1e-9);
+    }
+    EXPECT_GT(lp.metres_per_texel, 0.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Raster, Fits,
+                         ::testing::Combine(::testing::Values(raster::Fit::scene_sphere, raster::Fit::scene_bounds,
+                                                              raster::Fit::camera_frustum),
+                                            ::testing::Values(0.0, 1e6)));
+
+TEST(Fits, CubeFacesSeeTheirOwnDirectionsWithExactNinetyDegreeFrusta) {
+    test::SceneBuilder b;
+    b.box({-3, -3, -3}, {3, 3, 3});
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 0, 10}, {0, 0, 0}, 40), {test::point({0, 0, 0})},
+                                      16, 16);
+    raster::LightProjection lp =
+        raster::fit_light(sc.lights[0], sc.scene, sc.camera, 16, 16, raster::Fit::scene_bounds, 512, sc.camera.eye);
+    ASSERT_EQ(lp.view_proj.size(), 6u);
+    const glm::dvec3 dirs[6] = {{1, 0.3, -0.2}, {-1, 0.5, 0.9}, {0.2, 1, 0.1}, {0.9, -1, 0.9}, {0, 0.1, 1}, {0.2, 0.2, -1}};
+    for (int f = 0; f < 6; ++f) {
+        glm::dvec3 c = clip_of(lp.view_proj[f], dirs[f] * 2.0 - sc.camera.eye);
+        EXPECT_LT(std::abs(c.x), 1.0) << "face " << f;
+        EXPECT_LT(std::abs(c.y), 1.0) << "face " << f;
+        EXPECT_GT(c.z, 0.0);
+        EXPECT_LT(c.z, 1.0);
+        // The face's corner direction lands exactly on the map corner.
+        glm::dvec3 corner = clip_of(lp.view_proj[f], lp.axis[f] * 2.0 + glm::dvec3(1e-300) - sc.camera.eye);
+        EXPECT_NEAR(corner.x, 0.0, 1e-9);
+    }
+}
+
+}  // namespace
+}  // namespace penumbra
