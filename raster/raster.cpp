@@ -473,7 +473,9 @@ void Renderer::make_pipelines() {
                        gpu::kModeLookup};
         lookup_pipelines_.push_back(make_lookup_pipeline(ctx_, lookup_layout_.get(), spec));
         spec.values[7] = gpu::kModeFaceMask;
-        mask_pipelines_.push_back(make_lookup_pipeline(ctx_, lookup_layout_.get(), spec));
+        mask_pipelines_.push_back(light.type == LightType::point
+                                      ? make_lookup_pipeline(ctx_, lookup_layout_.get(), spec)
+                                      : UniquePipeline());
     }
 }
 
@@ -581,7 +583,9 @@ void Renderer::make_light_resources() {
         outputs_.push_back(
             create_buffer(ctx_, pixels_ * sizeof(gpu::LookupTexel), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true));
         masks_.push_back(create_buffer(ctx_, 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true));
-        std::memset(masks_.back().mapped, 0, 4);
+        // Only cube maps are worth a mask pass; a single map is rendered whenever the light exists.
+        std::uint32_t initial = light.type == LightType::point ? 0u : 1u;
+        std::memcpy(masks_.back().mapped, &initial, 4);
         stats_.lights.push_back(std::move(ls));
 
         VkDescriptorSet set = allocate_set(lookup_set_layout_.get());
@@ -713,6 +717,7 @@ void Renderer::record_camera_and_masks(VkCommandBuffer cmd) {
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 2);
     std::uint32_t gx = (W_ + 7) / 8, gy = (H_ + 7) / 8;
     for (std::size_t li = 0; li < s_.lights.size(); ++li) {
+        if (s_.lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, mask_pipelines_[li].get());
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &lookup_sets_[li], 0,
                                 nullptr);

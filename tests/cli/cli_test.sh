@@ -65,6 +65,44 @@ if [ -d /usr/share/assimp/models/glTF2/IndexOutOfRange ]; then
     check "malformed glTF writes nothing" test ! -e "$tmp/f"
 fi
 
+# raster: the promised files, the technique echoed, the device named; deterministic output.
+run raster "$src/data/default/scenario.json" --out "$tmp/r1" -q --preset d3d12-textbook --set resolution=512
+check "raster exits 0" test "$rc" -eq 0
+for f in raster.exr raster.json raster.png; do check "raster writes $f" test -s "$tmp/r1/$f"; done
+check "raster.json records the technique" grep -q '"preset": "d3d12-textbook"' "$tmp/r1/raster.json"
+check "raster.json records the override" grep -q '"resolution": 512' "$tmp/r1/raster.json"
+check "raster.json names the device" grep -q '"name": "llvmpipe' "$tmp/r1/raster.json"
+check "raster.json has GPU pass times" grep -q '"shadow":' "$tmp/r1/raster.json"
+run raster "$src/data/default/scenario.json" --out "$tmp/r2" -q --preset d3d12-textbook --set resolution=512
+check "raster.exr is bit-identical across runs" cmp -s "$tmp/r1/raster.exr" "$tmp/r2/raster.exr"
+
+# raster: bad techniques are bad input, named, with nothing written.
+run raster "$src/data/default/scenario.json" --out "$tmp/r3" --set filter.type=gaussian
+check "unknown filter exits 2" test "$rc" -eq 2
+check "unknown filter message" grep -q "technique.filter.type: \"gaussian\" is not one of" <<<"$err"
+check "unknown filter writes nothing" test ! -e "$tmp/r3"
+run raster "$src/data/default/scenario.json" --out "$tmp/r4" --set resolution=99999
+check "absurd resolution exits 2" test "$rc" -eq 2
+run raster "$src/data/default/scenario.json" --out "$tmp/r5" --preset nope
+check "unknown preset exits 2" test "$rc" -eq 2
+check "unknown preset lists presets" grep -q "camera-frustum-article" <<<"$err"
+run raster "$src/data/default/scenario.json" --out "$tmp/r6" --device no-such-gpu
+check "unknown device exits 2" test "$rc" -eq 2
+check "unknown device lists devices" grep -q "llvmpipe" <<<"$err"
+run raster "$tmp/sphere.json" --out "$tmp/r7"
+check "raster refuses area lights with exit 2" test "$rc" -eq 2
+
+# raster: no Vulkan driver at all is an environment failure (exit 3) that says what to install.
+VK_ICD_FILENAMES=/nonexistent.json run raster "$src/data/default/scenario.json" --out "$tmp/r8"
+check "no Vulkan device exits 3" test "$rc" -eq 3
+check "no Vulkan device says what to install" grep -q "mesa-vulkan-drivers" <<<"$err"
+check "no Vulkan device writes nothing" test ! -e "$tmp/r8"
+
+run devices
+check "devices lists lavapipe" grep -q "llvmpipe" "$tmp/stdout"
+run raster --help
+check "raster --help lists the presets" grep -q "diligent-tutorial13" "$tmp/stdout"
+
 # Usage errors.
 run
 check "no subcommand exits 2" test "$rc" -eq 2
