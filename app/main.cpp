@@ -81,7 +81,8 @@ void add_technique(CLI::App* cmd, TechniqueArgs& t) {
     cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")");
     cmd->add_option("--preset", t.preset, "Start from a named preset (see below)");
     cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)");
-    cmd->add_option("--device", t.device, "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
+    cmd->add_option("--device", t.device,
+                    "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
     std::string text = "Presets:\n";
     for (const auto& p : raster::presets()) text += fmt::format("  {:<24}{}\n", p.name, p.description);
     cmd->footer(text);

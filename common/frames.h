@@ -46,14 +46,14 @@ inline constexpr std::uint32_t kRasterOutsideMap = 8u;   // the lookup fell outs
 // What a shadow-mapping technique decided for one light at every pixel, and the lookups
 // behind the decision (design.md, "Data flow").
 struct RasterLightImage {
-    std::vector<float> V;             // the technique's shadow factor, 1 lit
-    std::vector<float> ref_depth;     // receiver depth at the centre texel after every bias (map depth units)
-    std::vector<float> stored_depth;  // depth stored in the centre texel; inf outside the map
+    std::vector<float> V;                    // the technique's shadow factor, 1 lit
+    std::vector<float> ref_depth;            // receiver depth at the centre texel after every bias (map depth units)
+    std::vector<float> stored_depth;         // depth stored in the centre texel; inf outside the map
     std::vector<std::uint32_t> stored_prim;  // triangle stored in the centre texel
-    std::vector<float> footprint_m;   // shadow-map texel size at the receiver, metres
-    std::vector<float> texel_slope;   // receiver-plane depth change across half a texel (depth units)
-    std::vector<float> bias_m;        // every bias together, as metres along the light ray (estimate)
-    std::vector<std::uint32_t> flags; // kRaster*
+    std::vector<float> footprint_m;          // shadow-map texel size at the receiver, metres
+    std::vector<float> texel_slope;          // receiver-plane depth change across half a texel (depth units)
+    std::vector<float> bias_m;               // every bias together, as metres along the light ray (estimate)
+    std::vector<std::uint32_t> flags;        // kRaster*
 };
 
 struct RasterFrame {

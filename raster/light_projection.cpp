@@ -88,7 +88,8 @@ std::vector<glm::dvec3> camera_frustum_corners(const Camera& cam, int w, int h, 
             sx = cam.xmag;
             sy = cam.ymag;
         }
-        for (int i = 0; i < 4; ++i) out.push_back(centre + cam.right * (i & 1 ? sx : -sx) + cam.up * (i & 2 ? sy : -sy));
+        for (int i = 0; i < 4; ++i)
+            out.push_back(centre + cam.right * (i & 1 ? sx : -sx) + cam.up * (i & 2 ? sy : -sy));
     }
     return out;
 }

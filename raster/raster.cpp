@@ -33,12 +33,9 @@ constexpr VkFormat kCameraDepthFormat = VK_FORMAT_D32_SFLOAT;
 
 VkFormat vk_format(DepthFormat f) {
     switch (f) {
-        case DepthFormat::d16:
-            return VK_FORMAT_D16_UNORM;
-        case DepthFormat::d24:
-            return VK_FORMAT_X8_D24_UNORM_PACK32;
-        case DepthFormat::d32:
-            return VK_FORMAT_D32_SFLOAT;
+        case DepthFormat::d16: return VK_FORMAT_D16_UNORM;
+        case DepthFormat::d24: return VK_FORMAT_X8_D24_UNORM_PACK32;
+        case DepthFormat::d32: return VK_FORMAT_D32_SFLOAT;
     }
     return VK_FORMAT_D32_SFLOAT;
 }
@@ -46,17 +43,16 @@ VkFormat vk_format(DepthFormat f) {
 // The format's minimum resolvable difference r; 0 for float, where r depends on the depth.
 double format_r(DepthFormat f) {
     switch (f) {
-        case DepthFormat::d16:
-            return std::ldexp(1.0, -16);
-        case DepthFormat::d24:
-            return std::ldexp(1.0, -24);
-        case DepthFormat::d32:
-            return 0.0;
+        case DepthFormat::d16: return std::ldexp(1.0, -16);
+        case DepthFormat::d24: return std::ldexp(1.0, -24);
+        case DepthFormat::d32: return 0.0;
     }
     return 0.0;
 }
 
-glm::mat4 to_float(const glm::dmat4& m) { return glm::mat4(m); }
+glm::mat4 to_float(const glm::dmat4& m) {
+    return glm::mat4(m);
+}
 
 UniqueShaderModule make_module(const VulkanContext& ctx, const std::uint32_t* code, std::size_t bytes) {
     VkShaderModuleCreateInfo ci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
@@ -262,25 +258,18 @@ std::vector<glm::vec2> poisson_disk(int n) {
 
 gpu::uint light_kind(LightType t) {
     switch (t) {
-        case LightType::directional:
-            return gpu::kLightDirectional;
-        case LightType::spot:
-            return gpu::kLightSpot;
-        default:
-            return gpu::kLightPoint;
+        case LightType::directional: return gpu::kLightDirectional;
+        case LightType::spot: return gpu::kLightSpot;
+        default: return gpu::kLightPoint;
     }
 }
 
 gpu::uint filter_kind(FilterType f) {
     switch (f) {
-        case FilterType::none:
-            return gpu::kFilterNone;
-        case FilterType::hw2x2:
-            return gpu::kFilterHw2x2;
-        case FilterType::pcf:
-            return gpu::kFilterPcf;
-        case FilterType::poisson:
-            return gpu::kFilterPoisson;
+        case FilterType::none: return gpu::kFilterNone;
+        case FilterType::hw2x2: return gpu::kFilterHw2x2;
+        case FilterType::pcf: return gpu::kFilterPcf;
+        case FilterType::poisson: return gpu::kFilterPoisson;
     }
     return gpu::kFilterNone;
 }
@@ -329,7 +318,9 @@ glm::mat4 camera_matrix(const Camera& cam, int w, int h, double far) {
     return glm::mat4(m);
 }
 
-double elapsed(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double elapsed(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 class Renderer {
   public:
@@ -388,14 +379,14 @@ void Renderer::check_supported() {
         throw InputError(fmt::format("technique.resolution: {} exceeds the device's maxImageDimension2D {} ({})",
                                      t_.resolution, max_dim, ctx_.info().name));
     if (W_ > max_dim || H_ > max_dim)
-        throw InputError(fmt::format("{}: image {}x{} exceeds the device's maxImageDimension2D {}", s_.label, W_, H_,
-                                     max_dim));
+        throw InputError(
+            fmt::format("{}: image {}x{} exceeds the device's maxImageDimension2D {}", s_.label, W_, H_, max_dim));
     if (!ctx_.supports_depth_attachment(vk_format(t_.depth_format)))
         throw EnvironmentError(fmt::format("Vulkan device '{}' cannot render and sample depth format {}",
                                            ctx_.info().name, to_string(t_.depth_format)));
-    bool wants_bilinear = t_.filter.type == FilterType::hw2x2 ||
-                          (t_.filter.bilinear_taps &&
-                           (t_.filter.type == FilterType::pcf || t_.filter.type == FilterType::poisson));
+    bool wants_bilinear =
+        t_.filter.type == FilterType::hw2x2 ||
+        (t_.filter.bilinear_taps && (t_.filter.type == FilterType::pcf || t_.filter.type == FilterType::poisson));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t_.depth_format));
     stats_.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
 }
@@ -422,22 +413,22 @@ void Renderer::upload_scene() {
                         VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     indices_ = upload(ctx_, idx.data(), idx.size() * sizeof(std::uint32_t),
                       VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    double_sided_ =
-        upload(ctx_, bits.data(), bits.size() * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    double_sided_ = upload(ctx_, bits.data(), bits.size() * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
 }
 
 void Renderer::make_pipelines() {
     camera_set_layout_ = make_set_layout(
         ctx_, {{gpu::kBindingDoubleSided, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT}});
-    camera_layout_ = make_pipeline_layout(ctx_, camera_set_layout_.get(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
+    camera_layout_ =
+        make_pipeline_layout(ctx_, camera_set_layout_.get(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
 
     // The camera pass culls nothing: the fragment shader drops single-sided back faces. With
     // the y flip of camera_matrix, a triangle counter-clockwise as seen has positive area.
     camera_pipeline_ = make_graphics_pipeline(
         ctx_, camera_layout_.get(),
-        {kCameraVert, sizeof(kCameraVert), kCameraFrag, sizeof(kCameraFrag), kCameraDepthFormat,
-         VK_COMPARE_OP_GREATER, VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE, false, false});
+        {kCameraVert, sizeof(kCameraVert), kCameraFrag, sizeof(kCameraFrag), kCameraDepthFormat, VK_COMPARE_OP_GREATER,
+         VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE, false, false});
     // Light maps have no y flip, so counter-clockwise as seen from the light has negative area.
     VkCullModeFlags cull = t_.cull == Cull::none   ? VK_CULL_MODE_NONE
                            : t_.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
@@ -473,9 +464,8 @@ void Renderer::make_pipelines() {
                        gpu::kModeLookup};
         lookup_pipelines_.push_back(make_lookup_pipeline(ctx_, lookup_layout_.get(), spec));
         spec.values[7] = gpu::kModeFaceMask;
-        mask_pipelines_.push_back(light.type == LightType::point
-                                      ? make_lookup_pipeline(ctx_, lookup_layout_.get(), spec)
-                                      : UniquePipeline());
+        mask_pipelines_.push_back(
+            light.type == LightType::point ? make_lookup_pipeline(ctx_, lookup_layout_.get(), spec) : UniquePipeline());
     }
 }
 
@@ -487,17 +477,17 @@ void Renderer::make_targets() {
                                   VK_IMAGE_ASPECT_DEPTH_BIT, false);
     prim_readback_ = create_buffer(ctx_, pixels_ * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
 
-    bool any_point = std::any_of(s_.lights.begin(), s_.lights.end(),
-                                 [](const Light& l) { return l.type == LightType::point; });
+    bool any_point =
+        std::any_of(s_.lights.begin(), s_.lights.end(), [](const Light& l) { return l.type == LightType::point; });
     std::uint32_t layers = any_point ? 6 : 1;
     // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
     std::uint32_t res = s_.lights.empty() ? 1 : static_cast<std::uint32_t>(t_.resolution);
     shadow_depth_ = create_image(ctx_, vk_format(t_.depth_format), res, res, layers,
                                  VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                                  VK_IMAGE_ASPECT_DEPTH_BIT, true);
-    shadow_prim_ = create_image(ctx_, kPrimFormat, res, res, layers,
-                                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                                VK_IMAGE_ASPECT_COLOR_BIT, true);
+    shadow_prim_ =
+        create_image(ctx_, kPrimFormat, res, res, layers,
+                     VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT, true);
     for (std::uint32_t l = 0; l < layers; ++l) {
         shadow_depth_layers_.push_back(create_layer_view(ctx_, shadow_depth_, l, VK_IMAGE_ASPECT_DEPTH_BIT));
         shadow_prim_layers_.push_back(create_layer_view(ctx_, shadow_prim_, l, VK_IMAGE_ASPECT_COLOR_BIT));
@@ -550,8 +540,7 @@ void Renderer::make_light_resources() {
     for (std::size_t li = 0; li < n; ++li) {
         const Light& light = s_.lights[li];
         RasterLightStats ls;
-        ls.projection =
-            fit_light(light, s_.scene, cam, s_.width, s_.height, t_.fit, t_.resolution, origin_);
+        ls.projection = fit_light(light, s_.scene, cam, s_.width, s_.height, t_.fit, t_.resolution, origin_);
         for (const auto& wmsg : ls.projection.warnings) stats_.warnings.push_back(wmsg);
 
         gpu::LookupParams p{};
@@ -674,8 +663,7 @@ void Renderer::record_camera_and_masks(VkCommandBuffer cmd) {
                   VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
                   VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
     image_barrier(cmd, gbuffer_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, 1, VK_IMAGE_LAYOUT_UNDEFINED,
-                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
-                  kFragmentTests,
+                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE, kFragmentTests,
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
     begin_rendering(cmd, gbuffer_prim_.view.get(), gbuffer_depth_.view.get(), W_, H_, 0.0f);
     if (index_count_ > 0) {

@@ -22,7 +22,7 @@ struct RasterLightStats {
 
 struct RasterStats {
     DeviceInfo device;
-    std::string hw2x2;  // "hardware", "emulated" or "unused"
+    std::string hw2x2;                                                // "hardware", "emulated" or "unused"
     double camera_ms = 0, shadow_ms = 0, lookup_ms = 0, mask_ms = 0;  // GPU time per pass kind
     double setup_s = 0, render_s = 0;                                 // wall clock: uploads, GPU work
     std::vector<RasterLightStats> lights;

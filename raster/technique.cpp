@@ -11,47 +11,34 @@ using nlohmann::json;
 
 const char* to_string(Fit f) {
     switch (f) {
-        case Fit::scene_sphere:
-            return "scene_sphere";
-        case Fit::scene_bounds:
-            return "scene_bounds";
-        case Fit::camera_frustum:
-            return "camera_frustum";
+        case Fit::scene_sphere: return "scene_sphere";
+        case Fit::scene_bounds: return "scene_bounds";
+        case Fit::camera_frustum: return "camera_frustum";
     }
     return "?";
 }
 const char* to_string(DepthFormat f) {
     switch (f) {
-        case DepthFormat::d16:
-            return "d16";
-        case DepthFormat::d24:
-            return "d24";
-        case DepthFormat::d32:
-            return "d32";
+        case DepthFormat::d16: return "d16";
+        case DepthFormat::d24: return "d24";
+        case DepthFormat::d32: return "d32";
     }
     return "?";
 }
 const char* to_string(Cull c) {
     switch (c) {
-        case Cull::none:
-            return "none";
-        case Cull::back:
-            return "back";
-        case Cull::front:
-            return "front";
+        case Cull::none: return "none";
+        case Cull::back: return "back";
+        case Cull::front: return "front";
     }
     return "?";
 }
 const char* to_string(FilterType f) {
     switch (f) {
-        case FilterType::none:
-            return "none";
-        case FilterType::hw2x2:
-            return "hw2x2";
-        case FilterType::pcf:
-            return "pcf";
-        case FilterType::poisson:
-            return "poisson";
+        case FilterType::none: return "none";
+        case FilterType::hw2x2: return "hw2x2";
+        case FilterType::pcf: return "pcf";
+        case FilterType::poisson: return "poisson";
     }
     return "?";
 }

@@ -14,11 +14,10 @@ const char* vk_result_name(VkResult result);
 // device-lost results are environment failures (exit 3) like every other Vulkan failure.
 [[noreturn]] void vk_fail(VkResult result, const char* call, const char* file, int line);
 
-#define VK_CHECK(call)                                                                           \
-    do {                                                                                         \
-        VkResult vk_check_result_ = (call);                                                      \
-        if (vk_check_result_ != VK_SUCCESS) ::penumbra::raster::vk_fail(vk_check_result_, #call, \
-                                                                        __FILE__, __LINE__);     \
+#define VK_CHECK(call)                                                                                                \
+    do {                                                                                                              \
+        VkResult vk_check_result_ = (call);                                                                           \
+        if (vk_check_result_ != VK_SUCCESS) ::penumbra::raster::vk_fail(vk_check_result_, #call, __FILE__, __LINE__); \
     } while (0)
 
 // Owns one device-level handle; Destroy is the matching vkDestroy*/vkFree* function.

@@ -14,8 +14,7 @@ namespace penumbra::raster {
 const char* vk_result_name(VkResult result) {
     switch (result) {
 #define PENUMBRA_VK_NAME(r) \
-    case r:                 \
-        return #r;
+    case r: return #r;
         PENUMBRA_VK_NAME(VK_SUCCESS)
         PENUMBRA_VK_NAME(VK_NOT_READY)
         PENUMBRA_VK_NAME(VK_TIMEOUT)
@@ -35,8 +34,7 @@ const char* vk_result_name(VkResult result) {
         PENUMBRA_VK_NAME(VK_ERROR_OUT_OF_POOL_MEMORY)
         PENUMBRA_VK_NAME(VK_ERROR_UNKNOWN)
 #undef PENUMBRA_VK_NAME
-        default:
-            return "VkResult(unknown)";
+        default: return "VkResult(unknown)";
     }
 }
 
@@ -44,23 +42,19 @@ void vk_fail(VkResult result, const char* call, const char* file, int line) {
     std::string hint;
     if (result == VK_ERROR_INCOMPATIBLE_DRIVER || result == VK_ERROR_INITIALIZATION_FAILED)
         hint = " (is a Vulkan driver installed? on Debian: apt-get install mesa-vulkan-drivers)";
-    throw EnvironmentError(fmt::format("Vulkan: {} returned {} at {}:{}{}", call, vk_result_name(result), file, line, hint));
+    throw EnvironmentError(
+        fmt::format("Vulkan: {} returned {} at {}:{}{}", call, vk_result_name(result), file, line, hint));
 }
 
 namespace {
 
 const char* type_name(VkPhysicalDeviceType t) {
     switch (t) {
-        case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
-            return "integrated-gpu";
-        case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
-            return "discrete-gpu";
-        case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
-            return "virtual-gpu";
-        case VK_PHYSICAL_DEVICE_TYPE_CPU:
-            return "cpu";
-        default:
-            return "other";
+        case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated-gpu";
+        case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete-gpu";
+        case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual-gpu";
+        case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
+        default: return "other";
     }
 }
 
@@ -176,8 +170,7 @@ std::vector<DeviceInfo> list_devices() {
 
 VKAPI_ATTR VkBool32 VKAPI_CALL VulkanContext::on_message(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                                          VkDebugUtilsMessageTypeFlagsEXT,
-                                                         const VkDebugUtilsMessengerCallbackDataEXT* data,
-                                                         void* user) {
+                                                         const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
     auto* self = static_cast<VulkanContext*>(user);
     const char* level = severity >= VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT ? "error" : "warning";
     std::string msg = fmt::format("vulkan validation {}: {}", level, data->pMessage ? data->pMessage : "");
@@ -196,7 +189,8 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
             VkDebugUtilsMessengerCreateInfoEXT mi{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
             mi.messageSeverity =
                 VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-            mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT;
+            mi.messageType =
+                VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT;
             mi.pfnUserCallback = &VulkanContext::on_message;
             mi.pUserData = this;
             if (!create) throw EnvironmentError("Vulkan: vkCreateDebugUtilsMessengerEXT is missing");
@@ -215,8 +209,8 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         VkPhysicalDeviceProperties props;
         vkGetPhysicalDeviceProperties(physical_, &props);
         if (props.apiVersion < VK_API_VERSION_1_3)
-            throw EnvironmentError(fmt::format("Vulkan device '{}' offers Vulkan {}; penumbra needs 1.3", info_.name,
-                                               info_.api_version));
+            throw EnvironmentError(
+                fmt::format("Vulkan device '{}' offers Vulkan {}; penumbra needs 1.3", info_.name, info_.api_version));
         limits_ = props.limits;
         vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
 
@@ -276,7 +270,9 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
     }
 }
 
-VulkanContext::~VulkanContext() { release(); }
+VulkanContext::~VulkanContext() {
+    release();
+}
 
 void VulkanContext::release() {
     command_pool_.reset();

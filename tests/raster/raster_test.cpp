@@ -1,12 +1,13 @@
 // The Vulkan raster path against analytic answers and against the oracle. Every test runs
 // with the Khronos validation layer on and fails on any validation message.
+#include "raster/raster.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "common/errors.h"
 #include "oracle/oracle.h"
-#include "raster/raster.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -57,7 +58,9 @@ void expect_same_primitives(const OracleFrame& o, const RasterFrame& r) {
     EXPECT_EQ(off_edge, 0u) << "mismatches away from triangle edges";
 }
 
-Scenario default_scenario() { return load_scenario(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json"); }
+Scenario default_scenario() {
+    return load_scenario(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json");
+}
 
 Scenario perspective_scene() {
     test::SceneBuilder b;
@@ -154,10 +157,9 @@ TEST_F(Raster, WorldBiasDetachesAThinWallsShadowByThePredictedDistance) {
     sb.quad({0, 0, -4}, {0, h, -4}, {0, h, 4}, {0, 0, 4});
     Light sun = test::directional({std::cos(a), -std::sin(a), 0});
     const int W = 1024;
-    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({2, 10, 0}, {2, 0, 0}, 4, 1, {0, 0, -1}),
-                                      {sun}, W, 256);
-    raster::RasterResult r =
-        render(sc, {{"resolution", 4096}, {"cull", "none"}, {"bias", {{"world", b}}}});
+    Scenario sc =
+        test::make_scenario(sb.build(), test::look_at_ortho({2, 10, 0}, {2, 0, 0}, 4, 1, {0, 0, -1}), {sun}, W, 256);
+    raster::RasterResult r = render(sc, {{"resolution", 4096}, {"cull", "none"}, {"bias", {{"world", b}}}});
     int row = 128;
     double px = 8.0 / W, first = 1e9, last = -1e9;
     for (int x = 0; x < W; ++x) {
@@ -179,24 +181,29 @@ struct FilterCase {
     double (*profile)(double s);  // V as a function of s = x / texel, edge at s = 0
 };
 
-double ramp(double s) { return std::clamp(s + 0.5, 0.0, 1.0); }
+double ramp(double s) {
+    return std::clamp(s + 0.5, 0.0, 1.0);
+}
 
 const FilterCase kFilterCases[] = {
     {"none", {{"type", "none"}}, [](double s) { return s >= 0 ? 1.0 : 0.0; }},
     {"hw2x2", {{"type", "hw2x2"}}, ramp},
-    {"pcf3", {{"type", "pcf"}, {"size", 3}},
+    {"pcf3",
+     {{"type", "pcf"}, {"size", 3}},
      [](double s) {
          double v = 0;
          for (int k = -1; k <= 1; ++k) v += std::floor(s + k) >= 0 ? 1.0 : 0.0;
          return v / 3;
      }},
-    {"pcf4", {{"type", "pcf"}, {"size", 4}},
+    {"pcf4",
+     {{"type", "pcf"}, {"size", 4}},
      [](double s) {
          double v = 0;
          for (int k = 0; k < 4; ++k) v += std::floor(s + k - 1.5) >= 0 ? 1.0 : 0.0;
          return v / 4;
      }},
-    {"pcf3bilinear", {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}},
+    {"pcf3bilinear",
+     {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}},
      [](double s) { return (ramp(s - 1) + ramp(s) + ramp(s + 1)) / 3; }},
 };
 
@@ -214,8 +221,8 @@ TEST_P(FilterProfile, MatchesTheAnalyticProfileOfAStraightEdge) {
     const double texel = 16.0 / res;
     Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1, 0.25, {0, 0, -1}),
                                       {test::directional({0, -1, 0})}, W, 64);
-    raster::RasterResult r = render(
-        sc, {{"resolution", res}, {"cull", "none"}, {"bias", {{"world", 0.05}}}, {"filter", GetParam().filter}});
+    raster::RasterResult r =
+        render(sc, {{"resolution", res}, {"cull", "none"}, {"bias", {{"world", 0.05}}}, {"filter", GetParam().filter}});
     double worst = 0;
     for (int x = 0; x < W; ++x) {
         double wx = -1.0 + (x + 0.5) * (2.0 / W);

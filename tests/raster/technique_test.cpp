@@ -1,4 +1,6 @@
 // The technique contract and the light fits: pure code, no Vulkan.
+#include "raster/technique.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -6,7 +8,6 @@
 
 #include "common/errors.h"
 #include "raster/light_projection.h"
-#include "raster/technique.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -100,8 +101,7 @@ TEST_P(Fits, ContainTheSceneInsideTheMap) {
     b.box(o + glm::dvec3(-1, 0, -1), o + glm::dvec3(1, 2, 1));
     Scenario sc = test::make_scenario(b.build(), test::look_at(o + glm::dvec3(0, 12, 12), o, 60),
                                       {test::directional({-0.3, -1, -0.2})}, 64, 48);
-    raster::LightProjection lp =
-        raster::fit_light(sc.lights[0], sc.scene, sc.camera, 64, 48, fit, 1024, sc.camera.eye);
+    raster::LightProjection lp = raster::fit_light(sc.lights[0], sc.scene, sc.camera, 64, 48, fit, 1024, sc.camera.eye);
     ASSERT_EQ(lp.view_proj.size(), 1u);
     // The frustum fit covers what the camera sees, not the whole scene; its depth range
     // still starts at the scene's front so that every caster lands in the map.
@@ -126,12 +126,13 @@ INSTANTIATE_TEST_SUITE_P(Raster, Fits,
 TEST(Fits, CubeFacesSeeTheirOwnDirectionsWithExactNinetyDegreeFrusta) {
     test::SceneBuilder b;
     b.box({-3, -3, -3}, {3, 3, 3});
-    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 0, 10}, {0, 0, 0}, 40), {test::point({0, 0, 0})},
-                                      16, 16);
+    Scenario sc =
+        test::make_scenario(b.build(), test::look_at({0, 0, 10}, {0, 0, 0}, 40), {test::point({0, 0, 0})}, 16, 16);
     raster::LightProjection lp =
         raster::fit_light(sc.lights[0], sc.scene, sc.camera, 16, 16, raster::Fit::scene_bounds, 512, sc.camera.eye);
     ASSERT_EQ(lp.view_proj.size(), 6u);
-    const glm::dvec3 dirs[6] = {{1, 0.3, -0.2}, {-1, 0.5, 0.9}, {0.2, 1, 0.1}, {0.9, -1, 0.9}, {0, 0.1, 1}, {0.2, 0.2, -1}};
+    const glm::dvec3 dirs[6] = {{1, 0.3, -0.2}, {-1, 0.5, 0.9}, {0.2, 1, 0.1},
+                                {0.9, -1, 0.9}, {0, 0.1, 1},    {0.2, 0.2, -1}};
     for (int f = 0; f < 6; ++f) {
         glm::dvec3 c = clip_of(lp.view_proj[f], dirs[f] * 2.0 - sc.camera.eye);
         EXPECT_LT(std::abs(c.x), 1.0) << "face " << f;
