@@ -39,15 +39,25 @@ void add_common(CLI::App* cmd, Common& c) {
     cmd->add_flag("-q,--quiet", c.quiet, "Print nothing but errors");
 }
 
-int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c) {
-    auto t0 = std::chrono::steady_clock::now();
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Loads and validates the scenario every subcommand starts from; prints the scene's warnings.
+Scenario load_for_command(const std::filesystem::path& scenario_file, const Common& c) {
     ScenarioOptions so;
     so.allow_external_paths = c.allow_external_paths;
     Scenario scenario = load_scenario(scenario_file, so);
-    OracleTimings timings;
-    timings.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!c.quiet)
         for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
+    return scenario;
+}
+
+int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c) {
+    auto t0 = std::chrono::steady_clock::now();
+    Scenario scenario = load_for_command(scenario_file, c);
+    OracleTimings timings;
+    timings.load_s = seconds_since(t0);
 
     OracleSettings settings;
     settings.threads = c.threads;
@@ -103,20 +113,16 @@ raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArg
 
 int run_raster_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t) {
     auto t0 = std::chrono::steady_clock::now();
-    ScenarioOptions so;
-    so.allow_external_paths = c.allow_external_paths;
-    Scenario scenario = load_scenario(scenario_file, so);
+    Scenario scenario = load_for_command(scenario_file, c);
     raster::Technique technique = resolve_technique(scenario, t);
     raster::RasterTimings timings;
-    timings.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!c.quiet)
-        for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
+    timings.load_s = seconds_since(t0);
 
     auto t1 = std::chrono::steady_clock::now();
     raster::ContextOptions co;
     co.device = t.device;
     raster::VulkanContext ctx(co);
-    timings.device_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    timings.device_s = seconds_since(t1);
     raster::RasterResult result = raster::run_raster(scenario, technique, ctx);
 
     OutputTransaction out(c.out);

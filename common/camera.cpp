@@ -23,16 +23,17 @@ bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::d
     return true;
 }
 
+glm::dvec2 ndc_to_image_plane(const Camera& camera, int width, int height) {
+    if (camera.type == ProjectionType::orthographic) return {camera.xmag, camera.ymag};
+    double tan_half = std::tan(0.5 * camera.yfov_rad);
+    return {tan_half * static_cast<double>(width) / height, tan_half};
+}
+
 PrimaryRays::PrimaryRays(const Camera& camera, int width, int height)
     : camera_(camera), inv_w2_(2.0 / width), inv_h2_(2.0 / height) {
-    if (camera.type == ProjectionType::perspective) {
-        double tan_half = std::tan(0.5 * camera.yfov_rad);
-        sx_ = tan_half * static_cast<double>(width) / height;
-        sy_ = tan_half;
-    } else {
-        sx_ = camera.xmag;
-        sy_ = camera.ymag;
-    }
+    glm::dvec2 s = ndc_to_image_plane(camera, width, height);
+    sx_ = s.x;
+    sy_ = s.y;
 }
 
 PrimaryRay PrimaryRays::at(double px, double py) const {

@@ -1,6 +1,7 @@
 // Primary-ray generation shared by the oracle and the raster path (design.md, "Conventions").
 #pragma once
 
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
 #include "common/scene.h"
@@ -10,6 +11,11 @@ namespace penumbra {
 // Builds an orthonormal look-at basis: forward = normalize(target - eye),
 // right = normalize(forward x up), up' = right x forward. Returns false when degenerate.
 bool look_at_basis(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up, Camera& camera);
+
+// NDC to the camera's image plane: (tan(yfov/2) * W/H, tan(yfov/2)) at unit depth for a
+// perspective camera, (xmag, ymag) for an orthographic one. Every path that projects with the
+// camera (oracle rays, the raster camera pass, frustum fits) uses this one definition.
+glm::dvec2 ndc_to_image_plane(const Camera& camera, int width, int height);
 
 // A primary ray through the centre of pixel (x, y), relative to the camera eye. The direction
 // is not normalised: its component along `forward` is 1, so the hit parameter t is the view

@@ -6,6 +6,8 @@
 #include <array>
 #include <cmath>
 
+#include "common/camera.h"
+
 namespace penumbra::raster {
 
 namespace {
@@ -74,22 +76,15 @@ double distance_to_box(const glm::dvec3& p, const Bounds& b) {
 
 // The camera frustum's eight corners, far plane pulled in to the scene's extent.
 std::vector<glm::dvec3> camera_frustum_corners(const Camera& cam, int w, int h, const Bounds& scene) {
-    double far_scene = 0;
-    for (const auto& c : box_corners(scene)) far_scene = std::max(far_scene, glm::dot(c - cam.eye, cam.forward));
-    double zn = cam.znear, zf = std::max(zn * 1.0001, std::min(cam.zfar, far_scene));
+    double zn = cam.znear, zf = std::max(zn * 1.0001, std::min(cam.zfar, farthest_along(scene, cam.eye, cam.forward)));
+    glm::dvec2 plane = ndc_to_image_plane(cam, w, h);
+    bool persp = cam.type == ProjectionType::perspective;
     std::vector<glm::dvec3> out;
     for (double z : {zn, zf}) {
-        double sx, sy;
         glm::dvec3 centre = cam.eye + cam.forward * z;
-        if (cam.type == ProjectionType::perspective) {
-            sy = std::tan(cam.yfov_rad / 2) * z;
-            sx = sy * w / h;
-        } else {
-            sx = cam.xmag;
-            sy = cam.ymag;
-        }
+        glm::dvec2 half = persp ? plane * z : plane;
         for (int i = 0; i < 4; ++i)
-            out.push_back(centre + cam.right * (i & 1 ? sx : -sx) + cam.up * (i & 2 ? sy : -sy));
+            out.push_back(centre + cam.right * (i & 1 ? half.x : -half.x) + cam.up * (i & 2 ? half.y : -half.y));
     }
     return out;
 }
@@ -155,6 +150,12 @@ void perspective_range(const glm::dvec3& pos, const Scene& scene, LightProjectio
 }
 
 }  // namespace
+
+double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis) {
+    double far = -1e300;
+    for (const auto& c : box_corners(box)) far = std::max(far, glm::dot(c - eye, axis));
+    return far;
+}
 
 LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
                           int image_height, Fit fit, int resolution, const glm::dvec3& origin) {

@@ -26,6 +26,9 @@ struct LightProjection {
     std::vector<std::string> warnings;
 };
 
+// Largest distance along the unit `axis` from `eye` to a corner of `box`.
+double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis);
+
 // `origin` is the world position of the frame the vertices are expressed in (the camera eye).
 LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
                           int image_height, Fit fit, int resolution, const glm::dvec3& origin);

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "common/camera.h"
 #include "common/errors.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
@@ -296,16 +297,18 @@ UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout l
 }
 
 // Camera clip space from camera-relative positions, matching design.md's pixel centres:
-// y is flipped so that row 0 is the top row; reversed depth (1 at znear) for precision.
-glm::mat4 camera_matrix(const Camera& cam, int w, int h, double far) {
-    glm::dmat4 m(0.0);
+// y is flipped so that row 0 is the top row; reversed depth (1 at znear) for precision. The
+// far plane is zfar or just beyond the scene, whichever is nearer (glTF allows zfar = inf).
+glm::mat4 camera_matrix(const Camera& cam, int w, int h, const Bounds& scene) {
     double near = cam.znear;
+    double far = std::max(near * 2, farthest_along(scene, cam.eye, cam.forward) * 1.01 + 1e-6);
+    far = std::min(far, std::min(cam.zfar, 3.0e38));
     bool persp = cam.type == ProjectionType::perspective;
-    double sy = persp ? std::tan(cam.yfov_rad / 2) : cam.ymag;
-    double sx = persp ? sy * w / h : cam.xmag;
+    glm::dvec2 plane = ndc_to_image_plane(cam, w, h);
+    glm::dmat4 m(0.0);
     for (int c = 0; c < 3; ++c) {
-        m[c][0] = cam.right[c] / sx;
-        m[c][1] = -cam.up[c] / sy;
+        m[c][0] = cam.right[c] / plane.x;
+        m[c][1] = -cam.up[c] / plane.y;
         if (persp) {
             m[c][2] = -cam.forward[c] * near / (far - near);
             m[c][3] = cam.forward[c];
@@ -336,7 +339,7 @@ class Renderer {
     void record_camera_and_masks(VkCommandBuffer cmd);
     void record_light(VkCommandBuffer cmd, std::size_t li);
     void read_back(RasterResult& out);
-    double query_ms(std::uint32_t a, std::uint32_t b) const;
+    void read_timings();  // all timestamps in one query-pool read
 
     const Scenario& s_;
     const Technique& t_;
@@ -357,12 +360,13 @@ class Renderer {
     UniqueDescriptorSetLayout camera_set_layout_, lookup_set_layout_;
     UniquePipelineLayout camera_layout_, shadow_layout_, lookup_layout_;
     UniquePipeline camera_pipeline_, shadow_pipeline_;
-    std::vector<UniquePipeline> lookup_pipelines_, mask_pipelines_;  // per light
+    std::array<UniquePipeline, 3> lookup_pipelines_;  // indexed by gpu::kLight*
+    UniquePipeline mask_pipeline_;                    // point lights' sampled-face pass
     UniqueDescriptorPool pool_;
     VkDescriptorSet camera_set_ = VK_NULL_HANDLE;
     std::vector<VkDescriptorSet> lookup_sets_;
     std::vector<GpuBuffer> params_, outputs_, masks_;
-    UniqueSampler nearest_, compare_, nearest_uint_;
+    UniqueSampler nearest_, compare_;
     UniqueQueryPool queries_;
     std::uint32_t query_count_ = 0;
 };
@@ -423,13 +427,15 @@ void Renderer::make_pipelines() {
         make_pipeline_layout(ctx_, camera_set_layout_.get(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
 
-    // The camera pass culls nothing: the fragment shader drops single-sided back faces. With
-    // the y flip of camera_matrix, a triangle counter-clockwise as seen has positive area.
+    // The camera pass culls nothing: the fragment shader drops single-sided back faces using
+    // gl_FrontFacing. Front = counter-clockwise as seen, which with camera_matrix's y flip is
+    // VK_FRONT_FACE_COUNTER_CLOCKWISE (pinned by the culling and primitive-agreement tests).
     camera_pipeline_ = make_graphics_pipeline(
         ctx_, camera_layout_.get(),
         {kCameraVert, sizeof(kCameraVert), kCameraFrag, sizeof(kCameraFrag), kCameraDepthFormat, VK_COMPARE_OP_GREATER,
          VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE, false, false});
-    // Light maps have no y flip, so counter-clockwise as seen from the light has negative area.
+    // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from the
+    // light is VK_FRONT_FACE_CLOCKWISE here (pinned by the culling test).
     VkCullModeFlags cull = t_.cull == Cull::none   ? VK_CULL_MODE_NONE
                            : t_.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
                                                    : VK_CULL_MODE_FRONT_BIT;
@@ -452,9 +458,12 @@ void Renderer::make_pipelines() {
                                {gpu::kBindingFaceMask, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, cs}});
     lookup_layout_ = make_pipeline_layout(ctx_, lookup_set_layout_.get(), 0, 0);
 
+    // One pipeline per light kind present, not per light: lights of a kind share their variant.
     for (const Light& light : s_.lights) {
+        gpu::uint kind = light_kind(light.type);
+        if (lookup_pipelines_[kind]) continue;
         SpecData spec;
-        spec.values = {light_kind(light.type),
+        spec.values = {kind,
                        filter_kind(t_.filter.type),
                        static_cast<std::uint32_t>(t_.filter.size),
                        static_cast<std::uint32_t>(t_.filter.taps),
@@ -462,10 +471,11 @@ void Renderer::make_pipelines() {
                        t_.bias.receiver_plane ? 1u : 0u,
                        hardware_compare_ ? 1u : 0u,
                        gpu::kModeLookup};
-        lookup_pipelines_.push_back(make_lookup_pipeline(ctx_, lookup_layout_.get(), spec));
-        spec.values[7] = gpu::kModeFaceMask;
-        mask_pipelines_.push_back(
-            light.type == LightType::point ? make_lookup_pipeline(ctx_, lookup_layout_.get(), spec) : UniquePipeline());
+        lookup_pipelines_[kind] = make_lookup_pipeline(ctx_, lookup_layout_.get(), spec);
+        if (kind == gpu::kLightPoint) {  // only cube maps are worth a pass that finds the sampled faces
+            spec.values[7] = gpu::kModeFaceMask;
+            mask_pipeline_ = make_lookup_pipeline(ctx_, lookup_layout_.get(), spec);
+        }
     }
 }
 
@@ -492,8 +502,7 @@ void Renderer::make_targets() {
         shadow_depth_layers_.push_back(create_layer_view(ctx_, shadow_depth_, l, VK_IMAGE_ASPECT_DEPTH_BIT));
         shadow_prim_layers_.push_back(create_layer_view(ctx_, shadow_prim_, l, VK_IMAGE_ASPECT_COLOR_BIT));
     }
-    nearest_ = make_sampler(ctx_, false, false, false);
-    nearest_uint_ = make_sampler(ctx_, false, false, false);
+    nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
     // Point lights clamp inside a face; 2D maps read a lit border.
     compare_ = make_sampler(ctx_, true, hardware_compare_, !any_point);
 }
@@ -535,8 +544,7 @@ void Renderer::make_light_resources() {
     std::vector<glm::vec2> disk = poisson_disk(t_.filter.taps);
     const Camera& cam = s_.camera;
     bool persp = cam.type == ProjectionType::perspective;
-    double sy = persp ? std::tan(cam.yfov_rad / 2) : cam.ymag;
-    double sx = persp ? sy * s_.width / s_.height : cam.xmag;
+    glm::dvec2 plane = ndc_to_image_plane(cam, s_.width, s_.height);
     for (std::size_t li = 0; li < n; ++li) {
         const Light& light = s_.lights[li];
         RasterLightStats ls;
@@ -545,8 +553,8 @@ void Renderer::make_light_resources() {
 
         gpu::LookupParams p{};
         p.cam_forward = glm::vec4(glm::vec3(cam.forward), persp ? 1.0f : 0.0f);
-        p.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(sx));
-        p.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(sy));
+        p.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
+        p.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
         p.image = glm::vec4(s_.width, s_.height, 1.0f / s_.width, 1.0f / s_.height);
         p.light_pos = glm::vec4(glm::vec3(light.position - origin_), 0.0f);
         p.light_dir = glm::vec4(glm::vec3(light.direction), static_cast<float>(std::cos(light.outer_cone_rad)));
@@ -581,8 +589,7 @@ void Renderer::make_light_resources() {
         lookup_sets_.push_back(set);
         VkDescriptorImageInfo gb{VK_NULL_HANDLE, gbuffer_prim_.view.get(), VK_IMAGE_LAYOUT_GENERAL};
         VkDescriptorImageInfo depth{nearest_.get(), shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-        VkDescriptorImageInfo prim{nearest_uint_.get(), shadow_prim_.view.get(),
-                                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        VkDescriptorImageInfo prim{nearest_.get(), shadow_prim_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         VkDescriptorImageInfo cmp{compare_.get(), shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         VkDescriptorBufferInfo pos{positions_.buffer.get(), 0, VK_WHOLE_SIZE};
         VkDescriptorBufferInfo idx{indices_.buffer.get(), 0, VK_WHOLE_SIZE};
@@ -667,14 +674,7 @@ void Renderer::record_camera_and_masks(VkCommandBuffer cmd) {
                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
     begin_rendering(cmd, gbuffer_prim_.view.get(), gbuffer_depth_.view.get(), W_, H_, 0.0f);
     if (index_count_ > 0) {
-        double far = s_.camera.znear * 2;
-        for (int i = 0; i < 8; ++i) {
-            const Bounds& b = s_.scene.bounds;
-            glm::dvec3 c(i & 1 ? b.hi.x : b.lo.x, i & 2 ? b.hi.y : b.lo.y, i & 4 ? b.hi.z : b.lo.z);
-            far = std::max(far, glm::dot(c - s_.camera.eye, s_.camera.forward) * 1.01 + 1e-6);
-        }
-        far = std::min(far, std::min(s_.camera.zfar, 3.0e38));
-        glm::mat4 vp = camera_matrix(s_.camera, s_.width, s_.height, far);
+        glm::mat4 vp = camera_matrix(s_.camera, s_.width, s_.height, s_.scene.bounds);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, camera_pipeline_.get());
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, camera_layout_.get(), 0, 1, &camera_set_, 0,
                                 nullptr);
@@ -706,7 +706,7 @@ void Renderer::record_camera_and_masks(VkCommandBuffer cmd) {
     std::uint32_t gx = (W_ + 7) / 8, gy = (H_ + 7) / 8;
     for (std::size_t li = 0; li < s_.lights.size(); ++li) {
         if (s_.lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, mask_pipelines_[li].get());
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, mask_pipeline_.get());
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &lookup_sets_[li], 0,
                                 nullptr);
         vkCmdDispatch(cmd, gx, gy, 1);
@@ -763,7 +763,7 @@ void Renderer::record_light(VkCommandBuffer cmd, std::size_t li) {
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
     }
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_pipelines_[li].get());
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_pipelines_[light_kind(s_.lights[li].type)].get());
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &lookup_sets_[li], 0,
                             nullptr);
     vkCmdDispatch(cmd, (W_ + 7) / 8, (H_ + 7) / 8, 1);
@@ -772,13 +772,22 @@ void Renderer::record_light(VkCommandBuffer cmd, std::size_t li) {
                    VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 
-double Renderer::query_ms(std::uint32_t a, std::uint32_t b) const {
-    std::uint64_t t[2];
-    VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), a, 1, sizeof(std::uint64_t), &t[0],
-                                   sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-    VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), b, 1, sizeof(std::uint64_t), &t[1],
-                                   sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-    return t[1] >= t[0] ? static_cast<double>(t[1] - t[0]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
+void Renderer::read_timings() {
+    std::vector<std::uint64_t> t(query_count_);
+    VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), 0, query_count_, t.size() * sizeof(std::uint64_t),
+                                   t.data(), sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    auto ms = [&](std::uint32_t a, std::uint32_t b) {
+        return t[b] >= t[a] ? static_cast<double>(t[b] - t[a]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
+    };
+    stats_.camera_ms = ms(0, 1);
+    stats_.mask_ms = ms(2, 3);
+    for (std::size_t li = 0; li < s_.lights.size(); ++li) {
+        std::uint32_t q = static_cast<std::uint32_t>(4 + 3 * li);
+        stats_.lights[li].shadow_ms = ms(q, q + 1);
+        stats_.lights[li].lookup_ms = ms(q + 1, q + 2);
+        stats_.shadow_ms += stats_.lights[li].shadow_ms;
+        stats_.lookup_ms += stats_.lights[li].lookup_ms;
+    }
 }
 
 void Renderer::read_back(RasterResult& out) {
@@ -839,15 +848,7 @@ RasterResult Renderer::run() {
     });
     stats_.render_s = elapsed(t1);
 
-    stats_.camera_ms = query_ms(0, 1);
-    stats_.mask_ms = query_ms(2, 3);
-    for (std::size_t li = 0; li < s_.lights.size(); ++li) {
-        std::uint32_t q = static_cast<std::uint32_t>(4 + 3 * li);
-        stats_.lights[li].shadow_ms = query_ms(q, q + 1);
-        stats_.lights[li].lookup_ms = query_ms(q + 1, q + 2);
-        stats_.shadow_ms += stats_.lights[li].shadow_ms;
-        stats_.lookup_ms += stats_.lights[li].lookup_ms;
-    }
+    read_timings();
     RasterResult out;
     read_back(out);
     out.stats = std::move(stats_);

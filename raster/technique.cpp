@@ -9,38 +9,22 @@ namespace penumbra::raster {
 
 using nlohmann::json;
 
+// Names indexed by the enums' values, in declaration order (technique.h).
 const char* to_string(Fit f) {
-    switch (f) {
-        case Fit::scene_sphere: return "scene_sphere";
-        case Fit::scene_bounds: return "scene_bounds";
-        case Fit::camera_frustum: return "camera_frustum";
-    }
-    return "?";
+    static const char* const kNames[] = {"scene_sphere", "scene_bounds", "camera_frustum"};
+    return kNames[static_cast<int>(f)];
 }
 const char* to_string(DepthFormat f) {
-    switch (f) {
-        case DepthFormat::d16: return "d16";
-        case DepthFormat::d24: return "d24";
-        case DepthFormat::d32: return "d32";
-    }
-    return "?";
+    static const char* const kNames[] = {"d16", "d24", "d32"};
+    return kNames[static_cast<int>(f)];
 }
 const char* to_string(Cull c) {
-    switch (c) {
-        case Cull::none: return "none";
-        case Cull::back: return "back";
-        case Cull::front: return "front";
-    }
-    return "?";
+    static const char* const kNames[] = {"none", "back", "front"};
+    return kNames[static_cast<int>(c)];
 }
 const char* to_string(FilterType f) {
-    switch (f) {
-        case FilterType::none: return "none";
-        case FilterType::hw2x2: return "hw2x2";
-        case FilterType::pcf: return "pcf";
-        case FilterType::poisson: return "poisson";
-    }
-    return "?";
+    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson"};
+    return kNames[static_cast<int>(f)];
 }
 
 const std::vector<Preset>& presets() {

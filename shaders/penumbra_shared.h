@@ -24,25 +24,25 @@ PENUMBRA_CONST uint kNoPrim = 0xFFFFFFFFu;
 PENUMBRA_CONST uint kBindingDoubleSided = 0;
 
 // Lookup pass (one dispatch per light).
-PENUMBRA_CONST uint kBindingGBufferPrim = 0;   // r32ui storage image: triangle seen per pixel
-PENUMBRA_CONST uint kBindingPositions = 1;     // float[3 * vertices], camera-relative
-PENUMBRA_CONST uint kBindingIndices = 2;       // uint[3 * triangles]
-PENUMBRA_CONST uint kBindingShadowDepth = 3;   // sampler2DArray, nearest (texelFetch)
-PENUMBRA_CONST uint kBindingShadowPrim = 4;    // usampler2DArray (texelFetch)
-PENUMBRA_CONST uint kBindingShadowCompare = 5; // sampler2DArrayShadow, linear when supported
-PENUMBRA_CONST uint kBindingLookupParams = 6;  // uniform LookupParams
-PENUMBRA_CONST uint kBindingLookupOut = 7;     // LookupTexel[pixels]
-PENUMBRA_CONST uint kBindingFaceMask = 8;      // uint: bit f = cube face f is sampled
+PENUMBRA_CONST uint kBindingGBufferPrim = 0;    // r32ui storage image: triangle seen per pixel
+PENUMBRA_CONST uint kBindingPositions = 1;      // float[3 * vertices], camera-relative
+PENUMBRA_CONST uint kBindingIndices = 2;        // uint[3 * triangles]
+PENUMBRA_CONST uint kBindingShadowDepth = 3;    // sampler2DArray, nearest (texelFetch)
+PENUMBRA_CONST uint kBindingShadowPrim = 4;     // usampler2DArray (texelFetch)
+PENUMBRA_CONST uint kBindingShadowCompare = 5;  // sampler2DArrayShadow, linear when supported
+PENUMBRA_CONST uint kBindingLookupParams = 6;   // uniform LookupParams
+PENUMBRA_CONST uint kBindingLookupOut = 7;      // LookupTexel[pixels]
+PENUMBRA_CONST uint kBindingFaceMask = 8;       // uint: bit f = cube face f is sampled
 
 // Specialization constants of the lookup shader.
-PENUMBRA_CONST uint kSpecLightKind = 0;    // kLight*
-PENUMBRA_CONST uint kSpecFilter = 1;       // kFilter*
-PENUMBRA_CONST uint kSpecPcfSize = 2;      // taps per side of the grid
-PENUMBRA_CONST uint kSpecPoissonTaps = 3;  // number of Poisson-disk taps
-PENUMBRA_CONST uint kSpecBilinearTaps = 4; // 1: each grid tap is a 2x2 bilinear compare
-PENUMBRA_CONST uint kSpecReceiverPlane = 5;// 1: receiver-plane depth bias
-PENUMBRA_CONST uint kSpecHardwareCompare = 6; // 1: 2x2 taps use the linear comparison sampler
-PENUMBRA_CONST uint kSpecMode = 7;         // kMode*
+PENUMBRA_CONST uint kSpecLightKind = 0;        // kLight*
+PENUMBRA_CONST uint kSpecFilter = 1;           // kFilter*
+PENUMBRA_CONST uint kSpecPcfSize = 2;          // taps per side of the grid
+PENUMBRA_CONST uint kSpecPoissonTaps = 3;      // number of Poisson-disk taps
+PENUMBRA_CONST uint kSpecBilinearTaps = 4;     // 1: each grid tap is a 2x2 bilinear compare
+PENUMBRA_CONST uint kSpecReceiverPlane = 5;    // 1: receiver-plane depth bias
+PENUMBRA_CONST uint kSpecHardwareCompare = 6;  // 1: 2x2 taps use the linear comparison sampler
+PENUMBRA_CONST uint kSpecMode = 7;             // kMode*
 
 PENUMBRA_CONST uint kLightDirectional = 0;
 PENUMBRA_CONST uint kLightSpot = 1;
@@ -65,18 +65,18 @@ PENUMBRA_CONST uint kFlagOutsideCone = 4u;  // spot light: outside the cone, V =
 PENUMBRA_CONST uint kFlagOutsideMap = 8u;   // the lookup fell outside the light's map: V = 1
 
 struct LookupParams {
-    vec4 cam_forward;  // xyz; w = 1 perspective, 0 orthographic
-    vec4 cam_right;    // xyz; w = tan(yfov/2) * aspect (perspective) or xmag
-    vec4 cam_up;       // xyz; w = tan(yfov/2) (perspective) or ymag
-    vec4 image;        // width, height, 1/width, 1/height
-    vec4 light_pos;    // camera-relative position (spot, point); w unused
-    vec4 light_dir;    // unit direction light travels (directional, spot); w = cos(outer cone)
-    vec4 bias;         // world metres, normal offset (texels), shader depth, hardware constant (depth units)
-    vec4 bias2;        // hardware slope factor, hardware clamp, format r (0 = float), unused
-    vec4 map;          // resolution, 1/resolution, filter radius (texels), layer count
-    vec4 footprint;    // x: metres per texel (orthographic); y: 2 tan(fov/2)/resolution (perspective)
-    mat4 view_proj[6]; // light clip space from camera-relative position, per layer
-    vec4 light_axis[6];// perspective: unit forward axis of each layer
+    vec4 cam_forward;    // xyz; w = 1 perspective, 0 orthographic
+    vec4 cam_right;      // xyz; w = tan(yfov/2) * aspect (perspective) or xmag
+    vec4 cam_up;         // xyz; w = tan(yfov/2) (perspective) or ymag
+    vec4 image;          // width, height, 1/width, 1/height
+    vec4 light_pos;      // camera-relative position (spot, point); w unused
+    vec4 light_dir;      // unit direction light travels (directional, spot); w = cos(outer cone)
+    vec4 bias;           // world metres, normal offset (texels), shader depth, hardware constant (depth units)
+    vec4 bias2;          // hardware slope factor, hardware clamp, format r (0 = float), unused
+    vec4 map;            // resolution, 1/resolution, filter radius (texels), layer count
+    vec4 footprint;      // x: metres per texel (orthographic); y: 2 tan(fov/2)/resolution (perspective)
+    mat4 view_proj[6];   // light clip space from camera-relative position, per layer
+    vec4 light_axis[6];  // perspective: unit forward axis of each layer
     vec4 poisson[kMaxPoissonTaps / 2];  // two taps (x, y) per vec4, unit disk
 };
 
