@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <new>
@@ -14,11 +15,15 @@
 #include "common/json_reader.h"
 #include "common/output_files.h"
 #include "common/scenario.h"
+#include "metrics/classification.h"
+#include "metrics/gate.h"
 #include "oracle/oracle.h"
+#include "oracle/oracle_cache.h"
 #include "oracle/oracle_output.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
 #include "raster/technique.h"
+#include "report/report.h"
 
 namespace {
 
@@ -139,6 +144,155 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
     return kExitSuccess;
 }
 
+struct ValidateArgs {
+    std::filesystem::path gate_file;
+    std::filesystem::path junit_file;
+    std::filesystem::path cache_dir;
+    bool no_cache = false;
+    bool frames = false;
+    double tolerance = 1.0 / 255.0;
+};
+
+// The oracle's frame, from the cache when an earlier run traced the same thing.
+struct OracleForValidate {
+    OracleFrame frame;
+    nlohmann::json info;
+    bool cached = false;
+    double seconds = 0;
+};
+
+OracleForValidate oracle_for_validate(const Scenario& scenario, const Common& c, const ValidateArgs& v,
+                                      OutputTransaction& out) {
+    auto t0 = std::chrono::steady_clock::now();
+    OracleSettings settings;
+    settings.threads = c.threads;
+    settings.progress = !c.quiet;
+    OracleCache cache(v.no_cache             ? std::filesystem::path()
+                      : !v.cache_dir.empty() ? v.cache_dir
+                                             : OracleCache::default_dir());
+    const std::string key = oracle_cache_key(scenario, settings);
+    OracleForValidate o;
+    // --frames writes oracle.exr, whose P, N and depth the cache does not keep: trace.
+    if (!v.frames) {
+        if (auto hit = cache.load(key)) {
+            o.frame = std::move(hit->frame);
+            o.info = std::move(hit->info);
+            o.info["cache"] = {{"hit", true}, {"key", key}, {"dir", cache.dir().string()}};
+            o.cached = true;
+            o.seconds = seconds_since(t0);
+            return o;
+        }
+    }
+    OracleResult result = run_oracle(scenario, settings);
+    OracleTimings timings;
+    if (v.frames) timings.write_s = write_oracle_images(out, result.frame);
+    o.info = oracle_json(scenario, result, timings);
+    o.seconds = seconds_since(t0);
+    if (auto warning = cache.store(key, result.frame, o.info); warning && !c.quiet)
+        fmt::print(stderr, "warning: {}\n", *warning);
+    o.info["cache"] = {{"hit", false}, {"key", key}, {"dir", cache.dir().string()}};
+    o.frame = std::move(result.frame);
+    return o;
+}
+
+int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
+                         const ValidateArgs& v) {
+    auto t0 = std::chrono::steady_clock::now();
+    Scenario scenario = load_for_command(scenario_file, c);
+    // Everything the user wrote is checked before any work starts.
+    raster::Technique technique = resolve_technique(scenario, t);
+    const nlohmann::json gate_json = v.gate_file.empty() ? scenario.gate : read_json_file(v.gate_file);
+    const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
+    const metrics::Gate gate = metrics::parse_gate(gate_json, gate_label, scenario.lights.size());
+    raster::RasterTimings raster_timings;
+    raster_timings.load_s = seconds_since(t0);
+
+    OutputTransaction out(c.out);
+    OracleForValidate oracle = oracle_for_validate(scenario, c, v, out);
+
+    auto t1 = std::chrono::steady_clock::now();
+    raster::ContextOptions co;
+    co.device = t.device;
+    raster::VulkanContext ctx(co);
+    raster_timings.device_s = seconds_since(t1);
+    auto t2 = std::chrono::steady_clock::now();
+    raster::RasterResult raster = raster::run_raster(scenario, technique, ctx);
+    const double raster_s = seconds_since(t2);
+
+    auto t3 = std::chrono::steady_clock::now();
+    metrics::ScoringOptions so;
+    so.tolerance = static_cast<float>(v.tolerance);
+    so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
+    so.depth_quantum =
+        static_cast<float>(std::max(raster::depth_resolution(technique.depth_format), std::ldexp(1.0, -22)));
+    const std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
+    const metrics::FrameScore score = metrics::score_frames(oracle.frame, raster.frame, scoring);
+    const double metrics_s = seconds_since(t3);
+
+    report::ReportInputs in;
+    in.version = PENUMBRA_VERSION;
+    in.scenario = &scenario;
+    in.scenario_file = scenario_file;
+    in.technique = technique.to_json();
+    in.raster = raster::raster_json(scenario, technique, raster, raster_timings);
+    in.oracle = oracle.info;
+    in.scoring = scoring;
+    in.timing = {{"oracle_s", oracle.seconds},
+                 {"oracle_cached", oracle.cached},
+                 {"raster_s", raster_s},
+                 {"device_s", raster_timings.device_s},
+                 {"raster_ms",
+                  {{"shadow", raster.stats.shadow_ms},
+                   {"camera", raster.stats.camera_ms + raster.stats.lookup_ms},
+                   {"lookup", raster.stats.lookup_ms}}},
+                 {"metrics_s", metrics_s}};
+    std::vector<nlohmann::json> light_objects;
+    for (const auto& l : score.lights) light_objects.push_back(metrics::to_json(l));
+    const metrics::GateResult gate_result = metrics::evaluate_gate(gate, light_objects);
+    if (!gate.checks.empty()) in.gate = &gate_result;
+    const nlohmann::json report = report::report_json(in, score);
+
+    if (v.frames) {
+        raster::write_raster_outputs(out, scenario, technique, raster, raster_timings);
+    } else {
+        out.write_json("raster.json", in.raster);
+    }
+    out.write_json("oracle.json", oracle.info);
+    report::write_report(out, in, oracle.frame, raster.frame, score, report);
+    out.commit();
+    if (!v.junit_file.empty()) {
+        std::filesystem::path dir = v.junit_file.parent_path();
+        OutputTransaction junit(dir.empty() ? std::filesystem::path(".") : dir);
+        junit.write_text(v.junit_file.filename().string(), report::junit_xml(report));
+        junit.commit();
+    }
+
+    if (!c.quiet) {
+        for (const auto& w : raster.stats.warnings) fmt::print(stderr, "warning: {}\n", w);
+        fmt::print("validate: {}x{} px, {} lights; oracle {} ({:.3f} s), raster {:.3f} s, metrics {:.3f} s\n",
+                   scenario.width, scenario.height, scenario.lights.size(), oracle.cached ? "from cache" : "traced",
+                   oracle.seconds, raster_s, metrics_s);
+        for (std::size_t li = 0; li < score.lights.size(); ++li) {
+            const auto& s = score.lights[li];
+            std::string classes;
+            for (std::size_t k = 0; k < metrics::kErrorClasses.size(); ++k)
+                classes += fmt::format("{} {:.3f}%  ", metrics::to_string(metrics::kErrorClasses[k]),
+                                       100.0 * s.rate(metrics::kErrorClasses[k]));
+            fmt::print("  light {} ({}): wrong {:.3f}% of {} scored px: {}\n", li, to_string(scenario.lights[li].type),
+                       100.0 * s.wrong_fraction, s.pixels.scored, classes);
+        }
+        fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
+    }
+    if (!gate.checks.empty()) {
+        for (const auto& o : gate_result.outcomes)
+            if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
+        if (!c.quiet)
+            fmt::print("gate: {} ({} checks)\n", gate_result.passed ? "passed" : "FAILED", gate_result.outcomes.size());
+        if (!gate_result.passed) return kExitGateFailed;
+    }
+    return kExitSuccess;
+}
+
 int run_devices_command() {
     for (const auto& d : raster::list_devices())
         fmt::print("{}: {} ({}, Vulkan {}, {}){}\n", d.index, d.name, d.type, d.api_version, d.driver,
@@ -165,6 +319,22 @@ int main(int argc, char** argv) {
     add_common(raster, common);
     add_technique(raster, technique);
 
+    ValidateArgs validate_args;
+    CLI::App* validate =
+        app.add_subcommand("validate", "Oracle + raster + metrics: the verdict per pixel, reports and CI gates");
+    validate->add_option("SCENARIO", scenario, "Scenario JSON file")->required();
+    add_common(validate, common);
+    add_technique(validate, technique);
+    validate->add_option("--gate", validate_args.gate_file, "Gate JSON file (replaces the scenario's \"gate\")");
+    validate->add_option("--junit", validate_args.junit_file, "Write the gate's checks as JUnit XML to this file");
+    validate->add_option(
+        "--cache", validate_args.cache_dir,
+        "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
+    validate->add_flag("--no-cache", validate_args.no_cache, "Trace the oracle and keep nothing");
+    validate->add_flag("--frames", validate_args.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
+    validate->add_option("--tolerance", validate_args.tolerance, "tau: |error| above this plus the oracle's E is wrong")
+        ->check(CLI::Range(0.0, 1.0));
+
     CLI::App* devices = app.add_subcommand("devices", "List the Vulkan devices --device can choose");
 
     try {
@@ -176,6 +346,7 @@ int main(int argc, char** argv) {
     try {
         if (*oracle) return run_oracle_command(scenario, common);
         if (*raster) return run_raster_command(scenario, common, technique);
+        if (*validate) return run_validate_command(scenario, common, technique, validate_args);
         if (*devices) return run_devices_command();
     } catch (const InputError& e) {
         fmt::print(stderr, "error: {}\n", e.what());

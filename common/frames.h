@@ -53,6 +53,7 @@ struct RasterLightImage {
     std::vector<float> footprint_m;          // shadow-map texel size at the receiver, metres
     std::vector<float> texel_slope;          // receiver-plane depth change across half a texel (depth units)
     std::vector<float> bias_m;               // every bias together, as metres along the light ray (estimate)
+    std::vector<float> depth_to_m;           // metres along the light ray per depth unit, at the receiver
     std::vector<std::uint32_t> flags;        // kRaster*
 };
 

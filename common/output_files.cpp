@@ -1,6 +1,8 @@
 #include "common/output_files.h"
 
+#include <OpenImageIO/hash.h>
 #include <OpenImageIO/imageio.h>
+#include <OpenImageIO/strutil.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -94,6 +96,26 @@ void OutputTransaction::write_text(const std::string& name, const std::string& t
     out << text;
     out.close();
     if (!out) throw EnvironmentError(fmt::format("{}: cannot write", (dir_ / name).string()));
+}
+
+std::string OutputTransaction::written_bytes(const std::string& name) const {
+    for (const auto& [tmp, final_path] : files_) {
+        if (final_path.filename() != name) continue;
+        std::ifstream in(committed_ ? final_path : tmp, std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        if (!in && !in.eof()) break;
+        return bytes;
+    }
+    throw EnvironmentError(fmt::format("{}: cannot read back {}", dir_.string(), name));
+}
+
+std::string base64_encode(std::string_view bytes) {
+    return OIIO::Strutil::base64_encode(bytes);
+}
+
+std::string content_fingerprint(std::string_view bytes) {
+    const OIIO::farmhash::uint128_t h = OIIO::farmhash::Fingerprint128(bytes.data(), bytes.size());
+    return fmt::format("{:016x}{:016x}", OIIO::farmhash::Uint128High64(h), OIIO::farmhash::Uint128Low64(h));
 }
 
 void OutputTransaction::commit() {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace penumbra {
@@ -29,6 +30,9 @@ class OutputTransaction {
     void write_png(const std::string& name, int width, int height, const std::vector<float>& rgb);
     void write_json(const std::string& name, const nlohmann::json& value);
     void write_text(const std::string& name, const std::string& text);
+    // The bytes of a file this transaction wrote (before or after commit), e.g. to embed an
+    // image into a report.
+    std::string written_bytes(const std::string& name) const;
 
     void commit();  // renames every temporary into place
     const std::filesystem::path& dir() const { return dir_; }
@@ -40,5 +44,12 @@ class OutputTransaction {
     bool committed_ = false;
     std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // temp, final
 };
+
+// Standard base64 (RFC 4648), for data: URIs.
+std::string base64_encode(std::string_view bytes);
+
+// A 128-bit content fingerprint (farmhash Fingerprint128: stable across platforms and
+// releases) as 32 hex digits, for cache keys.
+std::string content_fingerprint(std::string_view bytes);
 
 }  // namespace penumbra

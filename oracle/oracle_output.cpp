@@ -51,14 +51,23 @@ std::vector<float> preview(const OracleFrame& f) {
 
 }  // namespace
 
-void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
-                          const OracleTimings& timings) {
-    const OracleFrame& f = result.frame;
-    const OracleStats& s = result.stats;
+double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
     auto t0 = std::chrono::steady_clock::now();
     out.write_exr("oracle.exr", f.width, f.height, exr_channels(f));
     out.write_png("oracle.png", f.width, f.height, preview(f));
-    double write_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
+                          const OracleTimings& timings) {
+    OracleTimings t = timings;
+    t.write_s = write_oracle_images(out, result.frame);
+    out.write_json("oracle.json", oracle_json(scenario, result, t));
+}
+
+nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result, const OracleTimings& timings) {
+    const OracleFrame& f = result.frame;
+    const OracleStats& s = result.stats;
 
     nlohmann::json lights = nlohmann::json::array();
     for (std::size_t li = 0; li < s.lights.size(); ++li) {
@@ -91,13 +100,13 @@ void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, cons
           {"build", s.build_s},
           {"trace", s.trace_s},
           {"boundary", s.boundary_s},
-          {"write", write_s}}},
+          {"write", timings.write_s}}},
         {"threads", s.threads},
         {"embree", s.embree_version},
         {"lights", lights},
         {"warnings", scenario.scene.warnings},
     };
-    out.write_json("oracle.json", j);
+    return j;
 }
 
 }  // namespace penumbra

@@ -8,8 +8,15 @@
 namespace penumbra {
 
 struct OracleTimings {
-    double load_s = 0;  // scenario + glTF
+    double load_s = 0;   // scenario + glTF
+    double write_s = 0;  // oracle.exr and oracle.png
 };
+
+// oracle.json's content.
+nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result, const OracleTimings& timings);
+
+// oracle.exr and oracle.png; returns the seconds they took.
+double write_oracle_images(OutputTransaction& out, const OracleFrame& frame);
 
 // Adds oracle.exr, oracle.png and oracle.json to the transaction (nothing is visible until it
 // commits).

@@ -75,8 +75,12 @@ double distance_to_box(const glm::dvec3& p, const Bounds& b) {
 }
 
 // The camera frustum's eight corners, far plane pulled in to the scene's extent.
-std::vector<glm::dvec3> camera_frustum_corners(const Camera& cam, int w, int h, const Bounds& scene) {
-    double zn = cam.znear, zf = std::max(zn * 1.0001, std::min(cam.zfar, farthest_along(scene, cam.eye, cam.forward)));
+std::vector<glm::dvec3> camera_frustum_corners(const Camera& cam, int w, int h, const Bounds& scene,
+                                               double shadow_distance) {
+    double zf = std::min(cam.zfar, farthest_along(scene, cam.eye, cam.forward));
+    if (shadow_distance > 0) zf = std::min(zf, shadow_distance);
+    double zn = cam.znear;
+    zf = std::max(zn * 1.0001, zf);
     glm::dvec2 plane = ndc_to_image_plane(cam, w, h);
     bool persp = cam.type == ProjectionType::perspective;
     std::vector<glm::dvec3> out;
@@ -90,7 +94,7 @@ std::vector<glm::dvec3> camera_frustum_corners(const Camera& cam, int w, int h, 
 }
 
 LightProjection fit_directional(const Light& light, const Scene& scene, const Camera& cam, int w, int h, Fit fit,
-                                int res, const glm::dvec3& origin) {
+                                int res, const glm::dvec3& origin, double shadow_distance) {
     LightProjection lp;
     Basis b = light_basis(light.direction);
     auto to_light_space = [&](const glm::dvec3& p) {
@@ -114,7 +118,7 @@ LightProjection fit_directional(const Light& light, const Scene& scene, const Ca
             for (const auto& p : scene.positions) grow(p);
             break;
         case Fit::camera_frustum: {  // reference 004: the camera frustum's corners
-            for (const auto& p : camera_frustum_corners(cam, w, h, scene.bounds)) grow(p);
+            for (const auto& p : camera_frustum_corners(cam, w, h, scene.bounds, shadow_distance)) grow(p);
             // Casters between the light and the frustum must still land in the map: pull the
             // near plane back to the scene (depth clamp would flatten them, not drop them).
             double lo_z = lo.z;
@@ -158,9 +162,10 @@ double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3
 }
 
 LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
-                          int image_height, Fit fit, int resolution, const glm::dvec3& origin) {
+                          int image_height, Fit fit, int resolution, const glm::dvec3& origin, double shadow_distance) {
     if (light.type == LightType::directional)
-        return fit_directional(light, scene, camera, image_width, image_height, fit, resolution, origin);
+        return fit_directional(light, scene, camera, image_width, image_height, fit, resolution, origin,
+                               shadow_distance);
 
     LightProjection lp;
     lp.perspective = true;

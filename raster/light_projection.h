@@ -30,7 +30,10 @@ struct LightProjection {
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis);
 
 // `origin` is the world position of the frame the vertices are expressed in (the camera eye).
+// `shadow_distance` > 0 ends the camera_frustum fit at that view depth (engines' "shadow
+// distance"): receivers beyond it fall outside the map.
 LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
-                          int image_height, Fit fit, int resolution, const glm::dvec3& origin);
+                          int image_height, Fit fit, int resolution, const glm::dvec3& origin,
+                          double shadow_distance = 0);
 
 }  // namespace penumbra::raster

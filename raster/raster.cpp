@@ -23,7 +23,7 @@ namespace penumbra::raster {
 
 static_assert(gpu::kFlagSurface == kRasterSurface && gpu::kFlagBackFacing == kRasterBackFacing &&
               gpu::kFlagOutsideCone == kRasterOutsideCone && gpu::kFlagOutsideMap == kRasterOutsideMap);
-static_assert(sizeof(gpu::LookupTexel) == 32);
+static_assert(sizeof(gpu::LookupTexel) == 36);
 
 namespace {
 
@@ -39,16 +39,6 @@ VkFormat vk_format(DepthFormat f) {
         case DepthFormat::d32: return VK_FORMAT_D32_SFLOAT;
     }
     return VK_FORMAT_D32_SFLOAT;
-}
-
-// The format's minimum resolvable difference r; 0 for float, where r depends on the depth.
-double format_r(DepthFormat f) {
-    switch (f) {
-        case DepthFormat::d16: return std::ldexp(1.0, -16);
-        case DepthFormat::d24: return std::ldexp(1.0, -24);
-        case DepthFormat::d32: return 0.0;
-    }
-    return 0.0;
 }
 
 glm::mat4 to_float(const glm::dmat4& m) {
@@ -548,7 +538,8 @@ void Renderer::make_light_resources() {
     for (std::size_t li = 0; li < n; ++li) {
         const Light& light = s_.lights[li];
         RasterLightStats ls;
-        ls.projection = fit_light(light, s_.scene, cam, s_.width, s_.height, t_.fit, t_.resolution, origin_);
+        ls.projection =
+            fit_light(light, s_.scene, cam, s_.width, s_.height, t_.fit, t_.resolution, origin_, t_.shadow_distance);
         for (const auto& wmsg : ls.projection.warnings) stats_.warnings.push_back(wmsg);
 
         gpu::LookupParams p{};
@@ -559,7 +550,7 @@ void Renderer::make_light_resources() {
         p.light_pos = glm::vec4(glm::vec3(light.position - origin_), 0.0f);
         p.light_dir = glm::vec4(glm::vec3(light.direction), static_cast<float>(std::cos(light.outer_cone_rad)));
         p.bias = glm::vec4(t_.bias.world, t_.bias.normal_offset, t_.bias.shader_depth, t_.bias.constant);
-        p.bias2 = glm::vec4(t_.bias.slope, t_.bias.clamp, format_r(t_.depth_format), 0.0f);
+        p.bias2 = glm::vec4(t_.bias.slope, t_.bias.clamp, depth_resolution(t_.depth_format), 0.0f);
         p.map = glm::vec4(t_.resolution, 1.0f / t_.resolution, t_.filter.radius_texels,
                           static_cast<float>(ls.projection.view_proj.size()));
         p.footprint = glm::vec4(ls.projection.metres_per_texel, ls.projection.tan_per_texel, 0.0f, 0.0f);
@@ -809,6 +800,7 @@ void Renderer::read_back(RasterResult& out) {
         img.footprint_m.resize(pixels_);
         img.texel_slope.resize(pixels_);
         img.bias_m.resize(pixels_);
+        img.depth_to_m.resize(pixels_);
         img.flags.resize(pixels_);
         for (std::size_t i = 0; i < pixels_; ++i) {
             const gpu::LookupTexel& t = texels[i];
@@ -819,6 +811,7 @@ void Renderer::read_back(RasterResult& out) {
             img.footprint_m[i] = t.footprint_m;
             img.texel_slope[i] = t.texel_slope;
             img.bias_m[i] = t.bias_m;
+            img.depth_to_m[i] = t.depth_to_m;
             img.flags[i] = t.flags;
         }
         f.lights.push_back(std::move(img));

@@ -28,6 +28,7 @@ std::vector<ExrChannel> exr_channels(const RasterFrame& f) {
         add(p + "footprint_m", img.footprint_m);
         add(p + "texel_slope", img.texel_slope);
         add(p + "bias_m", img.bias_m);
+        add(p + "depth_to_m", img.depth_to_m);
         add_u(p + "flags", img.flags);
     }
     return ch;

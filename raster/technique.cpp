@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "common/errors.h"
 #include "common/json_reader.h"
 
@@ -22,6 +25,26 @@ const char* to_string(Cull c) {
     static const char* const kNames[] = {"none", "back", "front"};
     return kNames[static_cast<int>(c)];
 }
+double depth_resolution(DepthFormat f) {
+    switch (f) {
+        case DepthFormat::d16: return std::ldexp(1.0, -16);
+        case DepthFormat::d24: return std::ldexp(1.0, -24);
+        case DepthFormat::d32: return 0.0;
+    }
+    return 0.0;
+}
+
+double filter_reach_texels(const Filter& f) {
+    const double bilinear = f.bilinear_taps ? 0.5 : 0.0;
+    switch (f.type) {
+        case FilterType::none: return 1.0;
+        case FilterType::hw2x2: return 1.0;
+        case FilterType::pcf: return std::max(1.0, 0.5 * f.size + bilinear);
+        case FilterType::poisson: return std::max(1.0, f.radius_texels + bilinear);
+    }
+    return 1.0;
+}
+
 const char* to_string(FilterType f) {
     static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson"};
     return kNames[static_cast<int>(f)];
@@ -100,6 +123,9 @@ Technique parse_technique(const json& value, const std::string& label) {
     t.resolution = static_cast<int>(o.integer("resolution", 2048, 16, 16384));
     t.depth_format = pick(o, "depth_format", DepthFormat::d32, {DepthFormat::d16, DepthFormat::d24, DepthFormat::d32});
     t.fit = pick(o, "fit", Fit::scene_bounds, {Fit::scene_sphere, Fit::scene_bounds, Fit::camera_frustum});
+    t.shadow_distance = o.number_in("shadow_distance", 0.0, 0.0, 1e12, "metres >= 0 (0: the whole view)");
+    if (t.shadow_distance > 0 && t.fit != Fit::camera_frustum)
+        o.fail("shadow_distance", "only the camera_frustum fit has a shadow distance");
     t.cull = pick(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
     if (o.has("bias")) {
         JsonObject b = o.object("bias");
@@ -132,6 +158,7 @@ json Technique::to_json() const {
     json j{{"resolution", resolution},
            {"depth_format", to_string(depth_format)},
            {"fit", to_string(fit)},
+           {"shadow_distance", shadow_distance},
            {"cull", to_string(cull)},
            {"bias",
             {{"constant", bias.constant},

@@ -36,6 +36,7 @@ struct Technique {
     int resolution = 2048;
     DepthFormat depth_format = DepthFormat::d32;
     Fit fit = Fit::scene_bounds;
+    double shadow_distance = 0;  // camera_frustum: metres of view depth the map covers (0: all)
     Cull cull = Cull::back;
     Bias bias;
     Filter filter;
@@ -57,6 +58,14 @@ Technique parse_technique(const nlohmann::json& value, const std::string& label)
 // Applies `--set key.path=value` overrides: value is parsed as JSON when it is JSON
 // (numbers, true/false, quoted strings), else taken as a string.
 void apply_override(nlohmann::json& technique, const std::string& assignment);
+
+// The format's minimum resolvable difference r (depth units); 0 for float, where r depends on
+// the depth (Vulkan's depth-bias definition).
+double depth_resolution(DepthFormat f);
+
+// How far, in shadow-map texels, the filter reaches from the lookup point (at least one
+// texel): where a wrong verdict within that distance of a true boundary is aliasing.
+double filter_reach_texels(const Filter& f);
 
 const char* to_string(Fit f);
 const char* to_string(DepthFormat f);

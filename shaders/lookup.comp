@@ -145,6 +145,7 @@ void main() {
     o.footprint_m = 0.0;
     o.texel_slope = 0.0;
     o.bias_m = 0.0;
+    o.depth_to_m = 0.0;
     o.stored_prim = kNoPrim;
     o.flags = 0u;
 
@@ -217,6 +218,7 @@ void main() {
     int res = int(p.map.x);
     bool inside = all(greaterThanEqual(centre, ivec2(0))) && all(lessThan(centre, ivec2(res)));
     o.footprint_m = footprint;
+    o.depth_to_m = metres_per_depth;
     o.texel_slope = 0.5 * (abs(dz.x) + abs(dz.y));
     o.ref_depth = ref_at(centre, m, dz);
     if (inside || kLightKind == kLightPoint) {

@@ -88,6 +88,7 @@ struct LookupTexel {
     float footprint_m;   // shadow-map texel size at the receiver, metres
     float texel_slope;   // receiver-plane depth change across half a texel (depth units)
     float bias_m;        // total bias expressed as metres along the light ray
+    float depth_to_m;    // metres along the light ray per depth unit at the receiver
     uint stored_prim;    // triangle stored in the centre texel
     uint flags;          // kFlag*
 };

@@ -1,0 +1,226 @@
+#include "metrics/classification.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "metrics/perceptual.h"
+
+namespace penumbra::metrics {
+
+std::string_view to_string(PixelClass c) {
+    static constexpr std::string_view kNames[kPixelClassCount] = {
+        "background", "back_facing", "uncertain",     "coverage_mismatch", "correct",
+        "aliasing",   "acne",        "peter_panning", "false_shadow",      "false_lit"};
+    return kNames[static_cast<int>(c)];
+}
+
+double LightScore::rate(PixelClass c) const {
+    for (std::size_t k = 0; k < kErrorClasses.size(); ++k)
+        if (kErrorClasses[k] == c) return pixels.scored ? static_cast<double>(counts[k]) / pixels.scored : 0.0;
+    return 0.0;
+}
+
+namespace {
+
+std::size_t class_slot(PixelClass c) {
+    return static_cast<std::size_t>(std::find(kErrorClasses.begin(), kErrorClasses.end(), c) - kErrorClasses.begin());
+}
+
+// Sums of one image row; rows are added in order afterwards so the totals do not depend on
+// how the rows were shared between threads.
+struct RowSums {
+    PixelCounts pixels;
+    std::array<std::uint64_t, 5> counts{};
+    double abs_sum = 0, sq_sum = 0, signed_sum = 0;
+    double gap_sum = 0, gap_max = 0, acne_sum = 0, acne_max = 0;
+
+    void add(const RowSums& r) {
+        pixels.surface += r.pixels.surface;
+        pixels.scored += r.pixels.scored;
+        pixels.back_facing += r.pixels.back_facing;
+        pixels.uncertain += r.pixels.uncertain;
+        pixels.coverage_mismatch += r.pixels.coverage_mismatch;
+        for (std::size_t k = 0; k < counts.size(); ++k) counts[k] += r.counts[k];
+        abs_sum += r.abs_sum;
+        sq_sum += r.sq_sum;
+        signed_sum += r.signed_sum;
+        gap_sum += r.gap_sum;
+        gap_max = std::max(gap_max, r.gap_max);
+        acne_sum += r.acne_sum;
+        acne_max = std::max(acne_max, r.acne_max);
+    }
+};
+
+// The wrong pixel's class, in design.md's order: aliasing, acne, peter-panning, the rest.
+PixelClass classify_wrong(float error, const OracleLightImage& o, std::uint32_t oracle_prim, const RasterLightImage& r,
+                          std::size_t i, const ScoringOptions& opt) {
+    const float footprint = r.footprint_m[i];
+    // 1. Within the filter's reach of a true boundary: finite resolution, not a bias problem.
+    if (footprint > 0 && o.boundary_m[i] <= opt.filter_reach_texels * footprint) return PixelClass::aliasing;
+    if (error < 0) {
+        // 2. The texel that shadowed the receiver holds its own surface: the same triangle, or
+        // a depth no further in front of the (biased) receiver than the receiver plane moves
+        // across the texel.
+        const bool in_map = (r.flags[i] & kRasterOutsideMap) == 0;
+        const float gap = r.ref_depth[i] - r.stored_depth[i];
+        if (in_map && (r.stored_prim[i] == oracle_prim || gap <= r.texel_slope[i] + opt.depth_quantum))
+            return PixelClass::acne;
+        return PixelClass::false_shadow;
+    }
+    // 3. The true occluder is nearer than the bias plus one texel: the shadow was biased away.
+    if (o.occluder_m[i] <= r.bias_m[i] + footprint) return PixelClass::peter_panning;
+    return PixelClass::false_lit;
+}
+
+LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t li, const ScoringOptions& opt,
+                       LightErrorImage& img) {
+    const OracleLightImage& o = of.lights[li];
+    const RasterLightImage& r = rf.lights[li];
+    const std::size_t n = of.pixel_count();
+    const int W = of.width;
+    img.error.assign(n, 0.0f);
+    img.cls.assign(n, static_cast<std::uint8_t>(PixelClass::background));
+    std::vector<RowSums> rows(static_cast<std::size_t>(of.height));
+
+    tbb::parallel_for(0, of.height, [&](int y) {
+        RowSums& s = rows[static_cast<std::size_t>(y)];
+        for (int x = 0; x < W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * W + x;
+            PixelClass c = PixelClass::background;
+            if (of.A[i] != 0) {
+                ++s.pixels.surface;
+                if (rf.A[i] == 0 || rf.prim[i] != of.prim[i]) {
+                    c = PixelClass::coverage_mismatch;
+                    ++s.pixels.coverage_mismatch;
+                } else if (o.lightable[i] == 0) {
+                    c = PixelClass::back_facing;
+                    ++s.pixels.back_facing;
+                } else if (o.U[i] != 0) {
+                    c = PixelClass::uncertain;
+                    ++s.pixels.uncertain;
+                } else {
+                    ++s.pixels.scored;
+                    const float e = r.V[i] - o.V[i];
+                    img.error[i] = e;
+                    s.abs_sum += std::abs(e);
+                    s.sq_sum += static_cast<double>(e) * e;
+                    s.signed_sum += e;
+                    c = PixelClass::correct;
+                    if (std::abs(e) > opt.tolerance + o.E[i]) {
+                        c = classify_wrong(e, o, of.prim[i], r, i, opt);
+                        ++s.counts[class_slot(c)];
+                        if (c == PixelClass::peter_panning) {
+                            s.gap_sum += o.occluder_m[i];
+                            s.gap_max = std::max(s.gap_max, static_cast<double>(o.occluder_m[i]));
+                        } else if (c == PixelClass::acne) {
+                            double depth = std::max(0.0f, (r.ref_depth[i] - r.stored_depth[i]) * r.depth_to_m[i]);
+                            s.acne_sum += depth;
+                            s.acne_max = std::max(s.acne_max, depth);
+                        }
+                    }
+                }
+            } else if (rf.A[i] != 0) {
+                c = PixelClass::coverage_mismatch;  // the raster path saw a surface where there is none
+            }
+            img.cls[i] = static_cast<std::uint8_t>(c);
+        }
+    });
+
+    RowSums t;
+    for (const RowSums& row : rows) t.add(row);
+    LightScore s;
+    s.pixels = t.pixels;
+    s.counts = t.counts;
+    for (auto c : t.counts) s.wrong += c;
+    if (t.pixels.scored > 0) {
+        const double scored = static_cast<double>(t.pixels.scored);
+        s.mae = t.abs_sum / scored;
+        s.rmse = std::sqrt(t.sq_sum / scored);
+        s.bias = t.signed_sum / scored;
+        s.wrong_fraction = static_cast<double>(s.wrong) / scored;
+    }
+    const auto pp = s.counts[class_slot(PixelClass::peter_panning)];
+    const auto acne = s.counts[class_slot(PixelClass::acne)];
+    s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
+    s.acne_depth = {acne ? t.acne_sum / acne : 0.0, t.acne_max};
+
+    // Both pictures agree wherever the pixel is not scored, so only scored differences show.
+    std::vector<float> truth(n), shown(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const bool scored = img.cls[i] >= static_cast<std::uint8_t>(PixelClass::correct);
+        truth[i] = of.A[i] != 0 ? o.V[i] : 0.0f;
+        shown[i] = scored ? r.V[i] : truth[i];
+    }
+    img.perceptual = perceptual_error(truth, shown, of.width, of.height, opt.pixels_per_degree);
+    double sum = 0, mx = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        if (of.A[i] != 0) {
+            sum += img.perceptual[i];
+            mx = std::max(mx, static_cast<double>(img.perceptual[i]));
+        }
+    s.perceptual = {t.pixels.surface ? sum / static_cast<double>(t.pixels.surface) : 0.0, mx};
+    return s;
+}
+
+void require_same_image(const OracleFrame& o, const RasterFrame& r) {
+    const std::size_t n = o.pixel_count();
+    if (o.width != r.width || o.height != r.height)
+        throw std::invalid_argument("score_frames: oracle and raster images differ in size");
+    if (o.lights.size() != r.lights.size())
+        throw std::invalid_argument("score_frames: oracle and raster frames differ in light count");
+    if (o.A.size() != n || o.prim.size() != n || r.A.size() != n || r.prim.size() != n)
+        throw std::invalid_argument("score_frames: a per-pixel image has the wrong size");
+    for (std::size_t li = 0; li < o.lights.size(); ++li) {
+        const auto& a = o.lights[li];
+        const auto& b = r.lights[li];
+        for (std::size_t size :
+             {a.V.size(), a.E.size(), a.U.size(), a.lightable.size(), a.occluder_m.size(), a.boundary_m.size(),
+              b.V.size(), b.ref_depth.size(), b.stored_depth.size(), b.stored_prim.size(), b.footprint_m.size(),
+              b.texel_slope.size(), b.bias_m.size(), b.depth_to_m.size(), b.flags.size()})
+            if (size != n) throw std::invalid_argument("score_frames: a light image has the wrong size");
+    }
+}
+
+}  // namespace
+
+FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, std::span<const ScoringOptions> options) {
+    require_same_image(oracle, raster);
+    if (options.empty() || (options.size() != 1 && options.size() != oracle.lights.size()))
+        throw std::invalid_argument("score_frames: need one ScoringOptions, or one per light");
+    FrameScore out;
+    out.images.resize(oracle.lights.size());
+    for (std::size_t li = 0; li < oracle.lights.size(); ++li)
+        out.lights.push_back(
+            score_light(oracle, raster, li, options.size() == 1 ? options[0] : options[li], out.images[li]));
+    return out;
+}
+
+nlohmann::json to_json(const LightScore& s) {
+    nlohmann::json counts = nlohmann::json::object(), rates = nlohmann::json::object();
+    for (std::size_t k = 0; k < kErrorClasses.size(); ++k) {
+        const std::string name(to_string(kErrorClasses[k]));
+        counts[name] = s.counts[k];
+        rates[name] = s.rate(kErrorClasses[k]);
+    }
+    return {{"pixels",
+             {{"surface", s.pixels.surface},
+              {"scored", s.pixels.scored},
+              {"back_facing", s.pixels.back_facing},
+              {"uncertain", s.pixels.uncertain},
+              {"coverage_mismatch", s.pixels.coverage_mismatch}}},
+            {"counts", counts},
+            {"rates", rates},
+            {"wrong", s.wrong},
+            {"mae", s.mae},
+            {"rmse", s.rmse},
+            {"wrong_fraction", s.wrong_fraction},
+            {"bias", s.bias},
+            {"peter_panning_gap", {{"mean", s.peter_panning_gap.mean}, {"max", s.peter_panning_gap.max}}},
+            {"acne_depth", {{"mean", s.acne_depth.mean}, {"max", s.acne_depth.max}}},
+            {"perceptual", {{"mean", s.perceptual.mean}, {"max", s.perceptual.max}}}};
+}
+
+}  // namespace penumbra::metrics

@@ -1,0 +1,83 @@
+// The verdict per pixel: compares what a technique decided (RasterFrame) with the truth
+// (OracleFrame) and gives every wrong pixel exactly one class, by the rules of design.md
+// ("What the error classes mean"); docs/metrics.md states each rule with its units.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "common/frames.h"
+
+namespace penumbra::metrics {
+
+// Per-pixel class ids, as stored in errors.exr (`light<i>.class`). Stable numbers.
+enum class PixelClass : std::uint8_t {
+    background = 0,         // no surface in the oracle's image
+    back_facing = 1,        // the surface cannot be lit (N.L <= 0, or outside a spot cone)
+    uncertain = 2,          // the oracle's answer is within float error of a boundary
+    coverage_mismatch = 3,  // the raster path saw another triangle (silhouettes)
+    correct = 4,            // scored, |error| within tolerance
+    aliasing = 5,
+    acne = 6,
+    peter_panning = 7,
+    false_shadow = 8,
+    false_lit = 9,
+};
+inline constexpr int kPixelClassCount = 10;
+std::string_view to_string(PixelClass c);
+
+// The five error classes in report order (counts/rates keys).
+inline constexpr std::array<PixelClass, 5> kErrorClasses = {
+    PixelClass::acne, PixelClass::peter_panning, PixelClass::aliasing, PixelClass::false_shadow, PixelClass::false_lit};
+
+// How one light is judged; the caller derives the last two from the technique.
+struct ScoringOptions {
+    float tolerance = 1.0f / 255.0f;   // tau: a pixel is wrong when |error| > tolerance + oracle E
+    float filter_reach_texels = 1.0f;  // aliasing band: this many texel footprints around a true boundary
+    float depth_quantum = 0.0f;        // the depth format's resolution r (depth units), 0 for float
+    double pixels_per_degree = 67.0;   // viewing condition of the perceptual error (FLIP's default)
+};
+
+struct PixelCounts {
+    std::uint64_t surface = 0, scored = 0, back_facing = 0, uncertain = 0, coverage_mismatch = 0;
+};
+
+struct MeanMax {
+    double mean = 0, max = 0;
+};
+
+struct LightScore {
+    PixelCounts pixels;
+    std::array<std::uint64_t, 5> counts{};  // indexed like kErrorClasses
+    std::uint64_t wrong = 0;
+    double mae = 0, rmse = 0, wrong_fraction = 0;
+    double bias = 0;            // mean signed error (raster - oracle) over scored pixels
+    MeanMax peter_panning_gap;  // metres along the shadow ray to the true occluder, peter-panning pixels
+    MeanMax acne_depth;         // metres the receiver lies behind its own stored surface, acne pixels
+    MeanMax perceptual;         // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
+    double rate(PixelClass c) const;
+};
+
+struct LightErrorImage {
+    std::vector<float> error;       // raster V - oracle V where scored, 0 elsewhere
+    std::vector<std::uint8_t> cls;  // PixelClass per pixel
+    std::vector<float> perceptual;  // per-pixel perceptual error
+};
+
+struct FrameScore {
+    std::vector<LightScore> lights;
+    std::vector<LightErrorImage> images;
+};
+
+// Scores every light of the two frames. `options` has one entry per light (or a single entry
+// used for all). Throws std::invalid_argument when the frames do not describe the same image.
+FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, std::span<const ScoringOptions> options);
+
+// The light's numbers as report.json writes them (design.md), less "index" and "type".
+nlohmann::json to_json(const LightScore& s);
+
+}  // namespace penumbra::metrics

@@ -1,0 +1,160 @@
+#include "metrics/perceptual.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace penumbra::metrics {
+
+namespace {
+
+using Kernel = std::vector<float>;  // odd length, centre in the middle
+
+int kernel_radius(double sigma) {
+    return std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
+}
+
+// Gaussian (order 0, sums to 1) or its first/second derivative (positive weights sum to 1,
+// as FLIP normalises its feature kernels).
+Kernel gaussian_kernel(double sigma, int order) {
+    const int r = kernel_radius(sigma);
+    Kernel k(static_cast<std::size_t>(2 * r + 1));
+    for (int x = -r; x <= r; ++x) {
+        const double g = std::exp(-0.5 * x * x / (sigma * sigma));
+        const double v = order == 0 ? g : order == 1 ? -x * g : (x * x / (sigma * sigma) - 1.0) * g;
+        k[static_cast<std::size_t>(x + r)] = static_cast<float>(v);
+    }
+    if (order == 2) {  // zero mean, so flat regions give no point response
+        double mean = 0;
+        for (float v : k) mean += v;
+        mean /= static_cast<double>(k.size());
+        for (float& v : k) v -= static_cast<float>(mean);
+    }
+    double norm = 0;
+    for (float v : k) norm += order == 0 ? v : std::max(0.0f, v);
+    for (float& v : k) v = static_cast<float>(v / norm);
+    return k;
+}
+
+// One separable pass over rows [y0, y1) with clamp-to-edge borders.
+void convolve_x(const std::vector<float>& in, std::vector<float>& out, int W, int y0, int y1, const Kernel& k) {
+    const int r = static_cast<int>(k.size() / 2);
+    tbb::parallel_for(y0, y1, [&](int y) {
+        const float* row = in.data() + static_cast<std::size_t>(y) * W;
+        float* dst = out.data() + static_cast<std::size_t>(y) * W;
+        for (int x = 0; x < W; ++x) {
+            float acc = 0;
+            if (x >= r && x + r < W) {
+                for (int j = -r; j <= r; ++j) acc += k[static_cast<std::size_t>(j + r)] * row[x + j];
+            } else {
+                for (int j = -r; j <= r; ++j)
+                    acc += k[static_cast<std::size_t>(j + r)] * row[std::clamp(x + j, 0, W - 1)];
+            }
+            dst[x] = acc;
+        }
+    });
+}
+
+void convolve_y(const std::vector<float>& in, std::vector<float>& out, int W, int H, int y0, int y1, const Kernel& k) {
+    const int r = static_cast<int>(k.size() / 2);
+    tbb::parallel_for(y0, y1, [&](int y) {
+        float* dst = out.data() + static_cast<std::size_t>(y) * W;
+        std::fill(dst, dst + W, 0.0f);
+        for (int j = -r; j <= r; ++j) {
+            const float w = k[static_cast<std::size_t>(j + r)];
+            const float* src = in.data() + static_cast<std::size_t>(std::clamp(y + j, 0, H - 1)) * W;
+            for (int x = 0; x < W; ++x) dst[x] += w * src[x];
+        }
+    });
+}
+
+float lightness(float Y) {  // CIE L* / 100 of luminance Y in [0, 1]
+    const float t = std::clamp(Y, 0.0f, 1.0f);
+    const float f = t > 0.008856f ? std::cbrt(t) : 7.787f * t + 16.0f / 116.0f;
+    return (116.0f * f - 16.0f) / 100.0f;
+}
+
+struct Features {
+    std::vector<float> edge, point;  // gradient magnitudes of first and second derivatives
+};
+
+}  // namespace
+
+std::vector<float> perceptual_error(const std::vector<float>& reference, const std::vector<float>& test, int W, int H,
+                                    double ppd) {
+    const std::size_t n = static_cast<std::size_t>(W) * H;
+    std::vector<float> err(n, 0.0f);
+    // Only rows near a difference can score above zero; the rest keep 0 and cost nothing.
+    int first = H, last = -1;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            if (reference[static_cast<std::size_t>(y) * W + x] != test[static_cast<std::size_t>(y) * W + x]) {
+                first = std::min(first, y);
+                last = y;
+                break;
+            }
+    if (last < 0) return err;
+
+    const double sigma_csf = ppd * std::sqrt(0.0047 / (2.0 * std::numbers::pi * std::numbers::pi));
+    const double sigma_feature = 0.5 * 0.082 * ppd;
+    const Kernel csf = gaussian_kernel(sigma_csf, 0);
+    const Kernel g0 = gaussian_kernel(sigma_feature, 0), g1 = gaussian_kernel(sigma_feature, 1),
+                 g2 = gaussian_kernel(sigma_feature, 2);
+    const int reach = static_cast<int>(std::max(csf.size(), g0.size()) / 2);
+    // Output rows [y0, y1) need input rows one kernel further; intermediate rows another.
+    const int y0 = std::max(0, first - reach), y1 = std::min(H, last + reach + 1);
+    const int in0 = std::max(0, y0 - reach), in1 = std::min(H, y1 + reach);
+
+    auto lightness_after_csf = [&](const std::vector<float>& Y) {
+        std::vector<float> h(n), v(n);
+        convolve_x(Y, h, W, in0, in1, csf);
+        convolve_y(h, v, W, H, y0, y1, csf);
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < W; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * W + x;
+                v[i] = lightness(v[i]);
+            }
+        return v;
+    };
+    auto features = [&](const std::vector<float>& Y) {
+        std::vector<float> l(n), h0(n), h1(n), h2(n), a(n), b(n);
+        for (int y = in0; y < in1; ++y)
+            for (int x = 0; x < W; ++x)
+                l[static_cast<std::size_t>(y) * W + x] = lightness(Y[static_cast<std::size_t>(y) * W + x]);
+        convolve_x(l, h0, W, in0, in1, g0);
+        convolve_x(l, h1, W, in0, in1, g1);
+        convolve_x(l, h2, W, in0, in1, g2);
+        Features f{std::vector<float>(n), std::vector<float>(n)};
+        convolve_y(h1, a, W, H, y0, y1, g0);  // d/dx
+        convolve_y(h0, b, W, H, y0, y1, g1);  // d/dy
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < W; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * W + x;
+                f.edge[i] = std::hypot(a[i], b[i]);
+            }
+        convolve_y(h2, a, W, H, y0, y1, g0);  // d2/dx2
+        convolve_y(h0, b, W, H, y0, y1, g2);  // d2/dy2
+        for (int y = y0; y < y1; ++y)
+            for (int x = 0; x < W; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * W + x;
+                f.point[i] = std::hypot(a[i], b[i]);
+            }
+        return f;
+    };
+
+    const std::vector<float> lr = lightness_after_csf(reference), lt = lightness_after_csf(test);
+    const Features fr = features(reference), ft = features(test);
+    for (int y = y0; y < y1; ++y)
+        for (int x = 0; x < W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * W + x;
+            const float colour = std::pow(std::abs(lr[i] - lt[i]), 0.7f);
+            const float df = std::max(std::abs(fr.edge[i] - ft.edge[i]), std::abs(fr.point[i] - ft.point[i]));
+            const float feature = std::pow(std::min(1.0f, df / std::numbers::sqrt2_v<float>), 0.5f);
+            err[i] = colour > 0 ? std::pow(colour, 1.0f - feature) : 0.0f;
+        }
+    return err;
+}
+
+}  // namespace penumbra::metrics

@@ -1,0 +1,189 @@
+#include "oracle/oracle_cache.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+
+#include "common/output_files.h"
+
+namespace penumbra {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Bump when the oracle's results change for the same input, so old entries stop matching.
+constexpr const char* kOracleAlgorithm = "penumbra-oracle-2";
+constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '1'};
+
+class KeyBytes {
+  public:
+    template <class T>
+    void add(const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        bytes_.append(reinterpret_cast<const char*>(&v), sizeof v);
+    }
+    template <class T>
+    void add_all(const std::vector<T>& v) {
+        add(v.size());
+        if (!v.empty()) bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    }
+    void add_text(std::string_view s) {
+        add(s.size());
+        bytes_.append(s);
+    }
+    const std::string& bytes() const { return bytes_; }
+
+  private:
+    std::string bytes_;
+};
+
+struct FileCloser {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+// Every per-pixel channel of a cached frame, in file order.
+template <class Frame, class Fn>
+void for_each_channel(Frame& f, Fn&& fn) {
+    fn(f.A);
+    fn(f.prim);
+    for (auto& l : f.lights) {
+        fn(l.V);
+        fn(l.E);
+        fn(l.U);
+        fn(l.lightable);
+        fn(l.occluder_m);
+        fn(l.boundary_m);
+    }
+}
+
+}  // namespace
+
+std::string oracle_cache_key(const Scenario& s, const OracleSettings& settings) {
+    KeyBytes k;
+    k.add_text(kOracleAlgorithm);
+    k.add_all(s.scene.positions);
+    k.add_all(s.scene.triangles);
+    k.add_all(s.scene.double_sided);
+    const Camera& c = s.camera;
+    k.add(c.type);
+    for (const glm::dvec3& v : {c.eye, c.forward, c.right, c.up}) k.add(v);
+    for (double v : {c.yfov_rad, c.xmag, c.ymag, c.znear, c.zfar}) k.add(v);
+    k.add(s.width);
+    k.add(s.height);
+    k.add(s.lights.size());
+    for (const Light& l : s.lights) {
+        k.add(l.type);
+        for (const glm::dvec3& v : {l.position, l.direction, l.u, l.v, l.normal}) k.add(v);
+        for (double v : {l.outer_cone_rad, l.radius}) k.add(v);
+    }
+    k.add(settings.boundary_bisection_steps);
+    return content_fingerprint(k.bytes());
+}
+
+OracleCache::OracleCache(fs::path dir, int max_entries) : dir_(std::move(dir)), max_entries_(max_entries) {}
+
+fs::path OracleCache::default_dir() {
+    if (const char* d = std::getenv("PENUMBRA_CACHE_DIR"); d && *d) return d;
+    if (const char* d = std::getenv("XDG_CACHE_HOME"); d && *d) return fs::path(d) / "penumbra";
+    if (const char* d = std::getenv("HOME"); d && *d) return fs::path(d) / ".cache" / "penumbra";
+    return {};
+}
+
+fs::path OracleCache::entry(const std::string& key) const {
+    return dir_ / ("oracle-" + key + ".bin");
+}
+
+std::optional<CachedOracle> OracleCache::load(const std::string& key) const {
+    if (dir_.empty()) return std::nullopt;
+    const fs::path file = entry(key);
+    File f(std::fopen(file.c_str(), "rb"));
+    if (!f) return std::nullopt;
+    auto read = [&](void* dst, std::size_t n) { return std::fread(dst, 1, n, f.get()) == n; };
+    char magic[8];
+    char stored_key[32];
+    std::int32_t size[2];
+    std::uint32_t lights = 0;
+    std::uint64_t info_len = 0;
+    CachedOracle c;
+    bool ok = read(magic, 8) && std::memcmp(magic, kMagic, 8) == 0 && read(stored_key, 32) &&
+              std::string_view(stored_key, 32) == key && read(size, sizeof size) && size[0] > 0 && size[1] > 0 &&
+              size[0] <= kMaxImageSide && size[1] <= kMaxImageSide && read(&lights, 4) && lights < 4096 &&
+              read(&c.frame.frame_origin, sizeof c.frame.frame_origin) && read(&info_len, 8) && info_len < (1u << 26);
+    std::string info(ok ? info_len : 0, '\0');
+    ok = ok && read(info.data(), info.size());
+    if (ok) {
+        c.frame.width = size[0];
+        c.frame.height = size[1];
+        c.frame.lights.resize(lights);
+        const std::size_t n = c.frame.pixel_count();
+        for_each_channel(c.frame, [&](auto& channel) {
+            channel.resize(n);
+            ok = ok && read(channel.data(), n * sizeof channel[0]);
+        });
+        ok = ok && std::fgetc(f.get()) == EOF;
+        c.info = nlohmann::json::parse(info, nullptr, false);
+        ok = ok && !c.info.is_discarded();
+    }
+    if (!ok) {
+        f.reset();
+        std::error_code ec;
+        fs::remove(file, ec);
+        return std::nullopt;
+    }
+    std::error_code ec;
+    fs::last_write_time(file, fs::file_time_type::clock::now(), ec);  // recently used: kept longest
+    return c;
+}
+
+std::optional<std::string> OracleCache::store(const std::string& key, const OracleFrame& frame,
+                                              const nlohmann::json& info) const {
+    if (dir_.empty()) return std::nullopt;
+    std::error_code ec;
+    fs::create_directories(dir_, ec);
+    const fs::path final_path = entry(key);
+    const fs::path tmp = dir_ / fmt::format(".oracle-{}.tmp-{}", key, ::getpid());
+    bool ok = false;
+    {
+        File f(std::fopen(tmp.c_str(), "wb"));
+        if (f) {
+            auto write = [&](const void* src, std::size_t n) { return std::fwrite(src, 1, n, f.get()) == n; };
+            const std::int32_t size[2] = {frame.width, frame.height};
+            const auto lights = static_cast<std::uint32_t>(frame.lights.size());
+            const std::string text = info.dump();
+            const std::uint64_t info_len = text.size();
+            ok = write(kMagic, 8) && write(key.data(), 32) && write(size, sizeof size) && write(&lights, 4) &&
+                 write(&frame.frame_origin, sizeof frame.frame_origin) && write(&info_len, 8) &&
+                 write(text.data(), text.size());
+            for_each_channel(frame, [&](const auto& channel) {
+                ok = ok && channel.size() == frame.pixel_count() &&
+                     write(channel.data(), channel.size() * sizeof channel[0]);
+            });
+            ok = std::fclose(f.release()) == 0 && ok;
+        }
+    }
+    if (ok) fs::rename(tmp, final_path, ec);
+    if (!ok || ec) {
+        fs::remove(tmp, ec);
+        return fmt::format("{}: could not store the oracle in the cache; the next run traces again", dir_.string());
+    }
+    // Keep the newest entries only.
+    std::vector<std::pair<fs::file_time_type, fs::path>> entries;
+    for (const auto& e : fs::directory_iterator(dir_, ec)) {
+        const std::string name = e.path().filename().string();
+        if (name.starts_with("oracle-") && name.ends_with(".bin"))
+            entries.emplace_back(fs::last_write_time(e.path(), ec), e.path());
+    }
+    std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (std::size_t i = static_cast<std::size_t>(std::max(max_entries_, 1)); i < entries.size(); ++i)
+        fs::remove(entries[i].second, ec);
+    return std::nullopt;
+}
+
+}  // namespace penumbra

@@ -1,0 +1,379 @@
+#include "report/report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "report/bitmap_font.h"
+
+namespace penumbra::report {
+
+namespace {
+
+using metrics::PixelClass;
+
+glm::vec3 class_colour(PixelClass c) {
+    switch (c) {
+        case PixelClass::background: return {0.0f, 0.0f, 0.0f};
+        case PixelClass::back_facing: return {0.09f, 0.09f, 0.12f};
+        case PixelClass::uncertain: return {0.6f, 0.1f, 0.6f};
+        case PixelClass::coverage_mismatch: return {0.3f, 0.3f, 0.3f};
+        case PixelClass::correct: return {0.35f, 0.35f, 0.35f};
+        case PixelClass::aliasing: return {1.0f, 0.8f, 0.05f};
+        case PixelClass::acne: return {0.95f, 0.08f, 0.05f};
+        case PixelClass::peter_panning: return {0.05f, 0.75f, 1.0f};
+        case PixelClass::false_shadow: return {0.55f, 0.2f, 1.0f};
+        case PixelClass::false_lit: return {0.15f, 0.9f, 0.2f};
+    }
+    return {1, 1, 1};
+}
+
+std::string css_colour(glm::vec3 linear) {
+    auto s = [](float v) {
+        v = std::clamp(v, 0.0f, 1.0f);
+        v = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+        return static_cast<int>(std::lround(v * 255.0f));
+    };
+    return fmt::format("#{:02x}{:02x}{:02x}", s(linear.r), s(linear.g), s(linear.b));
+}
+
+struct LegendEntry {
+    glm::vec3 colour;
+    std::string text;
+};
+
+// Appends a band under the image with a swatch and a label per entry, wrapping into rows.
+std::vector<float> with_legend(std::vector<float> rgb, int W, int H, const std::vector<LegendEntry>& entries,
+                               int& out_height) {
+    const int scale = W >= 640 ? 2 : 1;
+    const int line = (kGlyphHeight + 5) * scale, pad = 4 * scale, swatch = kGlyphHeight * scale;
+    // Lay out once to know the band's height.
+    std::vector<std::pair<int, int>> at;
+    int x = pad, y = pad;
+    for (const auto& e : entries) {
+        const int w = swatch + 2 * scale + text_width(e.text, scale) + 4 * pad;
+        if (x > pad && x + w > W) {
+            x = pad;
+            y += line;
+        }
+        at.emplace_back(x, y);
+        x += w;
+    }
+    const int band = y + line + pad;
+    out_height = H + band;
+    rgb.resize(3 * static_cast<std::size_t>(W) * out_height, 0.01f);
+    for (std::size_t k = 0; k < entries.size(); ++k) {
+        const int ex = at[k].first, ey = H + at[k].second;
+        for (int sy = 0; sy < swatch; ++sy)
+            for (int sx = 0; sx < swatch; ++sx) {
+                const int px = ex + sx, py = ey + sy;
+                if (px >= W || py >= out_height) continue;
+                float* p = &rgb[3 * (static_cast<std::size_t>(py) * W + px)];
+                p[0] = entries[k].colour.r;
+                p[1] = entries[k].colour.g;
+                p[2] = entries[k].colour.b;
+            }
+        draw_text(rgb, W, out_height, ex + swatch + 2 * scale, ey, entries[k].text, {0.9f, 0.9f, 0.9f}, scale);
+    }
+    return rgb;
+}
+
+std::vector<float> class_image(const OracleLightImage& o, const metrics::LightErrorImage& e, std::size_t n) {
+    std::vector<float> rgb(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto c = static_cast<PixelClass>(e.cls[i]);
+        // Correct pixels keep the shading of the truth, so the scene stays recognisable.
+        glm::vec3 col = c == PixelClass::correct ? glm::vec3(0.16f + 0.4f * o.V[i]) : class_colour(c);
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = col[k];
+    }
+    return rgb;
+}
+
+constexpr glm::vec3 kDarker{0.95f, 0.12f, 0.06f}, kBrighter{0.1f, 0.45f, 1.0f};
+
+std::vector<float> error_image(const OracleLightImage& o, const metrics::LightErrorImage& e, std::size_t n) {
+    std::vector<float> rgb(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto c = static_cast<PixelClass>(e.cls[i]);
+        glm::vec3 col = class_colour(PixelClass::background);
+        if (c >= PixelClass::correct) {
+            // Dim truth underneath; errors bright, small ones still visible (square-root ramp).
+            const glm::vec3 base(0.015f + 0.06f * o.V[i]);
+            const float t = std::sqrt(std::min(1.0f, std::abs(e.error[i])));
+            col = c == PixelClass::correct ? base : base + (e.error[i] < 0 ? kDarker : kBrighter) * (0.3f + 0.7f * t);
+        } else if (c != PixelClass::background) {
+            col = glm::vec3(0.01f);
+        }
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = std::min(col[k], 1.0f);
+    }
+    return rgb;
+}
+
+std::vector<float> compare_image(const std::vector<float>& A, const std::vector<float>& Vo,
+                                 const std::vector<float>& Vr, int W, int H) {
+    const int W2 = 2 * W;
+    std::vector<float> rgb(3 * static_cast<std::size_t>(W2) * H);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * W + x;
+            const float o = A[i] != 0 ? 0.08f + 0.8f * Vo[i] : 0.02f, r = A[i] != 0 ? 0.08f + 0.8f * Vr[i] : 0.02f;
+            for (int k = 0; k < 3; ++k) {
+                rgb[3 * (static_cast<std::size_t>(y) * W2 + x) + k] = o;
+                rgb[3 * (static_cast<std::size_t>(y) * W2 + W + x) + k] = r;
+            }
+        }
+    const int scale = W >= 640 ? 2 : 1;
+    draw_text(rgb, W2, H, 6 * scale, 6 * scale, "oracle (truth)", {1.0f, 0.85f, 0.2f}, scale);
+    draw_text(rgb, W2, H, W + 6 * scale, 6 * scale, "raster (technique)", {1.0f, 0.85f, 0.2f}, scale);
+    return rgb;
+}
+
+std::string html_escape(std::string_view s) {
+    std::string out;
+    for (char c : s) {
+        switch (c) {
+            case '&': out += "&amp;"; break;
+            case '<': out += "&lt;"; break;
+            case '>': out += "&gt;"; break;
+            case '"': out += "&quot;"; break;
+            default: out += c;
+        }
+    }
+    return out;
+}
+
+std::string xml_escape(std::string_view s) {
+    std::string out = html_escape(s);
+    std::string r;
+    for (char c : out) r += c == '\'' ? std::string("&apos;") : std::string(1, c);
+    return r;
+}
+
+std::string light_file(std::size_t li, const char* what) {
+    return fmt::format("light{}.{}.png", li, what);
+}
+
+std::string number(double v) {
+    return fmt::format("{:.4g}", v);
+}
+
+// A horizontal bar per error class: rates on one shared scale, so lights compare at a glance.
+std::string rate_chart(const nlohmann::json& light) {
+    double top = 1e-6;
+    for (auto c : metrics::kErrorClasses) top = std::max(top, light["rates"][std::string(to_string(c))].get<double>());
+    std::string svg = R"(<svg xmlns="http://www.w3.org/2000/svg" width="420" height="130" role="img">)";
+    int y = 4;
+    for (auto c : metrics::kErrorClasses) {
+        const std::string name(to_string(c));
+        const double rate = light["rates"][name].get<double>();
+        const int w = static_cast<int>(std::lround(220.0 * rate / top));
+        svg += fmt::format(R"(<text x="0" y="{}" font-size="12" fill="#ddd">{}</text>)", y + 13, name);
+        svg += fmt::format(R"(<rect x="105" y="{}" width="{}" height="16" fill="{}"/>)", y + 2, std::max(w, 1),
+                           css_colour(class_colour(c)));
+        svg += fmt::format(R"(<text x="{}" y="{}" font-size="12" fill="#ddd">{:.3f}%</text>)", 110 + w, y + 14,
+                           100.0 * rate);
+        y += 25;
+    }
+    return svg + "</svg>";
+}
+
+std::string html_page(const ReportInputs& in, const nlohmann::json& report, const OutputTransaction& out) {
+    auto img = [&](const std::string& file, const std::string& alt) {
+        return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(out.written_bytes(file)),
+                           html_escape(alt));
+    };
+    std::string h = R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>penumbra report</title>
+<style>
+body{font-family:system-ui,sans-serif;background:#16181d;color:#e6e6e6;margin:2em;max-width:1400px}
+h1,h2{font-weight:600} table{border-collapse:collapse;margin:.5em 0 1em} td,th{padding:.25em .8em;border-bottom:1px solid #333;text-align:right}
+th:first-child,td:first-child{text-align:left} img{max-width:100%;display:block;margin:.5em 0;image-rendering:pixelated}
+pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{color:#ff5252} .swatch{display:inline-block;width:.9em;height:.9em;margin-right:.4em;vertical-align:middle}
+.grid{display:grid;grid-template-columns:1fr 1fr;gap:1em}
+</style></head><body>
+)";
+    const Scenario& sc = *in.scenario;
+    h += fmt::format("<h1>penumbra report</h1>\n<p>Scenario <code>{}</code>, {}&times;{} pixels, {} light(s). ",
+                     html_escape(in.scenario_file.string()), sc.width, sc.height, sc.lights.size());
+    if (in.raster.contains("device"))
+        h += fmt::format("Raster device: {}. ", html_escape(in.raster["device"].value("name", "?")));
+    h += fmt::format("penumbra {}.</p>\n", html_escape(report.value("version", "")));
+    if (report.contains("gate")) {
+        const auto& g = report["gate"];
+        const bool passed = g["passed"].get<bool>();
+        h += fmt::format(
+            "<h2>Gate: <span class=\"{}\" "
+            "id=\"gate\">{}</span></h2>\n<table><tr><th>light</th><th>check</th><th>value</th><th>result</th></tr>\n",
+            passed ? "pass" : "fail", passed ? "passed" : "FAILED");
+        for (const auto& c : g["checks"])
+            h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n",
+                             c["light"].get<int>(), html_escape(c["name"].get<std::string>()),
+                             number(c["value"].get<double>()), c["passed"].get<bool>() ? "pass" : "fail",
+                             c["passed"].get<bool>() ? "pass" : "fail");
+        h += "</table>\n";
+    }
+    for (const auto& l : report["lights"]) {
+        const std::size_t li = l["index"].get<std::size_t>();
+        h += fmt::format("<h2>Light {} ({})</h2>\n", li, html_escape(l["type"].get<std::string>()));
+        h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th></tr>\n";
+        for (auto c : metrics::kErrorClasses) {
+            const std::string name(to_string(c));
+            h += fmt::format(
+                "<tr><td><span class=\"swatch\" "
+                "style=\"background:{}\"></span>{}</td><td>{}</td><td>{:.4f}%</td></tr>\n",
+                css_colour(class_colour(c)), name, l["counts"][name].get<std::uint64_t>(),
+                100.0 * l["rates"][name].get<double>());
+        }
+        h += "</table><table>\n";
+        for (const char* k : {"surface", "scored", "back_facing", "uncertain", "coverage_mismatch"})
+            h += fmt::format("<tr><td>{} pixels</td><td>{}</td></tr>\n", k, l["pixels"][k].get<std::uint64_t>());
+        h += fmt::format(
+            "<tr><td>MAE / RMSE</td><td>{} / {}</td></tr>\n<tr><td>wrong fraction</td><td>{}</td></tr>\n"
+            "<tr><td>peter-panning gap mean / max (m)</td><td>{} / {}</td></tr>\n"
+            "<tr><td>acne depth mean / max (m)</td><td>{} / {}</td></tr>\n"
+            "<tr><td>perceptual error mean / max</td><td>{} / {}</td></tr>\n</table></div>\n",
+            number(l["mae"].get<double>()), number(l["rmse"].get<double>()), number(l["wrong_fraction"].get<double>()),
+            number(l["peter_panning_gap"]["mean"].get<double>()), number(l["peter_panning_gap"]["max"].get<double>()),
+            number(l["acne_depth"]["mean"].get<double>()), number(l["acne_depth"]["max"].get<double>()),
+            number(l["perceptual"]["mean"].get<double>()), number(l["perceptual"]["max"].get<double>()));
+        h += "<div>" + rate_chart(l) + "</div></div>\n";
+        h += "<h3>Classes</h3>" + img(light_file(li, "classes"), fmt::format("class map, light {}", li));
+        h += "<h3>Signed error (red: raster darker, blue: raster brighter)</h3>" +
+             img(light_file(li, "error"), fmt::format("error map, light {}", li));
+        h += "<h3>Oracle and raster</h3>" +
+             img(light_file(li, "compare"), fmt::format("oracle and raster, light {}", li));
+    }
+    h += "<h2>Timing</h2>\n<table>\n";
+    const auto& t = report["timing"];
+    h += fmt::format("<tr><td>oracle ({})</td><td>{:.3f} s</td></tr>\n",
+                     t.value("oracle_cached", false) ? "cached" : "traced", t.value("oracle_s", 0.0));
+    h += fmt::format("<tr><td>raster, wall clock</td><td>{:.3f} s</td></tr>\n", t.value("raster_s", 0.0));
+    for (const auto& [k, v] : t["raster_ms"].items())
+        h += fmt::format("<tr><td>GPU {}</td><td>{:.2f} ms</td></tr>\n", html_escape(k), v.get<double>());
+    h += fmt::format("<tr><td>metrics</td><td>{:.3f} s</td></tr>\n</table>\n", t.value("metrics_s", 0.0));
+    h += "<h2>Technique</h2>\n<pre>" + html_escape(report["technique"].dump(2)) + "</pre>\n";
+    h += "<h2>Scoring</h2>\n<pre>" + html_escape(report["scoring"].dump(2)) + "</pre>\n";
+    // A broken embedded image is a console error, so a headless browser check notices it.
+    h += R"(<script>
+window.addEventListener("load", function () {
+  var broken = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
+  broken.forEach(function (i) { console.error("image did not load: " + i.alt); });
+  document.body.setAttribute("data-images", broken.length === 0 ? "ok" : "broken");
+});
+</script>
+</body></html>
+)";
+    return h;
+}
+
+}  // namespace
+
+nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& score) {
+    const Scenario& sc = *in.scenario;
+    nlohmann::json lights = nlohmann::json::array();
+    nlohmann::json scoring = nlohmann::json::array();
+    for (std::size_t li = 0; li < score.lights.size(); ++li) {
+        nlohmann::json l = {{"index", li}, {"type", to_string(sc.lights[li].type)}};
+        l.update(metrics::to_json(score.lights[li]));
+        lights.push_back(std::move(l));
+        const auto& o = in.scoring[li];
+        scoring.push_back({{"light", li},
+                           {"tolerance", o.tolerance},
+                           {"filter_reach_texels", o.filter_reach_texels},
+                           {"depth_quantum", o.depth_quantum},
+                           {"pixels_per_degree", o.pixels_per_degree}});
+    }
+    nlohmann::json r = {{"version", in.version},
+                        {"scenario", in.scenario_file.string()},
+                        {"image", {{"width", sc.width}, {"height", sc.height}}},
+                        {"technique", in.technique},
+                        {"lights", lights},
+                        {"scoring", scoring},
+                        {"timing", in.timing}};
+    if (in.raster.contains("device")) r["device"] = in.raster["device"];
+    if (in.gate) {
+        nlohmann::json checks = nlohmann::json::array();
+        for (const auto& o : in.gate->outcomes)
+            checks.push_back({{"name", o.name()},
+                              {"light", o.light},
+                              {"metric", o.metric},
+                              {"bound", o.bound},
+                              {"value", std::isfinite(o.value) ? nlohmann::json(o.value) : nlohmann::json(nullptr)},
+                              {"limit", o.limit},
+                              {"passed", o.passed},
+                              {"message", o.passed ? "" : o.failure()}});
+        r["gate"] = {{"passed", in.gate->passed}, {"checks", checks}};
+    }
+    return r;
+}
+
+void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
+                  const metrics::FrameScore& score, const nlohmann::json& report) {
+    const int W = oracle.width, H = oracle.height;
+    const std::size_t n = oracle.pixel_count();
+    std::vector<ExrChannel> channels;
+    for (std::size_t li = 0; li < score.images.size(); ++li) {
+        const auto& e = score.images[li];
+        channels.push_back({fmt::format("light{}.error", li), e.error, {}});
+        channels.push_back(
+            {fmt::format("light{}.class", li), {}, std::vector<std::uint32_t>(e.cls.begin(), e.cls.end())});
+        channels.push_back({fmt::format("light{}.perceptual", li), e.perceptual, {}});
+    }
+    out.write_exr("errors.exr", W, H, channels);
+
+    for (std::size_t li = 0; li < score.images.size(); ++li) {
+        const auto& e = score.images[li];
+        const auto& lj = report["lights"][li];
+        std::vector<LegendEntry> legend;
+        for (auto c : metrics::kErrorClasses)
+            legend.push_back(
+                {class_colour(c), fmt::format("{} {:.2f}%", to_string(c),
+                                              100.0 * lj["rates"][std::string(to_string(c))].get<double>())});
+        legend.push_back({class_colour(PixelClass::correct), "correct"});
+        for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
+            legend.push_back({class_colour(c), std::string(to_string(c))});
+        int h = 0;
+        auto classes = with_legend(class_image(oracle.lights[li], e, n), W, H, legend, h);
+        out.write_png(light_file(li, "classes"), W, h, classes);
+
+        const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
+                                                       {kBrighter, "raster brighter than truth"},
+                                                       {glm::vec3(0.06f), "within tolerance"},
+                                                       {glm::vec3(0.01f), "not scored"}};
+        auto errors = with_legend(error_image(oracle.lights[li], e, n), W, H, error_legend, h);
+        out.write_png(light_file(li, "error"), W, h, errors);
+        out.write_png(light_file(li, "compare"), 2 * W, H,
+                      compare_image(oracle.A, oracle.lights[li].V, raster.lights[li].V, W, H));
+    }
+    out.write_json("report.json", report);
+    out.write_text("report.html", html_page(in, report, out));
+}
+
+std::string junit_xml(const nlohmann::json& report) {
+    const std::string suite = "penumbra." + std::filesystem::path(report.value("scenario", "scenario")).stem().string();
+    std::string cases;
+    int tests = 0, failures = 0;
+    if (report.contains("gate"))
+        for (const auto& c : report["gate"]["checks"]) {
+            ++tests;
+            const std::string name = c["name"].get<std::string>();
+            const int light = c["light"].get<int>();
+            cases += fmt::format("    <testcase classname=\"{}.light{}\" name=\"{}\" time=\"0\">\n", xml_escape(suite),
+                                 light, xml_escape(name));
+            if (!c["passed"].get<bool>()) {
+                ++failures;
+                const std::string msg = c["message"].get<std::string>();
+                cases += fmt::format("      <failure message=\"{}\" type=\"gate\">{}</failure>\n", xml_escape(msg),
+                                     xml_escape(msg));
+            }
+            cases += "    </testcase>\n";
+        }
+    return fmt::format(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"penumbra\" tests=\"{0}\" failures=\"{1}\" "
+        "errors=\"0\">\n  <testsuite name=\"{2}\" tests=\"{0}\" failures=\"{1}\" errors=\"0\" skipped=\"0\" "
+        "time=\"{3}\">\n{4}  </testsuite>\n</testsuites>\n",
+        tests, failures, xml_escape(suite), report["timing"].value("metrics_s", 0.0), cases);
+}
+
+}  // namespace penumbra::report

@@ -1,0 +1,41 @@
+// What validate leaves behind for people and CI (design.md, "Output directory"):
+// report.json, errors.exr, the PNG maps, report.html and the JUnit file.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "common/frames.h"
+#include "common/output_files.h"
+#include "common/scenario.h"
+#include "metrics/classification.h"
+#include "metrics/gate.h"
+
+namespace penumbra::report {
+
+struct ReportInputs {
+    std::string version;  // penumbra's
+    const Scenario* scenario = nullptr;
+    std::filesystem::path scenario_file;
+    nlohmann::json technique;                      // resolved, every key
+    nlohmann::json raster;                         // raster.json: device, gpu_ms, per-light projections
+    nlohmann::json oracle;                         // oracle.json of the oracle run the verdict used
+    std::vector<metrics::ScoringOptions> scoring;  // per light
+    nlohmann::json timing;                         // report.json's "timing"
+    const metrics::GateResult* gate = nullptr;     // null: no gate given
+};
+
+// report.json (design.md's keys, and more).
+nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& score);
+
+// errors.exr, light<i>.classes.png, light<i>.error.png, light<i>.compare.png, report.json and
+// report.html (images embedded), added to the transaction.
+void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
+                  const metrics::FrameScore& score, const nlohmann::json& report);
+
+// JUnit XML of the gate in report.json: one testsuite, one testcase per light x check.
+std::string junit_xml(const nlohmann::json& report);
+
+}  // namespace penumbra::report

@@ -1,0 +1,288 @@
+// metrics on synthetic frames: every rule of design.md's error classes, the exclusions, the
+// summary numbers, the perceptual error and the gates. No Embree, no Vulkan.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/errors.h"
+#include "metrics/classification.h"
+#include "metrics/gate.h"
+#include "metrics/perceptual.h"
+#include "tests/metrics/synthetic_frames.h"
+
+namespace penumbra::metrics {
+namespace {
+
+using test::Frames;
+
+PixelClass class_of(const FrameScore& s, std::size_t i) {
+    return static_cast<PixelClass>(s.images[0].cls[i]);
+}
+
+TEST(Classification, AgreementScoresEveryPixelAndFindsNothingWrong) {
+    Frames f(8, 4);
+    FrameScore s = f.score();
+    EXPECT_EQ(s.lights[0].pixels.surface, 32u);
+    EXPECT_EQ(s.lights[0].pixels.scored, 32u);
+    EXPECT_EQ(s.lights[0].wrong, 0u);
+    EXPECT_EQ(s.lights[0].mae, 0.0);
+    EXPECT_EQ(class_of(s, 5), PixelClass::correct);
+}
+
+TEST(Classification, ExcludedPixelsAreCountedButNotScored) {
+    Frames f(4, 2);
+    f.o.A[0] = 0;  // background in both
+    f.r.A[0] = 0;
+    f.o.prim[0] = f.r.prim[0] = kNoPrimitive;
+    f.r.prim[1] = 8;          // the raster path saw another triangle
+    f.ol().lightable[2] = 0;  // faces away
+    f.ol().V[2] = 0;
+    f.ol().U[3] = 1;  // ambiguous truth
+    // Every excluded pixel also disagrees, which must not count.
+    for (std::size_t i = 1; i < 4; ++i) f.rl().V[i] = 1.0f - f.ol().V[i];
+    FrameScore s = f.score();
+    const LightScore& l = s.lights[0];
+    EXPECT_EQ(l.pixels.surface, 7u);
+    EXPECT_EQ(l.pixels.coverage_mismatch, 1u);
+    EXPECT_EQ(l.pixels.back_facing, 1u);
+    EXPECT_EQ(l.pixels.uncertain, 1u);
+    EXPECT_EQ(l.pixels.scored, 4u);
+    EXPECT_EQ(l.wrong, 0u);
+    EXPECT_EQ(class_of(s, 0), PixelClass::background);
+    EXPECT_EQ(class_of(s, 1), PixelClass::coverage_mismatch);
+    EXPECT_EQ(class_of(s, 2), PixelClass::back_facing);
+    EXPECT_EQ(class_of(s, 3), PixelClass::uncertain);
+}
+
+TEST(Classification, SurfaceOnlyTheRasterSawIsACoverageMismatch) {
+    Frames f(2, 1);
+    f.o.A[0] = 0;
+    f.o.prim[0] = kNoPrimitive;
+    FrameScore s = f.score();
+    EXPECT_EQ(class_of(s, 0), PixelClass::coverage_mismatch);
+    EXPECT_EQ(s.lights[0].pixels.surface, 1u);  // the oracle's surfaces only
+}
+
+TEST(Classification, ToleranceAddsTheOraclesConfidenceBound) {
+    Frames f(3, 1);
+    f.ol().V = {0.5f, 0.5f, 0.5f};
+    f.ol().E = {0.0f, 0.1f, 0.1f};
+    f.rl().V = {0.5f + 3.0f / 255.0f, 0.58f, 0.62f};
+    FrameScore s = f.score();
+    EXPECT_NE(class_of(s, 0), PixelClass::correct);  // 3/255 > 1/255, exact truth
+    EXPECT_EQ(class_of(s, 1), PixelClass::correct);  // 0.08 within 1/255 + 0.1
+    EXPECT_NE(class_of(s, 2), PixelClass::correct);  // 0.12 beyond it
+}
+
+TEST(Classification, NearATrueBoundaryWithinTheFiltersReachIsAliasing) {
+    Frames f(3, 1);
+    for (std::size_t i = 0; i < 3; ++i) f.rl().V[i] = 0.0f;  // false shadow everywhere
+    f.rl().stored_prim.assign(3, 99u);                       // cast by another triangle, far in front
+    f.rl().stored_depth.assign(3, 0.1f);
+    f.ol().boundary_m = {0.009f, 0.024f, 0.026f};  // footprint 0.01 m
+    ScoringOptions pcf5;
+    pcf5.filter_reach_texels = 2.5f;
+    FrameScore s = f.score(pcf5);
+    EXPECT_EQ(class_of(s, 0), PixelClass::aliasing);
+    EXPECT_EQ(class_of(s, 1), PixelClass::aliasing);
+    EXPECT_EQ(class_of(s, 2), PixelClass::false_shadow);
+    FrameScore narrow = f.score();  // one texel
+    EXPECT_EQ(class_of(narrow, 1), PixelClass::false_shadow);
+}
+
+TEST(Classification, FalseShadowFromTheReceiversOwnSurfaceIsAcne) {
+    Frames f(4, 1);
+    f.rl().V.assign(4, 0.0f);
+    // 0: the centre texel holds the receiver's own triangle, 0.002 depth units in front.
+    f.rl().ref_depth[0] = 0.502f;
+    f.rl().stored_depth[0] = 0.5f;
+    // 1: another triangle (a coplanar neighbour) within the receiver plane's slope.
+    f.rl().stored_prim[1] = 8;
+    f.rl().ref_depth[1] = 0.50005f;
+    f.rl().stored_depth[1] = 0.5f;
+    // 2: another triangle well in front: a real (but false) occluder.
+    f.rl().stored_prim[2] = 8;
+    f.rl().stored_depth[2] = 0.3f;
+    // 3: own triangle, but the lookup fell outside the map.
+    f.rl().flags[3] |= kRasterOutsideMap;
+    f.rl().stored_depth[3] = kNoDistance;
+    FrameScore s = f.score();
+    EXPECT_EQ(class_of(s, 0), PixelClass::acne);
+    EXPECT_EQ(class_of(s, 1), PixelClass::acne);
+    EXPECT_EQ(class_of(s, 2), PixelClass::false_shadow);
+    EXPECT_EQ(class_of(s, 3), PixelClass::false_shadow);
+    // Acne depth: how far (metres) the receiver sits behind its stored surface.
+    EXPECT_NEAR(s.lights[0].acne_depth.max, 0.002 * 10.0, 1e-6);
+    EXPECT_NEAR(s.lights[0].acne_depth.mean, (0.002 * 10.0 + 0.00005 * 10.0) / 2, 1e-6);
+}
+
+TEST(Classification, LightLostToBiasIsPeterPanningAndReportsTheGap) {
+    Frames f(3, 1);
+    f.rl().bias_m.assign(3, 0.05f);  // + one 0.01 m texel = 0.06 m reach
+    f.shadow(0, 0.03f);
+    f.shadow(1, 0.059f);
+    f.shadow(2, 0.2f);
+    FrameScore s = f.score();  // the raster says lit everywhere
+    EXPECT_EQ(class_of(s, 0), PixelClass::peter_panning);
+    EXPECT_EQ(class_of(s, 1), PixelClass::peter_panning);
+    EXPECT_EQ(class_of(s, 2), PixelClass::false_lit);
+    EXPECT_NEAR(s.lights[0].peter_panning_gap.max, 0.059, 1e-6);
+    EXPECT_NEAR(s.lights[0].peter_panning_gap.mean, 0.0445, 1e-6);
+    EXPECT_NEAR(s.lights[0].rate(PixelClass::peter_panning), 2.0 / 3.0, 1e-12);
+}
+
+TEST(Classification, AliasingTakesPrecedenceOverAcneAndPeterPanning) {
+    Frames f(2, 1);
+    f.rl().V[0] = 0.0f;                    // own-surface false shadow ...
+    f.shadow(1, 0.001f);                   // ... and a lost contact shadow
+    f.ol().boundary_m = {0.005f, 0.005f};  // both half a texel from a true boundary
+    FrameScore s = f.score();
+    EXPECT_EQ(class_of(s, 0), PixelClass::aliasing);
+    EXPECT_EQ(class_of(s, 1), PixelClass::aliasing);
+}
+
+TEST(Classification, SummaryNumbersUseScoredPixelsAsTheDenominator) {
+    Frames f(4, 1);
+    f.ol().U[3] = 1;                      // not scored
+    f.rl().V = {1.0f, 0.5f, 0.0f, 0.0f};  // errors 0, -0.5, -1 (pixel 3 unscored)
+    f.rl().stored_prim.assign(4, 99u);
+    f.rl().stored_depth.assign(4, 0.1f);
+    FrameScore s = f.score();
+    const LightScore& l = s.lights[0];
+    EXPECT_EQ(l.pixels.scored, 3u);
+    EXPECT_NEAR(l.mae, 1.5 / 3, 1e-9);
+    EXPECT_NEAR(l.rmse, std::sqrt(1.25 / 3), 1e-7);
+    EXPECT_NEAR(l.bias, -1.5 / 3, 1e-9);
+    EXPECT_NEAR(l.wrong_fraction, 2.0 / 3, 1e-12);
+    EXPECT_EQ(l.counts[3], 2u);  // false_shadow
+    EXPECT_FLOAT_EQ(s.images[0].error[2], -1.0f);
+    EXPECT_FLOAT_EQ(s.images[0].error[3], 0.0f);
+}
+
+TEST(Classification, RefusesFramesOfDifferentShape) {
+    Frames a(4, 2), b(2, 4);
+    ScoringOptions opt;
+    EXPECT_THROW(score_frames(a.o, b.r, std::span(&opt, 1)), std::invalid_argument);
+    b = Frames(4, 2);
+    b.r.lights[0].depth_to_m.clear();
+    EXPECT_THROW(score_frames(a.o, b.r, std::span(&opt, 1)), std::invalid_argument);
+}
+
+TEST(Classification, ReportObjectHasDesignKeys) {
+    Frames f(2, 2);
+    nlohmann::json j = to_json(f.score().lights[0]);
+    for (const char* k : {"surface", "scored", "back_facing", "uncertain", "coverage_mismatch"})
+        EXPECT_TRUE(j["pixels"].contains(k)) << k;
+    for (const char* k : {"acne", "peter_panning", "aliasing", "false_shadow", "false_lit"}) {
+        EXPECT_TRUE(j["counts"].contains(k)) << k;
+        EXPECT_TRUE(j["rates"].contains(k)) << k;
+    }
+    for (const char* k : {"mae", "rmse", "wrong_fraction"}) EXPECT_TRUE(j[k].is_number()) << k;
+    EXPECT_TRUE(j["peter_panning_gap"]["max"].is_number());
+}
+
+// ---- perceptual error
+
+std::vector<float> disc(int w, int h, float radius, float inside, float outside) {
+    std::vector<float> v(static_cast<std::size_t>(w) * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            v[static_cast<std::size_t>(y) * w + x] = std::hypot(x - w / 2.0f, y - h / 2.0f) < radius ? inside : outside;
+    return v;
+}
+
+TEST(Perceptual, IdenticalImagesHaveNoError) {
+    auto a = disc(64, 48, 10, 0.0f, 1.0f);
+    auto e = perceptual_error(a, a, 64, 48, 67);
+    for (float v : e) EXPECT_EQ(v, 0.0f);
+}
+
+TEST(Perceptual, BoundedAndGrowsWithTheDifference) {
+    auto truth = disc(64, 48, 10, 0.0f, 1.0f);
+    auto faint = disc(64, 48, 10, 0.9f, 1.0f);  // the shadow almost missing
+    auto half = disc(64, 48, 10, 0.5f, 1.0f);
+    auto ef = perceptual_error(truth, faint, 64, 48, 67), eh = perceptual_error(truth, half, 64, 48, 67);
+    double sf = 0, sh = 0;
+    for (std::size_t i = 0; i < ef.size(); ++i) {
+        EXPECT_GE(ef[i], 0.0f);
+        EXPECT_LE(ef[i], 1.0f);
+        sf += ef[i];
+        sh += eh[i];
+    }
+    EXPECT_GT(sf, sh);
+    EXPECT_GT(sh, 0.0);
+    // A difference far from the image's centre row range leaves distant rows at zero.
+    EXPECT_EQ(ef[0], 0.0f);
+}
+
+TEST(Perceptual, SmallShiftOfAnEdgeCostsLessThanAMissingShadow) {
+    auto truth = disc(96, 64, 16, 0.0f, 1.0f);
+    auto shifted = disc(96, 64, 17, 0.0f, 1.0f);
+    auto missing = disc(96, 64, 16, 1.0f, 1.0f);
+    auto es = perceptual_error(truth, shifted, 96, 64, 67), em = perceptual_error(truth, missing, 96, 64, 67);
+    double ss = 0, sm = 0;
+    for (std::size_t i = 0; i < es.size(); ++i) {
+        ss += es[i];
+        sm += em[i];
+    }
+    EXPECT_LT(ss, 0.5 * sm);  // measured 0.26: the CSF blur spreads the one-pixel ring over about three
+}
+
+// ---- gates
+
+nlohmann::json light_with(double acne_rate, double gap_max) {
+    nlohmann::json j = to_json(LightScore{});
+    j["rates"]["acne"] = acne_rate;
+    j["peter_panning_gap"]["max"] = gap_max;
+    return j;
+}
+
+TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
+    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
+        {"metric": "peter_panning_gap.max", "max": 0.05, "light": 1}]})"),
+                        "gate.json", 2);
+    GateResult ok = evaluate_gate(g, {light_with(0.0005, 1.0), light_with(0.0, 0.01)});
+    EXPECT_TRUE(ok.passed);
+    EXPECT_EQ(ok.outcomes.size(), 3u);  // acne on both lights, gap on light 1
+    GateResult bad = evaluate_gate(g, {light_with(0.0123, 1.0), light_with(0.0, 0.07)});
+    EXPECT_FALSE(bad.passed);
+    ASSERT_EQ(bad.outcomes.size(), 3u);
+    EXPECT_EQ(bad.outcomes[0].failure(), "light 0: rates.acne = 0.0123 > 0.001");
+    EXPECT_TRUE(bad.outcomes[1].passed);
+    EXPECT_EQ(bad.outcomes[2].failure(), "light 1: peter_panning_gap.max = 0.07 > 0.05");
+    EXPECT_EQ(bad.outcomes[0].name(), "rates.acne <= 0.001");
+}
+
+TEST(Gate, MinimumBoundsAndEmptyGates) {
+    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "pixels.scored", "min": 100}]})"), "g", 1);
+    nlohmann::json l = to_json(LightScore{});
+    l["pixels"]["scored"] = 50;
+    GateResult r = evaluate_gate(g, {l});
+    EXPECT_FALSE(r.passed);
+    EXPECT_EQ(r.outcomes[0].failure(), "light 0: pixels.scored = 50 < 100");
+    EXPECT_TRUE(evaluate_gate(parse_gate(nlohmann::json::object(), "g", 1), {l}).passed);
+}
+
+void expect_gate_error(const char* text, const std::string& fragment, std::size_t lights = 2) {
+    try {
+        parse_gate(nlohmann::json::parse(text), "gate.json", lights);
+        ADD_FAILURE() << "accepted: " << text;
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+}
+
+TEST(Gate, BadGatesNameThePathAndWhatWasExpected) {
+    expect_gate_error(R"({"checks": [{"metric": "rates.acn", "max": 1}]})",
+                      "checks[0].metric: unknown metric \"rates.acn\"");
+    expect_gate_error(R"({"checks": [{"metric": "rates", "max": 1}]})", "checks[0].metric");
+    expect_gate_error(R"({"checks": [{"metric": "mae"}]})", "checks[0]: a check needs \"max\" or \"min\"");
+    expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "light": 2}]})", "checks[0].light");
+    expect_gate_error(R"({"checks": [{"metric": "mae", "max": "x"}]})", "checks[0].max");
+    expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "limit": 2}]})", "checks[0].limit");
+    expect_gate_error(R"({"checks": {"metric": "mae"}})", "checks");
+    expect_gate_error(R"({"check": []})", "check");
+}
+
+}  // namespace
+}  // namespace penumbra::metrics

@@ -1,0 +1,110 @@
+// report: report.json keys, the files validate writes, legends drawn into the PNGs, JUnit.
+#include "report/report.h"
+
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "report/bitmap_font.h"
+#include "tests/metrics/synthetic_frames.h"
+#include "tests/test_support.h"
+
+namespace penumbra::report {
+namespace {
+
+struct Fixture {
+    Scenario scenario;
+    test::Frames frames{64, 40};
+    metrics::FrameScore score;
+    metrics::Gate gate;
+    metrics::GateResult gate_result;
+    ReportInputs in;
+
+    explicit Fixture(const char* gate_text) {
+        scenario.width = 64;
+        scenario.height = 40;
+        scenario.lights.push_back(test::directional({0, -1, 0}));
+        frames.shadow(5, 0.01f);  // one lost contact shadow: peter-panning (bias 0, footprint 0.01)
+        score = frames.score();
+        gate = metrics::parse_gate(nlohmann::json::parse(gate_text), "gate.json", 1);
+        gate_result = metrics::evaluate_gate(gate, {metrics::to_json(score.lights[0])});
+        in.version = "test";
+        in.scenario = &scenario;
+        in.scenario_file = "scenes/contact.json";
+        in.technique = {{"resolution", 1024}};
+        in.scoring = {metrics::ScoringOptions{}};
+        in.timing = {{"oracle_s", 0.1}, {"raster_s", 0.2}, {"metrics_s", 0.01}, {"raster_ms", {{"shadow", 1.0}}}};
+        in.gate = &gate_result;
+    }
+};
+
+TEST(Report, JsonHasDesignKeysAndTheGate) {
+    Fixture f(R"({"checks": [{"metric": "rates.peter_panning", "max": 0.0}]})");
+    nlohmann::json r = report_json(f.in, f.score);
+    for (const char* k : {"version", "scenario", "image", "technique", "lights", "timing", "gate"})
+        EXPECT_TRUE(r.contains(k)) << k;
+    EXPECT_EQ(r["lights"][0]["index"], 0);
+    EXPECT_EQ(r["lights"][0]["type"], "directional");
+    EXPECT_EQ(r["lights"][0]["counts"]["peter_panning"], 1);
+    EXPECT_FALSE(r["gate"]["passed"].get<bool>());
+    EXPECT_EQ(r["gate"]["checks"][0]["message"], fmt::format("light 0: rates.peter_panning = {} > 0", 1.0 / 2560));
+}
+
+TEST(Report, WritesEveryFileWithLegendsAndEmbeddedImages) {
+    Fixture f(R"({})");
+    f.in.gate = nullptr;
+    nlohmann::json r = report_json(f.in, f.score);
+    test::TempDir dir;
+    {
+        OutputTransaction out(dir.path());
+        write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
+        out.commit();
+    }
+    for (const char* name :
+         {"errors.exr", "light0.classes.png", "light0.error.png", "light0.compare.png", "report.json", "report.html"})
+        EXPECT_TRUE(std::filesystem::exists(dir / name)) << name;
+    auto classes = OIIO::ImageInput::open((dir / "light0.classes.png").string());
+    ASSERT_TRUE(classes);
+    EXPECT_EQ(classes->spec().width, 64);
+    EXPECT_GT(classes->spec().height, 40);  // the legend band under the image
+    auto errors = OIIO::ImageInput::open((dir / "errors.exr").string());
+    ASSERT_TRUE(errors);
+    const auto& names = errors->spec().channelnames;
+    EXPECT_NE(std::find(names.begin(), names.end(), "light0.class"), names.end());
+    EXPECT_NE(std::find(names.begin(), names.end(), "light0.error"), names.end());
+    std::ifstream html(dir / "report.html");
+    std::string text((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text.find("src=\"light0"), std::string::npos) << "images must be embedded, not linked";
+    std::size_t images = 0;
+    for (std::size_t at = 0; (at = text.find("data:image/png;base64,", at)) != std::string::npos; ++at) ++images;
+    EXPECT_EQ(images, 3u);
+    EXPECT_EQ(text.find("Gate"), std::string::npos);  // no gate given, none shown
+}
+
+TEST(Report, JunitHasOneTestcasePerLightAndCheck) {
+    Fixture f(R"({"checks": [{"metric": "rates.peter_panning", "max": 0.5}, {"metric": "mae", "max": 0.0}]})");
+    const std::string xml = junit_xml(report_json(f.in, f.score));
+    std::size_t cases = 0;
+    for (std::size_t at = 0; (at = xml.find("<testcase ", at)) != std::string::npos; ++at) ++cases;
+    EXPECT_EQ(cases, 2u);
+    EXPECT_NE(xml.find("tests=\"2\" failures=\"1\""), std::string::npos) << xml;
+    EXPECT_NE(xml.find("<failure message=\"light 0: mae = "), std::string::npos) << xml;
+    EXPECT_NE(xml.find("classname=\"penumbra.contact.light0\" name=\"rates.peter_panning &lt;= 0.5\""),
+              std::string::npos)
+        << xml;
+}
+
+TEST(BitmapFont, DrawsInsideTheImageOnly) {
+    std::vector<float> rgb(3 * 20 * 10, 0.0f);
+    draw_text(rgb, 20, 10, 15, 5, "AB", {1, 1, 1});  // mostly off the right and bottom edges
+    int lit = 0;
+    for (float v : rgb) lit += v > 0;
+    EXPECT_GT(lit, 0);
+    std::vector<float> blank(3 * 20 * 10, 0.0f);
+    draw_text(blank, 20, 10, 2, 2, " ", {1, 1, 1});
+    for (float v : blank) EXPECT_EQ(v, 0.0f);
+}
+
+}  // namespace
+}  // namespace penumbra::report
