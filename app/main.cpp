@@ -252,6 +252,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     if (!gate.checks.empty()) in.gate = &gate_result;
     const nlohmann::json report = report::report_json(in, score);
 
+    auto t4 = std::chrono::steady_clock::now();
     if (v.frames) {
         raster::write_raster_outputs(out, scenario, technique, raster, raster_timings);
     } else {
@@ -260,6 +261,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     out.write_json("oracle.json", oracle.info);
     report::write_report(out, in, oracle.frame, raster.frame, score, report);
     out.commit();
+    const double write_s = seconds_since(t4);
     if (!v.junit_file.empty()) {
         std::filesystem::path dir = v.junit_file.parent_path();
         OutputTransaction junit(dir.empty() ? std::filesystem::path(".") : dir);
@@ -269,9 +271,11 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
 
     if (!c.quiet) {
         for (const auto& w : raster.stats.warnings) fmt::print(stderr, "warning: {}\n", w);
-        fmt::print("validate: {}x{} px, {} lights; oracle {} ({:.3f} s), raster {:.3f} s, metrics {:.3f} s\n",
-                   scenario.width, scenario.height, scenario.lights.size(), oracle.cached ? "from cache" : "traced",
-                   oracle.seconds, raster_s, metrics_s);
+        fmt::print(
+            "validate: {}x{} px, {} lights; oracle {} ({:.3f} s), Vulkan device {:.3f} s, raster {:.3f} s, metrics "
+            "{:.3f} s, writing {:.3f} s\n",
+            scenario.width, scenario.height, scenario.lights.size(), oracle.cached ? "from cache" : "traced",
+            oracle.seconds, raster_timings.device_s, raster_s, metrics_s, write_s);
         for (std::size_t li = 0; li < score.lights.size(); ++li) {
             const auto& s = score.lights[li];
             std::string classes;

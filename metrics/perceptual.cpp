@@ -126,22 +126,17 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
         convolve_x(l, h0, W, in0, in1, g0);
         convolve_x(l, h1, W, in0, in1, g1);
         convolve_x(l, h2, W, in0, in1, g2);
-        Features f{std::vector<float>(n), std::vector<float>(n)};
-        convolve_y(h1, a, W, H, y0, y1, g0);  // d/dx
-        convolve_y(h0, b, W, H, y0, y1, g1);  // d/dy
-        for (int y = y0; y < y1; ++y)
-            for (int x = 0; x < W; ++x) {
-                const std::size_t i = static_cast<std::size_t>(y) * W + x;
-                f.edge[i] = std::hypot(a[i], b[i]);
-            }
-        convolve_y(h2, a, W, H, y0, y1, g0);  // d2/dx2
-        convolve_y(h0, b, W, H, y0, y1, g2);  // d2/dy2
-        for (int y = y0; y < y1; ++y)
-            for (int x = 0; x < W; ++x) {
-                const std::size_t i = static_cast<std::size_t>(y) * W + x;
-                f.point[i] = std::hypot(a[i], b[i]);
-            }
-        return f;
+        // |(d/dx, d/dy)| of one derivative order, from its x and y separable halves.
+        auto magnitude = [&](const std::vector<float>& hx, const Kernel& kx, const std::vector<float>& hy,
+                             const Kernel& ky) {
+            std::vector<float> m(n);
+            convolve_y(hx, a, W, H, y0, y1, kx);
+            convolve_y(hy, b, W, H, y0, y1, ky);
+            for (std::size_t i = static_cast<std::size_t>(y0) * W; i < static_cast<std::size_t>(y1) * W; ++i)
+                m[i] = std::hypot(a[i], b[i]);
+            return m;
+        };
+        return Features{magnitude(h1, g0, h0, g1), magnitude(h2, g0, h0, g2)};
     };
 
     const std::vector<float> lr = lightness_after_csf(reference), lt = lightness_after_csf(test);

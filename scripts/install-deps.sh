@@ -12,6 +12,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers vulkan-tools
   python3 assimp-testmodels
+  chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
 )
 
 missing=()

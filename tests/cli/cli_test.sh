@@ -103,6 +103,74 @@ check "devices lists lavapipe" grep -q "llvmpipe" "$tmp/stdout"
 run raster --help
 check "raster --help lists the presets" grep -q "diligent-tutorial13" "$tmp/stdout"
 
+# validate: oracle (cached) + raster + metrics, reports, gates, JUnit, the HTML in a browser.
+sed -e 's/"width": 1280/"width": 320/' -e 's/"height": 720/"height": 180/' "$src/data/default/scenario.json" >"$tmp/small.json"
+export PENUMBRA_CACHE_DIR="$tmp/cache"
+run validate "$tmp/small.json" --out "$tmp/v1" -q
+check "validate exits 0" test "$rc" -eq 0
+for f in report.json report.html errors.exr raster.json oracle.json light0.classes.png light2.error.png light1.compare.png; do
+    check "validate writes $f" test -s "$tmp/v1/$f"
+done
+check "first validate traces the oracle" grep -q '"oracle_cached": false' "$tmp/v1/report.json"
+check "the oracle is stored in the cache" test -n "$(ls "$tmp/cache"/oracle-*.bin 2>/dev/null)"
+run validate "$tmp/small.json" --out "$tmp/v2" -q
+check "second validate reads the cached oracle" grep -q '"oracle_cached": true' "$tmp/v2/report.json"
+check "a cached oracle gives the same verdict" cmp -s "$tmp/v1/errors.exr" "$tmp/v2/errors.exr"
+run validate "$tmp/small.json" --out "$tmp/v3" -q --set resolution=256
+check "another technique reuses the oracle" grep -q '"oracle_cached": true' "$tmp/v3/report.json"
+check "another technique gives another verdict" bash -c "! cmp -s '$tmp/v1/errors.exr' '$tmp/v3/errors.exr'"
+sed 's/"width": 320/"width": 322/' "$tmp/small.json" >"$tmp/small2.json"
+run validate "$tmp/small2.json" --out "$tmp/v4" -q
+check "another image size misses the cache" grep -q '"oracle_cached": false' "$tmp/v4/report.json"
+run validate "$tmp/small.json" --out "$tmp/v5" -q --no-cache
+check "--no-cache traces" grep -q '"oracle_cached": false' "$tmp/v5/report.json"
+echo "garbage" >"$(ls "$tmp/cache"/oracle-*.bin | head -1)"
+run validate "$tmp/small.json" --out "$tmp/v6" -q
+check "a damaged cache entry is traced again, not an error" test "$rc" -eq 0
+
+junit_ok() { xmllint --noout --schema "$src/tests/cli/junit.xsd" "$1" 2>"$tmp/xmllint.log"; }
+
+# Gates: exit 0 when every check passes, 1 with one line per failure, 2 for a bad gate.
+echo '{"checks": [{"metric": "rates.acne", "max": 1.0}, {"metric": "wrong_fraction", "max": 0.5, "light": 0}]}' >"$tmp/pass.json"
+run validate "$tmp/small.json" --out "$tmp/g1" -q --gate "$tmp/pass.json" --junit "$tmp/g1.xml"
+check "passing gate exits 0" test "$rc" -eq 0
+check "report.json records the gate" grep -q '"passed": true' "$tmp/g1/report.json"
+check "JUnit validates against the CI schema" junit_ok "$tmp/g1.xml"
+check "JUnit has one testcase per light x check" test "$(grep -c '<testcase ' "$tmp/g1.xml")" -eq 4
+echo '{"checks": [{"metric": "rates.aliasing", "max": 0}, {"metric": "mae", "max": 1}]}' >"$tmp/fail.json"
+run validate "$tmp/small.json" --out "$tmp/g2" -q --gate "$tmp/fail.json" --junit "$tmp/g2.xml"
+check "failing gate exits 1" test "$rc" -eq 1
+check "each failure on one line" grep -q -E '^light 0: rates\.aliasing = [0-9.e-]+ > 0$' <<<"$err"
+check "only failures are printed" test "$(grep -c '^light' <<<"$err")" -eq 3
+check "failing gate still writes its report" grep -q '"passed": false' "$tmp/g2/report.json"
+check "failing JUnit validates" junit_ok "$tmp/g2.xml"
+check "JUnit counts the failures" grep -q 'failures="3"' "$tmp/g2.xml"
+sed 's/ classname="[^"]*"//' "$tmp/g2.xml" >"$tmp/bad.xml"
+fails() { ! "$@"; }
+check "the schema rejects a testcase without a classname" fails junit_ok "$tmp/bad.xml"
+echo '{"checks": [{"metric": "rates.acnee", "max": 0}]}' >"$tmp/badgate.json"
+run validate "$tmp/small.json" --out "$tmp/g3" --gate "$tmp/badgate.json"
+check "unknown gate metric exits 2" test "$rc" -eq 2
+check "unknown gate metric names the path" grep -q 'badgate.json: checks\[0\].metric: unknown metric "rates.acnee"' <<<"$err"
+check "bad gate writes nothing" test ! -e "$tmp/g3"
+sed 's/"technique"/"gate": {"checks": [{"metric": "rates.false_lit", "max": 0, "light": 1}]}, "technique"/' "$tmp/small.json" >"$tmp/gated.json"
+run validate "$tmp/gated.json" --out "$tmp/g4" -q
+check "the scenario's own gate applies" test "$rc" -eq 1
+check "the scenario's gate names its light" grep -q '^light 1: rates.false_lit' <<<"$err"
+
+# The HTML report opens in headless Chromium with every image decoded and no console message;
+# a page with a broken image shows that this check can fail.
+html_check() {  # html_check FILE -> 0 when clean
+    timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 --dump-dom "file://$1" \
+        >"$tmp/dom.html" 2>"$tmp/browser.log" || return 1
+    grep -q 'data-images="ok"' "$tmp/dom.html" && ! grep -q ':CONSOLE' "$tmp/browser.log"
+}
+check "chromium is installed" test -x "$(command -v chromium)"
+check "report.html renders cleanly in Chromium" html_check "$tmp/g2/report.html"
+sed 's#data:image/png;base64,[^"]*#data:image/png;base64,AAAA#' "$tmp/g2/report.html" >"$tmp/broken.html"
+check "a broken report is caught" fails html_check "$tmp/broken.html"
+unset PENUMBRA_CACHE_DIR
+
 # Usage errors.
 run
 check "no subcommand exits 2" test "$rc" -eq 2
