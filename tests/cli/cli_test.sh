@@ -124,6 +124,9 @@ run validate "$tmp/small2.json" --out "$tmp/v4" -q
 check "another image size misses the cache" grep -q '"oracle_cached": false' "$tmp/v4/report.json"
 run validate "$tmp/small.json" --out "$tmp/v5" -q --no-cache
 check "--no-cache traces" grep -q '"oracle_cached": false' "$tmp/v5/report.json"
+run validate "$tmp/small.json" --out "$tmp/v7" -q --frames
+for f in oracle.exr oracle.png raster.exr raster.png; do check "validate --frames writes $f" test -s "$tmp/v7/$f"; done
+check "--frames traces the oracle (the cache lacks its G-buffer)" grep -q '"oracle_cached": false' "$tmp/v7/report.json"
 echo "garbage" >"$(ls "$tmp/cache"/oracle-*.bin | head -1)"
 run validate "$tmp/small.json" --out "$tmp/v6" -q
 check "a damaged cache entry is traced again, not an error" test "$rc" -eq 0
