@@ -36,21 +36,6 @@ PrimaryRays::PrimaryRays(const Camera& camera, int width, int height)
     sy_ = s.y;
 }
 
-PrimaryRay PrimaryRays::at(double px, double py) const {
-    // NDC of the sample point; pixel centres are at (x + 0.5, y + 0.5), row 0 at the top.
-    double nx = px * inv_w2_ - 1.0;
-    double ny = 1.0 - py * inv_h2_;
-    PrimaryRay ray;
-    if (camera_.type == ProjectionType::perspective) {
-        ray.origin = glm::dvec3(0.0);
-        ray.direction = camera_.forward + (nx * sx_) * camera_.right + (ny * sy_) * camera_.up;
-    } else {
-        ray.origin = (nx * sx_) * camera_.right + (ny * sy_) * camera_.up;
-        ray.direction = camera_.forward;
-    }
-    return ray;
-}
-
 PrimaryRay primary_ray(const Camera& camera, int width, int height, double px, double py) {
     return PrimaryRays(camera, width, height).at(px, py);
 }

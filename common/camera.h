@@ -30,7 +30,20 @@ PrimaryRay primary_ray(const Camera& camera, int width, int height, double px, d
 class PrimaryRays {
   public:
     PrimaryRays(const Camera& camera, int width, int height);
-    PrimaryRay at(double px, double py) const;
+    // Inline: the oracle calls it once per pixel in its hot loop.
+    PrimaryRay at(double px, double py) const {
+        // NDC of the sample point; pixel centres are at (x + 0.5, y + 0.5), row 0 at the top.
+        const double nx = px * inv_w2_ - 1.0, ny = 1.0 - py * inv_h2_;
+        PrimaryRay ray;
+        if (camera_.type == ProjectionType::perspective) {
+            ray.origin = glm::dvec3(0.0);
+            ray.direction = camera_.forward + (nx * sx_) * camera_.right + (ny * sy_) * camera_.up;
+        } else {
+            ray.origin = (nx * sx_) * camera_.right + (ny * sy_) * camera_.up;
+            ray.direction = camera_.forward;
+        }
+        return ray;
+    }
 
   private:
     const Camera& camera_;

@@ -208,7 +208,8 @@ double Tracer::suspicious_hit_distance(const glm::dvec3& p, double cos_hit) cons
     return 64 * robust::kFloatEps * (glm::length(p) + max_vertex_norm_) / std::max(cos_hit, 1e-9);
 }
 
-SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir) const {
+SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
+                                 const glm::dvec3& n_ccw) const {
     SurfacePoint s;
     s.hit = true;
     s.prim = prim;
@@ -224,7 +225,7 @@ SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double 
     const glm::dvec3 &v0 = vertex(prim, 0), &v1 = vertex(prim, 1), &v2 = vertex(prim, 2);
     s.p = b0 * v0 + b1 * v1 + b2 * v2;
     s.error = robust::surface_error_bound(s.p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2));
-    s.n = glm::normalize(normal_ccw(prim));
+    s.n = glm::normalize(n_ccw);
     if (glm::dot(s.n, ray_dir) > 0) s.n = -s.n;
     s.depth = t;
     return s;
@@ -285,7 +286,8 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
                 std::uint32_t prim = rh.hit.primID[k];
                 double t = rh.ray.tfar[k], u = rh.hit.u[k], v = rh.hit.v[k];
-                if (culled_for_camera(prim, ray_dir[k])) {
+                glm::dvec3 n_ccw = normal_ccw(prim);
+                if (!double_sided_[prim] && glm::dot(n_ccw, ray_dir[k]) > 0) {  // culled_for_camera
                     // Rare: re-trace this ray alone, culling the backs of single-sided surfaces.
                     FilterContext ctx;
                     rtcInitIntersectContext(&ctx.embree);
@@ -300,11 +302,12 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     ++counters.retraced;
                     if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     prim = one.hit.primID;
+                    n_ccw = normal_ccw(prim);
                     t = one.ray.tfar;
                     u = one.hit.u;
                     v = one.hit.v;
                 }
-                surf[k] = primary_hit(prim, u, v, t, ray_dir[k]);
+                surf[k] = primary_hit(prim, u, v, t, ray_dir[k], n_ccw);
                 int i = pixel[k];
                 frame.A[i] = 1.0f;
                 frame.prim[i] = prim;

@@ -83,7 +83,9 @@ class Tracer {
     bool culled_for_camera(std::uint32_t prim, const glm::dvec3& ray_dir) const;
 
   private:
-    SurfacePoint primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir) const;
+    // `n_ccw` is normal_ccw(prim), computed once by the caller.
+    SurfacePoint primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
+                             const glm::dvec3& n_ccw) const;
     double suspicious_hit_distance(const glm::dvec3& p, double cos_hit) const;
 
     const Scenario& scenario_;
