@@ -188,6 +188,7 @@ void require_same_image(const OracleFrame& o, const RasterFrame& r) {
 
 FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, std::span<const ScoringOptions> options) {
     require_same_image(oracle, raster);
+    if (oracle.lights.empty()) return {};
     if (options.empty() || (options.size() != 1 && options.size() != oracle.lights.size()))
         throw std::invalid_argument("score_frames: need one ScoringOptions, or one per light");
     FrameScore out;

@@ -277,7 +277,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
         nlohmann::json l = {{"index", li}, {"type", to_string(sc.lights[li].type)}};
         l.update(metrics::to_json(score.lights[li]));
         lights.push_back(std::move(l));
-        const auto& o = in.scoring[li];
+        const auto& o = in.scoring.size() == 1 ? in.scoring[0] : in.scoring.at(li);
         scoring.push_back({{"light", li},
                            {"tolerance", o.tolerance},
                            {"filter_reach_texels", o.filter_reach_texels},
@@ -312,7 +312,7 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
                   const metrics::FrameScore& score, const nlohmann::json& report) {
     const int W = oracle.width, H = oracle.height;
     const std::size_t n = oracle.pixel_count();
-    std::vector<ExrChannel> channels;
+    std::vector<ExrChannel> channels = {{"A", oracle.A, {}}};  // the surface mask, and never an empty file
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
         channels.push_back({fmt::format("light{}.error", li), e.error, {}});

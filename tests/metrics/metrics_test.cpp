@@ -159,6 +159,14 @@ TEST(Classification, SummaryNumbersUseScoredPixelsAsTheDenominator) {
     EXPECT_FLOAT_EQ(s.images[0].error[3], 0.0f);
 }
 
+TEST(Classification, ASceneWithoutLightsHasNothingToScore) {
+    Frames f(4, 2);
+    f.o.lights.clear();
+    f.r.lights.clear();
+    FrameScore s = score_frames(f.o, f.r, {});
+    EXPECT_TRUE(s.lights.empty());
+}
+
 TEST(Classification, RefusesFramesOfDifferentShape) {
     Frames a(4, 2), b(2, 4);
     ScoringOptions opt;

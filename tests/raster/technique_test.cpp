@@ -43,6 +43,37 @@ TEST(Technique, ErrorsNameTheKeyPath) {
     EXPECT_THAT(error_of({{"bias", {{"wrold", 1}}}}), HasSubstr("technique.bias.wrold: unknown key"));
     EXPECT_THAT(error_of({{"preset", "nope"}}), HasSubstr("d3d12-textbook"));
     EXPECT_THAT(error_of({{"filter", {{"type", "pcss"}}}}), HasSubstr("area light"));
+    EXPECT_THAT(error_of({{"shadow_distance", 20.0}}), HasSubstr("technique.shadow_distance: only the camera_frustum"));
+    EXPECT_THAT(error_of({{"fit", "camera_frustum"}, {"shadow_distance", -1.0}}),
+                HasSubstr("technique.shadow_distance"));
+}
+
+TEST(Technique, FilterReachAndDepthResolutionForTheMetrics) {
+    auto reach = [](const nlohmann::json& filter) {
+        return raster::filter_reach_texels(parse_technique({{"filter", filter}}, "s.json: technique").filter);
+    };
+    EXPECT_EQ(reach({{"type", "none"}}), 1.0);
+    EXPECT_EQ(reach({{"type", "hw2x2"}}), 1.0);
+    EXPECT_EQ(reach({{"type", "pcf"}, {"size", 5}}), 2.5);
+    EXPECT_EQ(reach({{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}), 2.0);
+    EXPECT_EQ(reach({{"type", "poisson"}, {"radius_texels", 3.0}}), 3.0);
+    EXPECT_EQ(reach({{"type", "poisson"}, {"radius_texels", 0.25}}), 1.0);
+    EXPECT_EQ(raster::depth_resolution(raster::DepthFormat::d16), std::ldexp(1.0, -16));
+    EXPECT_EQ(raster::depth_resolution(raster::DepthFormat::d32), 0.0);
+}
+
+TEST(Fits, ShadowDistanceShrinksTheCameraFrustumFit) {
+    test::SceneBuilder b;
+    b.quad({-50, 0, -50}, {-50, 0, 50}, {50, 0, 50}, {50, 0, -50});
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 3, 40}, {0, 0, 0}, 50),
+                                      {test::directional({-0.3, -1, -0.2})}, 64, 48);
+    auto extent = [&](double distance) {
+        auto lp = raster::fit_light(sc.lights[0], sc.scene, sc.camera, 64, 48, raster::Fit::camera_frustum, 1024,
+                                    sc.camera.eye, distance);
+        return lp.metres_per_texel;
+    };
+    EXPECT_LT(extent(10.0), 0.5 * extent(0.0));  // finer texels over the nearer 10 m
+    EXPECT_EQ(extent(1e6), extent(0.0));         // beyond the scene: no change
 }
 
 TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
