@@ -62,7 +62,7 @@ std::vector<float> with_legend(std::vector<float> rgb, int W, int H, const std::
     }
     const int band = y + line + pad;
     out_height = H + band;
-    rgb.resize(3 * static_cast<std::size_t>(W) * out_height, 0.01f);
+    rgb.resize(3 * static_cast<std::size_t>(W) * out_height, 0.04f);  // lighter than "not scored"
     for (std::size_t k = 0; k < entries.size(); ++k) {
         const int ex = at[k].first, ey = H + at[k].second;
         for (int sy = 0; sy < swatch; ++sy)
