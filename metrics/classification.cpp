@@ -17,17 +17,16 @@ std::string_view to_string(PixelClass c) {
     return kNames[static_cast<int>(c)];
 }
 
+std::uint64_t LightScore::count(PixelClass c) const {
+    const std::size_t k = error_class_index(c);
+    return k < counts.size() ? counts[k] : 0;
+}
+
 double LightScore::rate(PixelClass c) const {
-    for (std::size_t k = 0; k < kErrorClasses.size(); ++k)
-        if (kErrorClasses[k] == c) return pixels.scored ? static_cast<double>(counts[k]) / pixels.scored : 0.0;
-    return 0.0;
+    return pixels.scored ? static_cast<double>(count(c)) / static_cast<double>(pixels.scored) : 0.0;
 }
 
 namespace {
-
-std::size_t class_slot(PixelClass c) {
-    return static_cast<std::size_t>(std::find(kErrorClasses.begin(), kErrorClasses.end(), c) - kErrorClasses.begin());
-}
 
 // Sums of one image row; rows are added in order afterwards so the totals do not depend on
 // how the rows were shared between threads.
@@ -111,7 +110,7 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                     c = PixelClass::correct;
                     if (std::abs(e) > opt.tolerance + o.E[i]) {
                         c = classify_wrong(e, o, of.prim[i], r, i, opt);
-                        ++s.counts[class_slot(c)];
+                        ++s.counts[error_class_index(c)];
                         if (c == PixelClass::peter_panning) {
                             s.gap_sum += o.occluder_m[i];
                             s.gap_max = std::max(s.gap_max, static_cast<double>(o.occluder_m[i]));
@@ -142,8 +141,8 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
         s.bias = t.signed_sum / scored;
         s.wrong_fraction = static_cast<double>(s.wrong) / scored;
     }
-    const auto pp = s.counts[class_slot(PixelClass::peter_panning)];
-    const auto acne = s.counts[class_slot(PixelClass::acne)];
+    const auto pp = s.count(PixelClass::peter_panning);
+    const auto acne = s.count(PixelClass::acne);
     s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
     s.acne_depth = {acne ? t.acne_sum / acne : 0.0, t.acne_max};
 

@@ -33,6 +33,12 @@ std::string_view to_string(PixelClass c);
 // The five error classes in report order (counts/rates keys).
 inline constexpr std::array<PixelClass, 5> kErrorClasses = {
     PixelClass::acne, PixelClass::peter_panning, PixelClass::aliasing, PixelClass::false_shadow, PixelClass::false_lit};
+// Position of an error class in kErrorClasses (kErrorClasses.size() for the other classes).
+constexpr std::size_t error_class_index(PixelClass c) {
+    std::size_t k = 0;
+    while (k < kErrorClasses.size() && kErrorClasses[k] != c) ++k;
+    return k;
+}
 
 // How one light is judged; the caller derives the last two from the technique.
 struct ScoringOptions {
@@ -55,11 +61,12 @@ struct LightScore {
     std::array<std::uint64_t, 5> counts{};  // indexed like kErrorClasses
     std::uint64_t wrong = 0;
     double mae = 0, rmse = 0, wrong_fraction = 0;
-    double bias = 0;            // mean signed error (raster - oracle) over scored pixels
-    MeanMax peter_panning_gap;  // metres along the shadow ray to the true occluder, peter-panning pixels
-    MeanMax acne_depth;         // metres the receiver lies behind its own stored surface, acne pixels
-    MeanMax perceptual;         // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
-    double rate(PixelClass c) const;
+    double bias = 0;                          // mean signed error (raster - oracle) over scored pixels
+    MeanMax peter_panning_gap;                // metres along the shadow ray to the true occluder, peter-panning pixels
+    MeanMax acne_depth;                       // metres the receiver lies behind its own stored surface, acne pixels
+    MeanMax perceptual;                       // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
+    std::uint64_t count(PixelClass c) const;  // 0 for classes that are not errors
+    double rate(PixelClass c) const;          // count / scored
 };
 
 struct LightErrorImage {

@@ -107,11 +107,21 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
     const int y0 = std::max(0, first - reach), y1 = std::min(H, last + reach + 1);
     const int in0 = std::max(0, y0 - reach), in1 = std::min(H, y1 + reach);
 
+    // Everything below works on the band of input rows [in0, in1), the only rows the output
+    // reads; its edges are the image's edges or lie beyond every kernel's reach, so clamping
+    // at the band's edges gives the same result as at the image's.
+    const int Hb = in1 - in0, b0 = y0 - in0, b1 = y1 - in0;
+    const std::size_t nb = static_cast<std::size_t>(W) * Hb;
+    auto band = [&](const std::vector<float>& img) {
+        return std::vector<float>(img.begin() + static_cast<std::ptrdiff_t>(in0) * W,
+                                  img.begin() + static_cast<std::ptrdiff_t>(in1) * W);
+    };
+
     auto lightness_after_csf = [&](const std::vector<float>& Y) {
-        std::vector<float> h(n), v(n);
-        convolve_x(Y, h, W, in0, in1, csf);
-        convolve_y(h, v, W, H, y0, y1, csf);
-        for (int y = y0; y < y1; ++y)
+        std::vector<float> h(nb), v(nb);
+        convolve_x(Y, h, W, 0, Hb, csf);
+        convolve_y(h, v, W, Hb, b0, b1, csf);
+        for (int y = b0; y < b1; ++y)
             for (int x = 0; x < W; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * W + x;
                 v[i] = lightness(v[i]);
@@ -119,35 +129,36 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
         return v;
     };
     auto features = [&](const std::vector<float>& Y) {
-        std::vector<float> l(n), h0(n), h1(n), h2(n), a(n), b(n);
-        for (int y = in0; y < in1; ++y)
+        std::vector<float> l(nb), h0(nb), h1(nb), h2(nb), a(nb), b(nb);
+        for (int y = 0; y < Hb; ++y)
             for (int x = 0; x < W; ++x)
                 l[static_cast<std::size_t>(y) * W + x] = lightness(Y[static_cast<std::size_t>(y) * W + x]);
-        convolve_x(l, h0, W, in0, in1, g0);
-        convolve_x(l, h1, W, in0, in1, g1);
-        convolve_x(l, h2, W, in0, in1, g2);
+        convolve_x(l, h0, W, 0, Hb, g0);
+        convolve_x(l, h1, W, 0, Hb, g1);
+        convolve_x(l, h2, W, 0, Hb, g2);
         // |(d/dx, d/dy)| of one derivative order, from its x and y separable halves.
         auto magnitude = [&](const std::vector<float>& hx, const Kernel& kx, const std::vector<float>& hy,
                              const Kernel& ky) {
-            std::vector<float> m(n);
-            convolve_y(hx, a, W, H, y0, y1, kx);
-            convolve_y(hy, b, W, H, y0, y1, ky);
-            for (std::size_t i = static_cast<std::size_t>(y0) * W; i < static_cast<std::size_t>(y1) * W; ++i)
+            std::vector<float> m(nb);
+            convolve_y(hx, a, W, Hb, b0, b1, kx);
+            convolve_y(hy, b, W, Hb, b0, b1, ky);
+            for (std::size_t i = static_cast<std::size_t>(b0) * W; i < static_cast<std::size_t>(b1) * W; ++i)
                 m[i] = std::hypot(a[i], b[i]);
             return m;
         };
         return Features{magnitude(h1, g0, h0, g1), magnitude(h2, g0, h0, g2)};
     };
 
-    const std::vector<float> lr = lightness_after_csf(reference), lt = lightness_after_csf(test);
-    const Features fr = features(reference), ft = features(test);
-    for (int y = y0; y < y1; ++y)
+    const std::vector<float> ref = band(reference), tst = band(test);
+    const std::vector<float> lr = lightness_after_csf(ref), lt = lightness_after_csf(tst);
+    const Features fr = features(ref), ft = features(tst);
+    for (int y = b0; y < b1; ++y)
         for (int x = 0; x < W; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * W + x;
             const float colour = std::pow(std::abs(lr[i] - lt[i]), 0.7f);
             const float df = std::max(std::abs(fr.edge[i] - ft.edge[i]), std::abs(fr.point[i] - ft.point[i]));
             const float feature = std::pow(std::min(1.0f, df / std::numbers::sqrt2_v<float>), 0.5f);
-            err[i] = colour > 0 ? std::pow(colour, 1.0f - feature) : 0.0f;
+            err[i + static_cast<std::size_t>(in0) * W] = colour > 0 ? std::pow(colour, 1.0f - feature) : 0.0f;
         }
     return err;
 }

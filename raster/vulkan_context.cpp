@@ -347,6 +347,18 @@ UniqueMemory allocate(const VulkanContext& ctx, const VkMemoryRequirements& req,
     VK_CHECK(vkAllocateMemory(ctx.device(), &ai, nullptr, &mem));
     return UniqueMemory(ctx.device(), mem);
 }
+
+UniqueImageView create_view(const VulkanContext& ctx, VkImage image, VkFormat format, VkImageViewType type,
+                            const VkImageSubresourceRange& range) {
+    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    vi.image = image;
+    vi.viewType = type;
+    vi.format = format;
+    vi.subresourceRange = range;
+    VkImageView view;
+    VK_CHECK(vkCreateImageView(ctx.device(), &vi, nullptr, &view));
+    return UniqueImageView(ctx.device(), view);
+}
 }  // namespace
 
 GpuBuffer create_buffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage, bool host_visible) {
@@ -394,27 +406,14 @@ GpuImage create_image(const VulkanContext& ctx, VkFormat format, std::uint32_t w
     vkGetImageMemoryRequirements(ctx.device(), image, &req);
     img.memory = allocate(ctx, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
     VK_CHECK(vkBindImageMemory(ctx.device(), image, img.memory.get(), 0));
-    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    vi.image = image;
-    vi.viewType = array ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
-    vi.format = format;
-    vi.subresourceRange = {aspect, 0, 1, 0, layers};
-    VkImageView view;
-    VK_CHECK(vkCreateImageView(ctx.device(), &vi, nullptr, &view));
-    img.view = UniqueImageView(ctx.device(), view);
+    img.view = create_view(ctx, image, format, array ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
+                           {aspect, 0, 1, 0, layers});
     return img;
 }
 
 UniqueImageView create_layer_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t layer,
                                   VkImageAspectFlags aspect) {
-    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    vi.image = image.image.get();
-    vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    vi.format = image.format;
-    vi.subresourceRange = {aspect, 0, 1, layer, 1};
-    VkImageView view;
-    VK_CHECK(vkCreateImageView(ctx.device(), &vi, nullptr, &view));
-    return UniqueImageView(ctx.device(), view);
+    return create_view(ctx, image.image.get(), image.format, VK_IMAGE_VIEW_TYPE_2D, {aspect, 0, 1, layer, 1});
 }
 
 }  // namespace penumbra::raster

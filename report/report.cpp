@@ -129,7 +129,8 @@ std::vector<float> compare_image(const std::vector<float>& A, const std::vector<
     return rgb;
 }
 
-std::string html_escape(std::string_view s) {
+// Escapes text for HTML and XML content and attribute values alike.
+std::string escape_markup(std::string_view s) {
     std::string out;
     for (char c : s) {
         switch (c) {
@@ -137,17 +138,11 @@ std::string html_escape(std::string_view s) {
             case '<': out += "&lt;"; break;
             case '>': out += "&gt;"; break;
             case '"': out += "&quot;"; break;
+            case '\'': out += "&#39;"; break;
             default: out += c;
         }
     }
     return out;
-}
-
-std::string xml_escape(std::string_view s) {
-    std::string out = html_escape(s);
-    std::string r;
-    for (char c : out) r += c == '\'' ? std::string("&apos;") : std::string(1, c);
-    return r;
 }
 
 std::string light_file(std::size_t li, const char* what) {
@@ -181,7 +176,7 @@ std::string rate_chart(const nlohmann::json& light) {
 std::string html_page(const ReportInputs& in, const nlohmann::json& report, const OutputTransaction& out) {
     auto img = [&](const std::string& file, const std::string& alt) {
         return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(out.written_bytes(file)),
-                           html_escape(alt));
+                           escape_markup(alt));
     };
     std::string h = R"(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>penumbra report</title>
@@ -195,10 +190,10 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
 )";
     const Scenario& sc = *in.scenario;
     h += fmt::format("<h1>penumbra report</h1>\n<p>Scenario <code>{}</code>, {}&times;{} pixels, {} light(s). ",
-                     html_escape(in.scenario_file.string()), sc.width, sc.height, sc.lights.size());
+                     escape_markup(in.scenario_file.string()), sc.width, sc.height, sc.lights.size());
     if (in.raster.contains("device"))
-        h += fmt::format("Raster device: {}. ", html_escape(in.raster["device"].value("name", "?")));
-    h += fmt::format("penumbra {}.</p>\n", html_escape(report.value("version", "")));
+        h += fmt::format("Raster device: {}. ", escape_markup(in.raster["device"].value("name", "?")));
+    h += fmt::format("penumbra {}.</p>\n", escape_markup(report.value("version", "")));
     if (report.contains("gate")) {
         const auto& g = report["gate"];
         const bool passed = g["passed"].get<bool>();
@@ -208,14 +203,14 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
             passed ? "pass" : "fail", passed ? "passed" : "FAILED");
         for (const auto& c : g["checks"])
             h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n",
-                             c["light"].get<int>(), html_escape(c["name"].get<std::string>()),
+                             c["light"].get<int>(), escape_markup(c["name"].get<std::string>()),
                              number(c["value"].get<double>()), c["passed"].get<bool>() ? "pass" : "fail",
                              c["passed"].get<bool>() ? "pass" : "fail");
         h += "</table>\n";
     }
     for (const auto& l : report["lights"]) {
         const std::size_t li = l["index"].get<std::size_t>();
-        h += fmt::format("<h2>Light {} ({})</h2>\n", li, html_escape(l["type"].get<std::string>()));
+        h += fmt::format("<h2>Light {} ({})</h2>\n", li, escape_markup(l["type"].get<std::string>()));
         h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th></tr>\n";
         for (auto c : metrics::kErrorClasses) {
             const std::string name(to_string(c));
@@ -250,10 +245,10 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
                      t.value("oracle_cached", false) ? "cached" : "traced", t.value("oracle_s", 0.0));
     h += fmt::format("<tr><td>raster, wall clock</td><td>{:.3f} s</td></tr>\n", t.value("raster_s", 0.0));
     for (const auto& [k, v] : t["raster_ms"].items())
-        h += fmt::format("<tr><td>GPU {}</td><td>{:.2f} ms</td></tr>\n", html_escape(k), v.get<double>());
+        h += fmt::format("<tr><td>GPU {}</td><td>{:.2f} ms</td></tr>\n", escape_markup(k), v.get<double>());
     h += fmt::format("<tr><td>metrics</td><td>{:.3f} s</td></tr>\n</table>\n", t.value("metrics_s", 0.0));
-    h += "<h2>Technique</h2>\n<pre>" + html_escape(report["technique"].dump(2)) + "</pre>\n";
-    h += "<h2>Scoring</h2>\n<pre>" + html_escape(report["scoring"].dump(2)) + "</pre>\n";
+    h += "<h2>Technique</h2>\n<pre>" + escape_markup(report["technique"].dump(2)) + "</pre>\n";
+    h += "<h2>Scoring</h2>\n<pre>" + escape_markup(report["scoring"].dump(2)) + "</pre>\n";
     // A broken embedded image is a console error, so a headless browser check notices it.
     h += R"(<script>
 window.addEventListener("load", function () {
@@ -359,13 +354,13 @@ std::string junit_xml(const nlohmann::json& report) {
             ++tests;
             const std::string name = c["name"].get<std::string>();
             const int light = c["light"].get<int>();
-            cases += fmt::format("    <testcase classname=\"{}.light{}\" name=\"{}\" time=\"0\">\n", xml_escape(suite),
-                                 light, xml_escape(name));
+            cases += fmt::format("    <testcase classname=\"{}.light{}\" name=\"{}\" time=\"0\">\n",
+                                 escape_markup(suite), light, escape_markup(name));
             if (!c["passed"].get<bool>()) {
                 ++failures;
                 const std::string msg = c["message"].get<std::string>();
-                cases += fmt::format("      <failure message=\"{}\" type=\"gate\">{}</failure>\n", xml_escape(msg),
-                                     xml_escape(msg));
+                cases += fmt::format("      <failure message=\"{}\" type=\"gate\">{}</failure>\n", escape_markup(msg),
+                                     escape_markup(msg));
             }
             cases += "    </testcase>\n";
         }
@@ -373,7 +368,7 @@ std::string junit_xml(const nlohmann::json& report) {
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"penumbra\" tests=\"{0}\" failures=\"{1}\" "
         "errors=\"0\">\n  <testsuite name=\"{2}\" tests=\"{0}\" failures=\"{1}\" errors=\"0\" skipped=\"0\" "
         "time=\"{3}\">\n{4}  </testsuite>\n</testsuites>\n",
-        tests, failures, xml_escape(suite), report["timing"].value("metrics_s", 0.0), cases);
+        tests, failures, escape_markup(suite), report["timing"].value("metrics_s", 0.0), cases);
 }
 
 }  // namespace penumbra::report
