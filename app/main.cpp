@@ -44,6 +44,31 @@ void add_common(CLI::App* cmd, Common& c) {
     cmd->add_flag("-q,--quiet", c.quiet, "Print nothing but errors");
 }
 
+// How the oracle samples area lights (docs/oracle.md, "Area lights").
+struct SamplingArgs {
+    std::uint64_t seed = 0;
+    double target = 1.0 / 255;
+    int max_rays = 4096;
+};
+
+void add_sampling(CLI::App* cmd, SamplingArgs& a) {
+    cmd->add_option("--seed", a.seed, "Area lights: seed of the sampling pattern (default 0)");
+    cmd->add_option("--area-target", a.target, "Area lights: 95% half-width E a pixel samples down to (default 1/255)")
+        ->check(CLI::Range(1e-6, 1.0));
+    cmd->add_option("--area-max-rays", a.max_rays, "Area lights: most rays per pixel (default 4096)")
+        ->check(CLI::Range(16, 1 << 20));
+}
+
+OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
+    OracleSettings settings;
+    settings.threads = c.threads;
+    settings.progress = !c.quiet;
+    settings.seed = a.seed;
+    settings.area_target = a.target;
+    settings.area_max_rays = a.max_rays;
+    return settings;
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -58,28 +83,33 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
     return scenario;
 }
 
-int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c) {
+int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c, const SamplingArgs& a) {
     auto t0 = std::chrono::steady_clock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     OracleTimings timings;
     timings.load_s = seconds_since(t0);
 
-    OracleSettings settings;
-    settings.threads = c.threads;
-    settings.progress = !c.quiet;
-    OracleResult result = run_oracle(scenario, settings);
+    OracleResult result = run_oracle(scenario, oracle_settings(c, a));
 
     OutputTransaction out(c.out);
     write_oracle_outputs(out, scenario, result, timings);
     out.commit();
     if (!c.quiet) {
         const auto& s = result.stats;
-        fmt::print("oracle: {}x{} px, {} triangles, {} lights; trace {:.3f} s, boundaries {:.3f} s\n", scenario.width,
-                   scenario.height, scenario.scene.triangle_count(), scenario.lights.size(), s.trace_s, s.boundary_s);
-        for (std::size_t li = 0; li < s.lights.size(); ++li)
-            fmt::print("  light {} ({}): {} lightable px, {} shadowed, {} ambiguous\n", li,
-                       to_string(scenario.lights[li].type), s.lights[li].lightable, s.lights[li].shadowed,
-                       s.lights[li].uncertain);
+        fmt::print(
+            "oracle: {}x{} px, {} triangles, {} lights; trace {:.3f} s, area lights {:.3f} s, boundaries {:.3f} s\n",
+            scenario.width, scenario.height, scenario.scene.triangle_count(), scenario.lights.size(), s.trace_s,
+            s.area_s, s.boundary_s);
+        for (std::size_t li = 0; li < s.lights.size(); ++li) {
+            const OracleLightStats& l = s.lights[li];
+            fmt::print("  light {} ({}): {} lightable px, {} shadowed, {} ambiguous", li,
+                       to_string(scenario.lights[li].type), l.lightable, l.shadowed, l.uncertain);
+            if (l.area)
+                fmt::print("; {:.1f} rays/px (max {}), {} px refined, {} at the ray cap",
+                           l.sampling.rays_per_pixel_mean, l.sampling.rays_per_pixel_max, l.sampling.refined,
+                           l.sampling.capped);
+            fmt::print("\n");
+        }
         fmt::print("results: {}/oracle.exr, oracle.json, oracle.png\n", c.out.string());
     }
     return kExitSuccess;
@@ -151,6 +181,7 @@ struct ValidateArgs {
     bool no_cache = false;
     bool frames = false;
     double tolerance = 1.0 / 255.0;
+    SamplingArgs sampling;
 };
 
 // The oracle's frame, from the cache when an earlier run traced the same thing.
@@ -164,9 +195,7 @@ struct OracleForValidate {
 OracleForValidate oracle_for_validate(const Scenario& scenario, const Common& c, const ValidateArgs& v,
                                       OutputTransaction& out) {
     auto t0 = std::chrono::steady_clock::now();
-    OracleSettings settings;
-    settings.threads = c.threads;
-    settings.progress = !c.quiet;
+    const OracleSettings settings = oracle_settings(c, v.sampling);
     OracleCache cache(v.no_cache             ? std::filesystem::path()
                       : !v.cache_dir.empty() ? v.cache_dir
                                              : OracleCache::default_dir());
@@ -316,6 +345,8 @@ int main(int argc, char** argv) {
     CLI::App* oracle = app.add_subcommand("oracle", "Trace the exact visibility of every light (Embree)");
     oracle->add_option("SCENARIO", scenario, "Scenario JSON file")->required();
     add_common(oracle, common);
+    SamplingArgs sampling;
+    add_sampling(oracle, sampling);
 
     TechniqueArgs technique;
     CLI::App* raster = app.add_subcommand("raster", "Render the scenario's shadows with a technique (Vulkan)");
@@ -338,6 +369,7 @@ int main(int argc, char** argv) {
     validate->add_flag("--frames", validate_args.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
     validate->add_option("--tolerance", validate_args.tolerance, "tau: |error| above this plus the oracle's E is wrong")
         ->check(CLI::Range(0.0, 1.0));
+    add_sampling(validate, validate_args.sampling);
 
     CLI::App* devices = app.add_subcommand("devices", "List the Vulkan devices --device can choose");
 
@@ -348,7 +380,7 @@ int main(int argc, char** argv) {
         return code == 0 ? kExitSuccess : kExitBadInput;
     }
     try {
-        if (*oracle) return run_oracle_command(scenario, common);
+        if (*oracle) return run_oracle_command(scenario, common, sampling);
         if (*raster) return run_raster_command(scenario, common, technique);
         if (*validate) return run_validate_command(scenario, common, technique, validate_args);
         if (*devices) return run_devices_command();

@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -52,6 +53,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
 
     OracleResult result;
+    result.settings = settings;
     OracleStats& stats = result.stats;
     stats.threads = threads;
 
@@ -72,13 +74,18 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     const int tile_count = tiles_x * tiles_y;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0};
     std::atomic<int> tiles_done{0};
+    const auto& lights = tracer.lights();
+    const bool any_area =
+        std::any_of(lights.begin(), lights.end(), [](const LocalLight& l) { return is_area_light(l.type); });
+    std::vector<SurfacePoint> surfaces(any_area ? frame.pixel_count() : 0);  // kept for area sampling only
     const bool progress = settings.progress && ::isatty(STDERR_FILENO);
     std::mutex progress_mutex;
     int last_percent = -1;
     tbb::parallel_for(tbb::blocked_range<int>(0, tile_count, 4), [&](const tbb::blocked_range<int>& r) {
         TraceCounters c;
         for (int t = r.begin(); t != r.end(); ++t)
-            tracer.trace_tile(frame, (t % tiles_x) * kTile, (t / tiles_x) * kTile, kTile, c);
+            tracer.trace_tile(frame, (t % tiles_x) * kTile, (t / tiles_x) * kTile, kTile, c,
+                              any_area ? &surfaces : nullptr);
         primary += c.primary;
         shadow += c.shadow;
         retraced += c.retraced;
@@ -99,17 +106,32 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     stats.shadow_rays = shadow;
     stats.verified_retraces = retraced;
 
-    // ---- shadow boundaries (and the ambiguity they imply), one light per task ----
+    // ---- area lights: adaptive sampling, one light after the other (each is parallel inside) ----
+    t0 = Clock::now();
+    stats.lights.resize(lights.size());
+    for (std::size_t li = 0; li < lights.size(); ++li) {
+        if (!is_area_light(lights[li].type)) continue;
+        TraceCounters c;
+        stats.lights[li].area = true;
+        stats.lights[li].sampling = sample_area_light(tracer, frame, li, surfaces, settings, c);
+        stats.shadow_rays += c.shadow;
+        stats.verified_retraces += c.retraced;
+    }
+    tracer.device().check("area-light sampling");
+    stats.area_s = seconds_since(t0);
+
+    // ---- shadow boundaries of punctual lights (and the ambiguity they imply), one light per
+    // task; an area light's visibility is continuous, it has no such boundary ----
     t0 = Clock::now();
     std::atomic<std::uint64_t> boundary_rays{0};
-    tbb::parallel_for(std::size_t(0), tracer.lights().size(), [&](std::size_t li) {
+    tbb::parallel_for(std::size_t(0), lights.size(), [&](std::size_t li) {
+        if (is_area_light(lights[li].type)) return;
         boundary_rays += locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps);
     });
     tracer.device().check("boundary search");
     stats.boundary_rays = boundary_rays;
     stats.boundary_s = seconds_since(t0);
 
-    stats.lights.resize(tracer.lights().size());
     for (std::size_t li = 0; li < frame.lights.size(); ++li) {
         const OracleLightImage& img = frame.lights[li];
         OracleLightStats& ls = stats.lights[li];

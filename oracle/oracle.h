@@ -15,10 +15,33 @@ struct OracleSettings {
     int threads = 0;                    // 0: all hardware threads
     bool progress = false;              // progress line on stderr
     int boundary_bisection_steps = 12;  // each step halves the boundary's position interval
+    // Area lights (docs/oracle.md, "Area lights"):
+    std::uint64_t seed = 0;          // scrambles of the sampling pattern; same seed, same image
+    double area_target = 1.0 / 255;  // stop refining a pixel once its 95% half-width E is this small
+    int area_max_rays = 4096;        // ... or once it has traced this many rays
+    int area_uniform_rays = 0;       // > 0: no adaptivity, every lightable pixel traces exactly this many
+};
+
+// The error bound of the refined pixels after a given number of rays per pixel.
+struct ConvergencePoint {
+    int rays = 0;                  // rays per pixel
+    std::uint64_t sampling = 0;    // refined pixels that traced at least this many rays
+    double mean_e = 0, max_e = 0;  // over all refined pixels: E after min(rays, the pixel's own count)
+};
+
+struct OracleAreaStats {
+    std::uint64_t rays = 0;          // shadow rays to the light
+    std::uint64_t refined = 0;       // pixels sampled beyond the first round
+    std::uint64_t capped = 0;        // refined pixels that stopped at area_max_rays with E above the target
+    double rays_per_pixel_mean = 0;  // over lightable pixels
+    int rays_per_pixel_max = 0;
+    std::vector<ConvergencePoint> convergence;
 };
 
 struct OracleLightStats {
     std::uint64_t surface = 0, lightable = 0, shadowed = 0, uncertain = 0;
+    bool area = false;
+    OracleAreaStats sampling;  // area lights only
 };
 
 struct OracleStats {
@@ -26,7 +49,7 @@ struct OracleStats {
     std::uint64_t shadow_rays = 0;
     std::uint64_t boundary_rays = 0;      // bisection rays locating shadow boundaries
     std::uint64_t verified_retraces = 0;  // rays re-traced with double-precision hit checks
-    double build_s = 0, trace_s = 0, boundary_s = 0;
+    double build_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;
     int threads = 0;
     std::string embree_version;
     std::vector<OracleLightStats> lights;
@@ -35,10 +58,10 @@ struct OracleStats {
 struct OracleResult {
     OracleFrame frame;
     OracleStats stats;
+    OracleSettings settings;  // what produced it
 };
 
-// Throws InputError for what the oracle cannot judge (e.g. area lights, for now) and
-// EnvironmentError for Embree failures.
+// Throws EnvironmentError for Embree failures.
 OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings = {});
 
 }  // namespace penumbra

@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Bump when the oracle's results change for the same input, so old entries stop matching.
-constexpr const char* kOracleAlgorithm = "penumbra-oracle-2";
+constexpr const char* kOracleAlgorithm = "penumbra-oracle-3";
 constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '1'};
 
 class KeyBytes {
@@ -84,6 +84,10 @@ std::string oracle_cache_key(const Scenario& s, const OracleSettings& settings) 
         for (double v : {l.outer_cone_rad, l.radius}) k.add(v);
     }
     k.add(settings.boundary_bisection_steps);
+    k.add(settings.seed);
+    k.add(settings.area_target);
+    k.add(settings.area_max_rays);
+    k.add(settings.area_uniform_rays);
     return content_fingerprint(k.bytes());
 }
 

@@ -72,16 +72,33 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
     nlohmann::json lights = nlohmann::json::array();
     for (std::size_t li = 0; li < s.lights.size(); ++li) {
         const auto& l = s.lights[li];
-        lights.push_back({{"index", li},
-                          {"type", to_string(scenario.lights[li].type)},
-                          {"source", scenario.lights[li].origin},
-                          {"pixels",
-                           {{"surface", l.surface},
-                            {"lightable", l.lightable},
-                            {"shadowed", l.shadowed},
-                            {"uncertain", l.uncertain}}}});
+        nlohmann::json light = {{"index", li},
+                                {"type", to_string(scenario.lights[li].type)},
+                                {"source", scenario.lights[li].origin},
+                                {"pixels",
+                                 {{"surface", l.surface},
+                                  {"lightable", l.lightable},
+                                  {"shadowed", l.shadowed},
+                                  {"uncertain", l.uncertain}}}};
+        if (l.area) {
+            const OracleAreaStats& a = l.sampling;
+            nlohmann::json curve = nlohmann::json::array();
+            for (const ConvergencePoint& p : a.convergence)
+                curve.push_back({{"rays", p.rays}, {"sampling", p.sampling}, {"mean_E", p.mean_e}, {"max_E", p.max_e}});
+            light["sampling"] = {{"rays", a.rays},
+                                 {"rays_per_pixel", {{"mean", a.rays_per_pixel_mean}, {"max", a.rays_per_pixel_max}}},
+                                 {"refined_pixels", a.refined},
+                                 {"capped_pixels", a.capped},
+                                 {"convergence", curve}};
+        }
+        lights.push_back(light);
     }
-    double trace_total = s.trace_s + s.boundary_s;
+    const OracleSettings& settings = result.settings;
+    nlohmann::json sampling = {{"seed", settings.seed},
+                               {"target_E", settings.area_target},
+                               {"max_rays", settings.area_max_rays},
+                               {"uniform_rays", settings.area_uniform_rays}};
+    double trace_total = s.trace_s + s.area_s + s.boundary_s;
     std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces;
     nlohmann::json j = {
         {"scenario", scenario.file.string()},
@@ -99,11 +116,13 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
          {{"load", timings.load_s},
           {"build", s.build_s},
           {"trace", s.trace_s},
+          {"area", s.area_s},
           {"boundary", s.boundary_s},
           {"write", timings.write_s}}},
         {"threads", s.threads},
         {"embree", s.embree_version},
         {"lights", lights},
+        {"area_sampling", sampling},
         {"warnings", scenario.scene.warnings},
     };
     return j;

@@ -13,7 +13,8 @@ namespace penumbra::oracle_detail {
 
 namespace {
 
-constexpr int kPacket = 16;  // rays per Embree packet: a 4x4 block of pixels
+constexpr int kPacket = 16;  // rays per Embree packet: a 4x4 block of pixels, or one area-light round
+static_assert(kRoundRays == kPacket);
 // Point and spot shadow rays stop this relative distance short of the light, so geometry
 // touching the light position does not count and float rounding of the direction cannot
 // carry the ray past it.
@@ -175,10 +176,8 @@ void Tracer::build() {
     rtcCommitScene(sc);
     device_.check("BVH build");
     for (const Light& l : scenario_.lights) {
-        if (is_area_light(l.type))
-            throw InputError(fmt::format("{}: {}: {} lights are not supported by the oracle yet", scenario_.label,
-                                         l.origin, to_string(l.type)));
         LocalLight ll;
+        if (is_area_light(l.type)) ll.area = make_area_light(l, frame_origin_);
         ll.type = l.type;
         ll.position = l.position - frame_origin_;
         ll.to_light = -l.direction;
@@ -253,7 +252,76 @@ ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::
     return a;
 }
 
-void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters) const {
+ShadowAnswer Tracer::judge_lane(const RTCRayHit16& sh, int k, const ShadowSetup& setup, const SurfacePoint& s,
+                                TraceCounters& counters) const {
+    ShadowAnswer ans;
+    if (sh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) return ans;
+    ans.blocked = true;
+    ans.occluder_t = occluder_distance(setup, s.p, sh.ray.tfar[k]);
+    glm::dvec3 ng(sh.hit.Ng_x[k], sh.hit.Ng_y[k], sh.hit.Ng_z[k]);
+    double cos_hit = std::abs(glm::dot(ng, setup.dir)) / std::max(glm::length(ng), 1e-300);
+    if (ans.occluder_t < suspicious_hit_distance(s.p, cos_hit)) {
+        auto verdict = verify(sh.hit.primID[k], s.p, setup.dir, s.prim);
+        if (verdict == robust::HitVerdict::edge) {
+            ans.ambiguous = true;
+        } else if (verdict != robust::HitVerdict::real) {
+            ans = trace_shadow_verified(setup, s.p, s.prim);
+            ++counters.retraced;
+        }
+    }
+    return ans;
+}
+
+AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const AreaView& view, int first_point,
+                                   std::uint64_t scramble, TraceCounters& counters) const {
+    const AreaLight& light = lights_[li].area;
+    const glm::vec3 origin = robust::offset_ray_origin(s.p, s.n, s.error);
+    const glm::dvec3 origin_d(origin);
+    const auto shift_s = static_cast<std::uint32_t>(scramble), shift_t = static_cast<std::uint32_t>(scramble >> 32);
+    RTCIntersectContext coherent;
+    rtcInitIntersectContext(&coherent);
+    coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;  // one origin, one light: a tight bundle
+    alignas(64) RTCRayHit16 sh;
+    alignas(64) int valid[kPacket];
+    ShadowSetup setup[kPacket];
+    bool any = false;
+    for (int k = 0; k < kRoundRays; ++k) {
+        valid[k] = 0;
+        const auto index = static_cast<std::uint32_t>(first_point + k);
+        double u = (sobol_dim0(index) ^ shift_s) * 0x1p-32;
+        double v = (sobol_dim1(index) ^ shift_t) * 0x1p-32;
+        glm::dvec3 q = area_light_point(light, view, u, v);
+        // A point under the receiver's tangent plane is hidden by the receiver itself.
+        if (!(glm::dot(s.n, q - s.p) > 0)) continue;
+        glm::dvec3 d = q - origin_d;
+        double dist = glm::length(d);
+        if (!(dist > 0)) continue;
+        setup[k].origin = origin;
+        setup[k].dir = d / dist;
+        setup[k].dir_f = to_float(setup[k].dir);
+        setup[k].tfar = static_cast<float>(dist * (1.0 - kLightMargin));
+        set_lane(sh.ray, k, origin, setup[k].dir_f, 0.0f, setup[k].tfar);
+        sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        valid[k] = -1;
+        any = true;
+        ++counters.shadow;
+    }
+    AreaRound round;
+    if (!any) return round;
+    rtcIntersect16(valid, scene_.get(), &coherent, &sh);
+    for (int k = 0; k < kRoundRays; ++k) {
+        if (!valid[k]) continue;
+        ShadowAnswer ans = judge_lane(sh, k, setup[k], s, counters);
+        if (!ans.blocked)
+            ++round.visible;
+        else
+            round.occluder_t = std::min(round.occluder_t, ans.occluder_t);
+    }
+    return round;
+}
+
+void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters,
+                        std::vector<SurfacePoint>* surfaces) const {
     const Camera& cam = scenario_.camera;
     const int W = frame.width, H = frame.height;
     const float znear = static_cast<float>(cam.znear);
@@ -314,9 +382,11 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 frame.depth[i] = static_cast<float>(t);
                 frame.P[i] = to_float(surf[k].p);
                 frame.N[i] = to_float(surf[k].n);
+                if (surfaces) (*surfaces)[static_cast<std::size_t>(i)] = surf[k];
             }
 
             for (std::size_t li = 0; li < lights_.size(); ++li) {
+                if (is_area_light(lights_[li].type)) continue;
                 OracleLightImage& img = frame.lights[li];
                 alignas(64) RTCRayHit16 sh;
                 alignas(64) int svalid[kPacket];
@@ -342,22 +412,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 rtcIntersect16(svalid, scene_.get(), &coherent, &sh);
                 for (int k = 0; k < kPacket; ++k) {
                     if (!svalid[k]) continue;
-                    ShadowAnswer ans;
-                    if (sh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) {
-                        ans.blocked = true;
-                        ans.occluder_t = occluder_distance(setup[k], surf[k].p, sh.ray.tfar[k]);
-                        glm::dvec3 ng(sh.hit.Ng_x[k], sh.hit.Ng_y[k], sh.hit.Ng_z[k]);
-                        double cos_hit = std::abs(glm::dot(ng, setup[k].dir)) / std::max(glm::length(ng), 1e-300);
-                        if (ans.occluder_t < suspicious_hit_distance(surf[k].p, cos_hit)) {
-                            auto verdict = verify(sh.hit.primID[k], surf[k].p, setup[k].dir, surf[k].prim);
-                            if (verdict == robust::HitVerdict::edge) {
-                                ans.ambiguous = true;
-                            } else if (verdict != robust::HitVerdict::real) {
-                                ans = trace_shadow_verified(setup[k], surf[k].p, surf[k].prim);
-                                ++counters.retraced;
-                            }
-                        }
-                    }
+                    ShadowAnswer ans = judge_lane(sh, k, setup[k], surf[k], counters);
                     int i = pixel[k];
                     img.V[i] = ans.blocked ? 0.0f : 1.0f;
                     img.occluder_m[i] = ans.blocked ? ans.occluder_t : kNoDistance;

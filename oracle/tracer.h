@@ -9,7 +9,9 @@
 
 #include "common/frames.h"
 #include "common/scenario.h"
+#include "oracle/area_sampling.h"
 #include "oracle/embree_handles.h"
+#include "oracle/oracle.h"
 #include "oracle/robust_geometry.h"
 
 namespace penumbra::oracle_detail {
@@ -21,6 +23,7 @@ struct LocalLight {
     glm::dvec3 to_light{0.0};   // directional: unit vector towards the light
     glm::dvec3 spot_axis{0.0};  // spot: unit direction light travels
     double cos_outer = -1;
+    AreaLight area;  // rect, disk, sphere
 };
 
 // Unit direction from p towards the light (for a directional light, the same everywhere).
@@ -59,6 +62,12 @@ struct TraceCounters {
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
 };
 
+// One round of kRoundRays shadow rays from a receiver to points spread over an area light.
+struct AreaRound {
+    int visible = 0;                 // rays that reached the light (points under the horizon do not)
+    float occluder_t = kNoDistance;  // nearest occluder met by any ray
+};
+
 class Tracer {
   public:
     explicit Tracer(const Scenario& scenario);
@@ -69,8 +78,16 @@ class Tracer {
     const glm::dvec3& frame_origin() const { return frame_origin_; }
     const std::vector<LocalLight>& lights() const { return lights_; }
 
-    // Traces one tile of pixels: primary rays, then one shadow ray per lightable pixel and light.
-    void trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters) const;
+    // Traces one tile of pixels: primary rays, then one shadow ray per lightable pixel and
+    // punctual light. Area lights are sampled afterwards (area_pass.cpp) from the surface points
+    // kept in `surfaces` (one per pixel) when it is given.
+    void trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters,
+                    std::vector<SurfacePoint>* surfaces = nullptr) const;
+
+    // One round of shadow rays from surface point s to light `li`: points first_point ...
+    // first_point + kRoundRays - 1 of the Sobol (0,2)-sequence under the digital shift `scramble`.
+    AreaRound trace_area_round(std::size_t li, const SurfacePoint& s, const AreaView& view, int first_point,
+                               std::uint64_t scramble, TraceCounters& counters) const;
 
     // One shadow ray from a point with every candidate hit judged in double: the exact, slow
     // path, used for suspicious hits and for the boundary search. `self_prim` may be kNoPrimitive.
@@ -83,6 +100,10 @@ class Tracer {
     bool culled_for_camera(std::uint32_t prim, const glm::dvec3& ray_dir) const;
 
   private:
+    // Judges lane k of a traced shadow packet: hits within float error of the receiver are
+    // re-judged in double, re-tracing the ray when Embree's hit was spurious.
+    ShadowAnswer judge_lane(const RTCRayHit16& sh, int k, const ShadowSetup& setup, const SurfacePoint& s,
+                            TraceCounters& counters) const;
     // `n_ccw` is normal_ccw(prim), computed once by the caller.
     SurfacePoint primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
                              const glm::dvec3& n_ccw) const;
@@ -102,5 +123,11 @@ class Tracer {
 // Fills boundary_m of light `li` and flags pixels within float error of a boundary as U.
 // Returns the number of bisection rays traced.
 std::uint64_t locate_shadow_boundaries(const Tracer& tracer, OracleFrame& frame, std::size_t li, int bisection_steps);
+
+// Samples area light `li` at every lightable pixel: V, E, occluder_m (docs/oracle.md, "Area
+// lights"). `surfaces` holds the primary hit of every pixel.
+OracleAreaStats sample_area_light(const Tracer& tracer, OracleFrame& frame, std::size_t li,
+                                  const std::vector<SurfacePoint>& surfaces, const OracleSettings& settings,
+                                  TraceCounters& counters);
 
 }  // namespace penumbra::oracle_detail

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <glm/geometric.hpp>
@@ -55,6 +56,22 @@ std::uint32_t SceneBuilder::grid(glm::dvec3 o, glm::dvec3 u, glm::dvec3 v, int n
     return first;
 }
 
+std::uint32_t SceneBuilder::sphere(glm::dvec3 center, double radius, int slices, int stacks) {
+    std::uint32_t first = static_cast<std::uint32_t>(scene_.triangles.size());
+    auto at = [&](int i, int j) {
+        double phi = 2 * M_PI * i / slices, theta = M_PI * j / stacks;
+        return center +
+               radius * glm::dvec3(std::sin(theta) * std::cos(phi), std::cos(theta), -std::sin(theta) * std::sin(phi));
+    };
+    for (int j = 0; j < stacks; ++j)
+        for (int i = 0; i < slices; ++i) {
+            glm::dvec3 a = at(i, j), b = at(i, j + 1), c = at(i + 1, j + 1), d = at(i + 1, j);
+            if (j > 0) triangle(a, b, d);
+            if (j < stacks - 1) triangle(b, c, d);
+        }
+    return first;
+}
+
 Camera look_at(glm::dvec3 eye, glm::dvec3 target, double yfov_deg, glm::dvec3 up) {
     Camera c;
     look_at_basis(eye, target, up, c);
@@ -89,6 +106,35 @@ Light point(glm::dvec3 position) {
     l.type = LightType::point;
     l.position = position;
     l.origin = "test point";
+    return l;
+}
+
+Light rect(glm::dvec3 center, glm::dvec3 u, glm::dvec3 v) {
+    Light l;
+    l.type = LightType::rect;
+    l.position = center;
+    l.u = u;
+    l.v = v;
+    l.origin = "test rect";
+    return l;
+}
+
+Light disk(glm::dvec3 center, glm::dvec3 normal, double radius) {
+    Light l;
+    l.type = LightType::disk;
+    l.position = center;
+    l.normal = glm::normalize(normal);
+    l.radius = radius;
+    l.origin = "test disk";
+    return l;
+}
+
+Light sphere(glm::dvec3 center, double radius) {
+    Light l;
+    l.type = LightType::sphere;
+    l.position = center;
+    l.radius = radius;
+    l.origin = "test sphere";
     return l;
 }
 

@@ -20,6 +20,8 @@ class SceneBuilder {
     std::uint32_t quad(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d, bool double_sided = true);
     std::uint32_t box(glm::dvec3 lo, glm::dvec3 hi);
     std::uint32_t grid(glm::dvec3 origin, glm::dvec3 u, glm::dvec3 v, int nu, int nv);  // +u x v faces
+    // A UV sphere with its vertices on the sphere (so it lies inside it), faces outward.
+    std::uint32_t sphere(glm::dvec3 center, double radius, int slices, int stacks);
     Scene build() const { return scene_; }
     std::size_t triangle_count() const { return scene_.triangles.size(); }
 
@@ -32,6 +34,9 @@ Camera look_at_ortho(glm::dvec3 eye, glm::dvec3 target, double xmag, double ymag
 Light directional(glm::dvec3 direction);
 Light point(glm::dvec3 position);
 Light spot(glm::dvec3 position, glm::dvec3 direction, double outer_deg);
+Light rect(glm::dvec3 center, glm::dvec3 u, glm::dvec3 v);  // full edges; emits towards u x v
+Light disk(glm::dvec3 center, glm::dvec3 normal, double radius);
+Light sphere(glm::dvec3 center, double radius);
 
 Scenario make_scenario(Scene scene, Camera camera, std::vector<Light> lights, int width, int height);
 

@@ -43,12 +43,17 @@ check "zero direction exits 2" test "$rc" -eq 2
 check "zero direction message" grep -q "bad.json: lights\[0\].direction: zero vector" <<<"$err"
 check "bad input creates no output folder" test ! -e "$tmp/c"
 
-# Area lights are refused clearly until the soft-shadow oracle exists.
+# Area lights: sampled adaptively, reported in oracle.json, the same image for a seed.
 sed 's/"type": "directional", "direction": \[0, 0, 0\]/"type": "sphere", "center": [0, 3, 0], "radius": 0.5/' "$tmp/bad.json" >"$tmp/sphere.json"
-run oracle "$tmp/sphere.json" --out "$tmp/d"
-check "area light exits 2" test "$rc" -eq 2
-check "area light message" grep -q "lights\[0\]: sphere lights are not supported by the oracle yet" <<<"$err"
-check "area light writes nothing" test ! -e "$tmp/d"
+run oracle "$tmp/sphere.json" --out "$tmp/d" --seed 7 -q
+check "sphere light exits 0" test "$rc" -eq 0
+check "oracle.json has rays per pixel" grep -q '"rays_per_pixel"' "$tmp/d/oracle.json"
+check "oracle.json has the convergence curve" grep -q '"convergence"' "$tmp/d/oracle.json"
+run oracle "$tmp/sphere.json" --out "$tmp/d2" --seed 7 --threads 1 -q
+check "same seed, same oracle.exr" cmp -s "$tmp/d/oracle.exr" "$tmp/d2/oracle.exr"
+run oracle "$tmp/sphere.json" --out "$tmp/d3" --area-target 0
+check "a zero target exits 2" test "$rc" -eq 2
+check "a zero target writes nothing" test ! -e "$tmp/d3"
 
 # A failing run into an existing folder leaves what was there and nothing else.
 mkdir -p "$tmp/e" && echo keep >"$tmp/e/keep.txt"

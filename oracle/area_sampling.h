@@ -1,0 +1,75 @@
+// Area lights in the oracle: points spread uniformly (in area) over a light's emitting surface,
+// the low-discrepancy patterns that place them, and the confidence interval of the estimate.
+//
+// V of an area light is the visible fraction of its emitting area (design.md). Each pixel
+// estimates it in rounds of kRoundRays shadow rays; a round is the first 16 points of the
+// Sobol (0,2)-sequence (a (0,4,2)-net: one point in every elementary interval of area 1/16)
+// under its own random digital shift. Rounds are therefore independent and each is an
+// unbiased estimate, so the spread between rounds gives an honest interval (randomized QMC,
+// Owen 1997; L'Ecuyer & Lemieux 2002) while each round keeps QMC's stratification.
+#pragma once
+
+#include <cstdint>
+#include <glm/vec3.hpp>
+
+#include "common/scene.h"
+
+namespace penumbra::oracle_detail {
+
+inline constexpr int kRoundRays = 16;
+
+// The i-th point (i < 2^32) of the first two Sobol dimensions, as 32-bit fractions.
+inline std::uint32_t sobol_dim0(std::uint32_t i) {
+    // van der Corput: the bits of i mirrored.
+    i = (i << 16) | (i >> 16);
+    i = ((i & 0x00ff00ffu) << 8) | ((i & 0xff00ff00u) >> 8);
+    i = ((i & 0x0f0f0f0fu) << 4) | ((i & 0xf0f0f0f0u) >> 4);
+    i = ((i & 0x33333333u) << 2) | ((i & 0xccccccccu) >> 2);
+    i = ((i & 0x55555555u) << 1) | ((i & 0xaaaaaaaau) >> 1);
+    return i;
+}
+inline std::uint32_t sobol_dim1(std::uint32_t i) {
+    std::uint32_t x = 0;
+    for (std::uint32_t v = 1u << 31; i != 0; i >>= 1, v ^= v >> 1)
+        if (i & 1u) x ^= v;
+    return x;
+}
+
+// A 64-bit mix (splitmix64's finaliser) for per-pixel, per-round scrambles.
+inline std::uint64_t mix64(std::uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+inline std::uint64_t round_scramble(std::uint64_t seed, std::uint64_t light, std::uint64_t pixel, std::uint64_t round) {
+    return mix64(mix64(mix64(mix64(seed) ^ light) ^ pixel) ^ round);
+}
+
+// One area light in the camera-centred frame.
+struct AreaLight {
+    LightType type = LightType::rect;
+    glm::dvec3 center{0.0};
+    glm::dvec3 u{0.0}, v{0.0};    // rect: full edges
+    glm::dvec3 normal{0.0};       // rect, disk: unit emitting normal (u x v for a rect)
+    glm::dvec3 e1{0.0}, e2{0.0};  // disk: orthonormal basis of its plane
+    double radius = 0;            // disk, sphere
+};
+AreaLight make_area_light(const Light& light, const glm::dvec3& frame_origin);
+
+// Where, seen from one receiver point, the light's emitting surface is.
+struct AreaView {
+    bool lightable = false;  // emits towards p and some of it lies above p's tangent plane
+    bool inside = false;     // p inside a sphere light: V is undefined, the pixel is flagged U
+    // Sphere: the cap visible from p, around axis w (from the centre towards p), cos of its rim.
+    glm::dvec3 w{0.0}, e1{0.0}, e2{0.0};
+    double cos_rim = 1;
+};
+AreaView view_area_light(const AreaLight& light, const glm::dvec3& p, const glm::dvec3& n);
+
+// The point of the emitting surface at unit-square coordinates (s, t), uniform in area.
+glm::dvec3 area_light_point(const AreaLight& light, const AreaView& view, double s, double t);
+
+// Two-sided 97.5% quantile of Student's t with `df` degrees of freedom.
+double student_t975(int df);
+
+}  // namespace penumbra::oracle_detail
