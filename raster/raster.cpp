@@ -1,5 +1,7 @@
 #include "raster/raster.h"
 
+#include "raster/area_lights.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -261,6 +263,7 @@ gpu::uint filter_kind(FilterType f) {
         case FilterType::hw2x2: return gpu::kFilterHw2x2;
         case FilterType::pcf: return gpu::kFilterPcf;
         case FilterType::poisson: return gpu::kFilterPoisson;
+        case FilterType::pcss: return gpu::kFilterPcss;
     }
     return gpu::kFilterNone;
 }
@@ -317,7 +320,9 @@ double elapsed(Clock::time_point t0) {
 
 class Renderer {
   public:
-    Renderer(const Scenario& s, const Technique& t, const VulkanContext& ctx) : s_(s), t_(t), ctx_(ctx) {}
+    // `lights` are punctual: area lights arrive expanded (raster/area_lights.h).
+    Renderer(const Scenario& s, std::vector<Light> lights, const Technique& t, const VulkanContext& ctx)
+        : s_(s), lights_(std::move(lights)), t_(t), ctx_(ctx) {}
     RasterResult run();
 
   private:
@@ -332,6 +337,7 @@ class Renderer {
     void read_timings();  // all timestamps in one query-pool read
 
     const Scenario& s_;
+    const std::vector<Light> lights_;
     const Technique& t_;
     const VulkanContext& ctx_;
     RasterStats stats_;
@@ -362,12 +368,6 @@ class Renderer {
 };
 
 void Renderer::check_supported() {
-    for (std::size_t i = 0; i < s_.lights.size(); ++i)
-        if (is_area_light(s_.lights[i].type))
-            throw InputError(fmt::format(
-                "{}: light {} ({}) is an area light; the raster path renders directional, spot and point lights "
-                "(area-light techniques arrive with the soft-shadow work)",
-                s_.label, i, to_string(s_.lights[i].type)));
     std::uint32_t max_dim = ctx_.limits().maxImageDimension2D;
     if (static_cast<std::uint32_t>(t_.resolution) > max_dim)
         throw InputError(fmt::format("technique.resolution: {} exceeds the device's maxImageDimension2D {} ({})",
@@ -449,7 +449,7 @@ void Renderer::make_pipelines() {
     lookup_layout_ = make_pipeline_layout(ctx_, lookup_set_layout_.get(), 0, 0);
 
     // One pipeline per light kind present, not per light: lights of a kind share their variant.
-    for (const Light& light : s_.lights) {
+    for (const Light& light : lights_) {
         gpu::uint kind = light_kind(light.type);
         if (lookup_pipelines_[kind]) continue;
         SpecData spec;
@@ -478,10 +478,10 @@ void Renderer::make_targets() {
     prim_readback_ = create_buffer(ctx_, pixels_ * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
 
     bool any_point =
-        std::any_of(s_.lights.begin(), s_.lights.end(), [](const Light& l) { return l.type == LightType::point; });
+        std::any_of(lights_.begin(), lights_.end(), [](const Light& l) { return l.type == LightType::point; });
     std::uint32_t layers = any_point ? 6 : 1;
     // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
-    std::uint32_t res = s_.lights.empty() ? 1 : static_cast<std::uint32_t>(t_.resolution);
+    std::uint32_t res = lights_.empty() ? 1 : static_cast<std::uint32_t>(t_.resolution);
     shadow_depth_ = create_image(ctx_, vk_format(t_.depth_format), res, res, layers,
                                  VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                                  VK_IMAGE_ASPECT_DEPTH_BIT, true);
@@ -498,7 +498,7 @@ void Renderer::make_targets() {
 }
 
 void Renderer::make_light_resources() {
-    std::size_t n = s_.lights.size();
+    std::size_t n = lights_.size();
     std::uint32_t sets = static_cast<std::uint32_t>(n + 1);
     std::array<VkDescriptorPoolSize, 4> sizes = {{{VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, sets},
                                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 * sets},
@@ -536,7 +536,7 @@ void Renderer::make_light_resources() {
     bool persp = cam.type == ProjectionType::perspective;
     glm::dvec2 plane = ndc_to_image_plane(cam, s_.width, s_.height);
     for (std::size_t li = 0; li < n; ++li) {
-        const Light& light = s_.lights[li];
+        const Light& light = lights_[li];
         RasterLightStats ls;
         ls.projection =
             fit_light(light, s_.scene, cam, s_.width, s_.height, t_.fit, t_.resolution, origin_, t_.shadow_distance);
@@ -554,6 +554,8 @@ void Renderer::make_light_resources() {
         p.map = glm::vec4(t_.resolution, 1.0f / t_.resolution, t_.filter.radius_texels,
                           static_cast<float>(ls.projection.view_proj.size()));
         p.footprint = glm::vec4(ls.projection.metres_per_texel, ls.projection.tan_per_texel, 0.0f, 0.0f);
+        // A punctual light has no size: PCSS then degenerates to a one-texel filter.
+        p.pcss = glm::vec4(light.radius, ls.projection.near, ls.projection.far, t_.filter.max_radius_texels);
         for (std::size_t l = 0; l < ls.projection.view_proj.size(); ++l) {
             p.view_proj[l] = to_float(ls.projection.view_proj[l]);
             p.light_axis[l] = glm::vec4(glm::vec3(ls.projection.axis[l]), 0.0f);
@@ -695,8 +697,8 @@ void Renderer::record_camera_and_masks(VkCommandBuffer cmd) {
 
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 2);
     std::uint32_t gx = (W_ + 7) / 8, gy = (H_ + 7) / 8;
-    for (std::size_t li = 0; li < s_.lights.size(); ++li) {
-        if (s_.lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
+    for (std::size_t li = 0; li < lights_.size(); ++li) {
+        if (lights_[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, mask_pipeline_.get());
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &lookup_sets_[li], 0,
                                 nullptr);
@@ -754,7 +756,7 @@ void Renderer::record_light(VkCommandBuffer cmd, std::size_t li) {
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
     }
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_pipelines_[light_kind(s_.lights[li].type)].get());
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_pipelines_[light_kind(lights_[li].type)].get());
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &lookup_sets_[li], 0,
                             nullptr);
     vkCmdDispatch(cmd, (W_ + 7) / 8, (H_ + 7) / 8, 1);
@@ -772,7 +774,7 @@ void Renderer::read_timings() {
     };
     stats_.camera_ms = ms(0, 1);
     stats_.mask_ms = ms(2, 3);
-    for (std::size_t li = 0; li < s_.lights.size(); ++li) {
+    for (std::size_t li = 0; li < lights_.size(); ++li) {
         std::uint32_t q = static_cast<std::uint32_t>(4 + 3 * li);
         stats_.lights[li].shadow_ms = ms(q, q + 1);
         stats_.lights[li].lookup_ms = ms(q + 1, q + 2);
@@ -790,7 +792,7 @@ void Renderer::read_back(RasterResult& out) {
     std::memcpy(f.prim.data(), prim_readback_.mapped, pixels_ * 4);
     f.A.resize(pixels_);
     for (std::size_t i = 0; i < pixels_; ++i) f.A[i] = f.prim[i] == kNoPrimitive ? 0.0f : 1.0f;
-    for (std::size_t li = 0; li < s_.lights.size(); ++li) {
+    for (std::size_t li = 0; li < lights_.size(); ++li) {
         const auto* texels = static_cast<const gpu::LookupTexel*>(outputs_[li].mapped);
         RasterLightImage img;
         img.V.resize(pixels_);
@@ -834,10 +836,10 @@ RasterResult Renderer::run() {
 
     auto t1 = Clock::now();
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) { record_camera_and_masks(cmd); });
-    for (std::size_t li = 0; li < s_.lights.size(); ++li)
+    for (std::size_t li = 0; li < lights_.size(); ++li)
         stats_.lights[li].layers_sampled = *static_cast<const std::uint32_t*>(masks_[li].mapped);
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
-        for (std::size_t li = 0; li < s_.lights.size(); ++li) record_light(cmd, li);
+        for (std::size_t li = 0; li < lights_.size(); ++li) record_light(cmd, li);
     });
     stats_.render_s = elapsed(t1);
 
@@ -851,8 +853,10 @@ RasterResult Renderer::run() {
 }  // namespace
 
 RasterResult run_raster(const Scenario& scenario, const Technique& technique, const VulkanContext& ctx) {
-    Renderer r(scenario, technique, ctx);
-    return r.run();
+    ExpandedLights expanded = expand_area_lights(scenario.lights, technique);
+    Renderer r(scenario, expanded.lights, technique, ctx);
+    RasterResult drawn = r.run();
+    return fold_area_lights(expanded, std::move(drawn));
 }
 
 }  // namespace penumbra::raster

@@ -34,7 +34,7 @@ struct RasterResult {
     RasterStats stats;
 };
 
-// Throws InputError for a technique the scene or device cannot run (area lights, a map larger
+// Throws InputError for a technique the scene or device cannot run (a map larger
 // than the device allows) and EnvironmentError for Vulkan failures.
 RasterResult run_raster(const Scenario& scenario, const Technique& technique, const VulkanContext& ctx);
 

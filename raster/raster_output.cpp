@@ -59,7 +59,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
         for (std::size_t k = 0; k < l.projection.view_proj.size(); ++k) {
             nlohmann::json layer = {{"view_proj", matrix_json(l.projection.view_proj[k])},
                                     {"rendered", (l.layers_sampled >> k & 1u) != 0}};
-            if (light.type == LightType::point) layer["face"] = kFaces[k];
+            if (l.projection.view_proj.size() == 6) layer["face"] = kFaces[k];
             layers.push_back(layer);
         }
         std::size_t surface = 0, lit = 0, outside = 0;
@@ -79,6 +79,14 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
                             {"layers_rendered", l.layers_rendered},
                             {"pixels", {{"surface", surface}, {"fully_lit", lit}, {"outside_map", outside}}},
                             {"gpu_ms", {{"shadow", l.shadow_ms}, {"lookup", l.lookup_ms}}}};
+        if (is_area_light(light.type)) {
+            // Which soft-shadow method drew it, and from how many cube maps (raster/area_lights.h).
+            const bool averaged = technique.area_samples > 0;
+            j["area"] = {{"method", averaged                                    ? "averaged_hard_shadows"
+                                    : technique.filter.type == FilterType::pcss ? "pcss"
+                                                                                : "centre_point"},
+                         {"maps", averaged ? technique.area_samples : 1}};
+        }
         if (l.projection.perspective)
             j["texel_per_metre_depth"] = l.projection.tan_per_texel;
         else {

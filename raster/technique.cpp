@@ -41,12 +41,13 @@ double filter_reach_texels(const Filter& f) {
         case FilterType::hw2x2: return 1.0;
         case FilterType::pcf: return std::max(1.0, 0.5 * f.size + bilinear);
         case FilterType::poisson: return std::max(1.0, f.radius_texels + bilinear);
+        case FilterType::pcss: return std::max(1.0, f.max_radius_texels);
     }
     return 1.0;
 }
 
 const char* to_string(FilterType f) {
-    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson"};
+    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson", "pcss"};
     return kNames[static_cast<int>(f)];
 }
 
@@ -76,6 +77,15 @@ const std::vector<Preset>& presets() {
               {"cull", "none"},
               {"bias", {{"shader_depth", 0.001}}},
               {"filter", {{"type", "none"}}}}},
+        {"pcss",
+         "reference 001 / Fernando 2005: percentage-closer soft shadows from the area light's centre, 16-tap "
+         "blocker search and filter up to 32 texels, slope bias 1.5, 2048^2",
+         json{{"bias", {{"slope", 1.5}, {"constant", 2}}},
+              {"filter", {{"type", "pcss"}, {"taps", 16}, {"max_radius_texels", 32}}}}},
+        {"averaged-hard-shadows",
+         "reference 001: 16 hard shadow maps from points spread over the area light, averaged; slope bias 1.5, "
+         "2048^2",
+         json{{"bias", {{"slope", 1.5}, {"constant", 2}}}, {"filter", {{"type", "none"}}}, {"area_samples", 16}}},
     };
     return kPresets;
 }
@@ -140,16 +150,17 @@ Technique parse_technique(const json& value, const std::string& label) {
     }
     if (o.has("filter")) {
         JsonObject f = o.object("filter");
-        if (f.has("type") && f.get("type") == "pcss")
-            f.fail("type", "\"pcss\" needs an area light and arrives with the soft-shadow work (issue #5)");
-        t.filter.type = pick(f, "type", FilterType::none,
-                             {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson});
+        t.filter.type =
+            pick(f, "type", FilterType::none,
+                 {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss});
         t.filter.size = static_cast<int>(f.integer("size", 3, 1, 15));
         t.filter.taps = static_cast<int>(f.integer("taps", 16, 1, 64));
         t.filter.radius_texels = f.number_in("radius_texels", 1.5, 0.0, 64.0, "texels in [0, 64]");
         t.filter.bilinear_taps = f.boolean("bilinear_taps", false);
+        t.filter.max_radius_texels = f.number_in("max_radius_texels", 32.0, 1.0, 256.0, "texels in [1, 256]");
         f.finish();
     }
+    t.area_samples = static_cast<int>(o.integer("area_samples", 0, 0, 256));
     o.finish();
     return t;
 }
@@ -173,7 +184,9 @@ json Technique::to_json() const {
              {"size", filter.size},
              {"taps", filter.taps},
              {"radius_texels", filter.radius_texels},
-             {"bilinear_taps", filter.bilinear_taps}}}};
+             {"bilinear_taps", filter.bilinear_taps},
+             {"max_radius_texels", filter.max_radius_texels}}},
+           {"area_samples", area_samples}};
     if (!preset.empty()) j["preset"] = preset;
     return j;
 }

@@ -11,7 +11,7 @@ namespace penumbra::raster {
 enum class Fit { scene_sphere, scene_bounds, camera_frustum };
 enum class DepthFormat { d16, d24, d32 };
 enum class Cull { none, back, front };
-enum class FilterType { none, hw2x2, pcf, poisson };
+enum class FilterType { none, hw2x2, pcf, poisson, pcss };
 
 struct Bias {
     double constant = 0;       // Vulkan depthBiasConstantFactor, units of the format's r
@@ -29,6 +29,9 @@ struct Filter {
     int taps = 16;               // poisson: number of taps
     double radius_texels = 1.5;  // poisson: disk radius
     bool bilinear_taps = false;  // pcf, poisson: each tap a 2x2 bilinear compare (reference 000)
+    // pcss (Fernando 2005): `taps` Poisson taps for the blocker search and again for the
+    // filter, neither wider than this many texels.
+    double max_radius_texels = 32;
 };
 
 struct Technique {
@@ -40,6 +43,10 @@ struct Technique {
     Cull cull = Cull::back;
     Bias bias;
     Filter filter;
+    // Area lights: 0 renders one map from the light's centre (filtered by `filter`, e.g. pcss);
+    // N > 0 renders N maps from points spread over the light and averages their (filtered)
+    // verdicts: "averaged hard shadows" (reference 001), the raster path's own slow reference.
+    int area_samples = 0;
 
     nlohmann::json to_json() const;  // every key, resolved
 };

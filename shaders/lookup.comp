@@ -108,7 +108,51 @@ float pixel_angle(uvec2 pix) {
     return float(h & 0xFFFFu) * (6.28318530718 / 65536.0);
 }
 
-float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz) {
+vec2 poisson_tap(uint k) {
+    vec4 pair = p.poisson[k >> 1];
+    return (k & 1u) == 0u ? pair.xy : pair.zw;
+}
+
+// Metres along a perspective layer's axis from a stored depth (perspective_matrix's inverse).
+float view_depth(float d) {
+    float n = p.pcss.y, f = p.pcss.z;
+    return n * f / (f - d * (f - n));
+}
+
+// Percentage-closer soft shadows (Fernando 2005; reference 001): the average depth of the
+// blockers inside the light's footprint seen from the receiver sets the penumbra width, and a
+// Poisson PCF of that width filters. Radii are texels of the layer; a texel subtends
+// p.footprint.y per metre of depth.
+float pcss_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) {
+    float a = pixel_angle(pix);
+    mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a));
+    float light_r = p.pcss.x, near = p.pcss.y, max_r = p.pcss.w;
+    float per_texel = p.footprint.y;
+    int res = int(p.map.x);
+    // 1. blockers: the light seen from the receiver, projected onto the near plane.
+    float search = clamp(light_r * (z_receiver - near) / (z_receiver * near * per_texel), 1.0, max_r);
+    float blocker_sum = 0.0;
+    uint blockers = 0u;
+    for (uint k = 0u; k < kPoissonTapCount; ++k) {
+        ivec2 t = clamp(ivec2(floor(m.xy + rot * poisson_tap(k) * search)), ivec2(0), ivec2(res - 1));
+        float stored = texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r;
+        if (depth_units_ref(ref_at(t, m, dz)) > stored) {
+            blocker_sum += view_depth(stored);
+            ++blockers;
+        }
+    }
+    if (blockers == 0u) return 1.0;
+    float z_blocker = blocker_sum / float(blockers);
+    // 2. the penumbra: the light seen from the receiver, at the blockers' depth.
+    float radius = clamp(light_r * (z_receiver - z_blocker) / (z_receiver * z_blocker * per_texel), 1.0, max_r);
+    // 3. PCF over it.
+    float sum = 0.0;
+    for (uint k = 0u; k < kPoissonTapCount; ++k) sum += grid_tap(m.xy + rot * poisson_tap(k) * radius, layer, m, dz);
+    return sum / float(kPoissonTapCount);
+}
+
+float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) {
+    if (kFilterType == kFilterPcss) return pcss_visibility(pix, layer, m, dz, z_receiver);
     if (kFilterType == kFilterHw2x2) return tap_bilinear(m.xy, layer, m, dz);
     if (kFilterType == kFilterPcf) {
         float sum = 0.0;
@@ -122,11 +166,7 @@ float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz) {
         float a = pixel_angle(pix);
         mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a));
         float sum = 0.0;
-        for (uint k = 0u; k < kPoissonTapCount; ++k) {
-            vec4 pair = p.poisson[k >> 1];
-            vec2 d = (k & 1u) == 0u ? pair.xy : pair.zw;
-            sum += grid_tap(m.xy + rot * d * p.map.z, layer, m, dz);
-        }
+        for (uint k = 0u; k < kPoissonTapCount; ++k) sum += grid_tap(m.xy + rot * poisson_tap(k) * p.map.z, layer, m, dz);
         return sum / float(kPoissonTapCount);
     }
     return tap_at(m.xy, layer, m, dz);
@@ -229,6 +269,7 @@ void main() {
         o.stored_depth = 1.0 / 0.0;
         o.flags |= kFlagOutsideMap;
     }
-    o.V = filter_visibility(pix, layer, m, dz);
+    float z_receiver = kLightKind == kLightDirectional ? 0.0 : dot(Pb - p.light_pos.xyz, p.light_axis[layer].xyz);
+    o.V = filter_visibility(pix, layer, m, dz, z_receiver);
     texels[out_index] = o;
 }

@@ -52,6 +52,7 @@ PENUMBRA_CONST uint kFilterNone = 0;
 PENUMBRA_CONST uint kFilterHw2x2 = 1;
 PENUMBRA_CONST uint kFilterPcf = 2;
 PENUMBRA_CONST uint kFilterPoisson = 3;
+PENUMBRA_CONST uint kFilterPcss = 4;
 
 PENUMBRA_CONST uint kModeLookup = 0;    // write LookupTexel per pixel
 PENUMBRA_CONST uint kModeFaceMask = 1;  // only mark the cube faces receivers would sample
@@ -78,6 +79,7 @@ struct LookupParams {
     mat4 view_proj[6];   // light clip space from camera-relative position, per layer
     vec4 light_axis[6];  // perspective: unit forward axis of each layer
     vec4 poisson[kMaxPoissonTaps / 2];  // two taps (x, y) per vec4, unit disk
+    vec4 pcss;                          // light radius (m), near, far (m, perspective layers), largest radius (texels)
 };
 
 // Per pixel and light, what the technique decided and the lookups behind it.

@@ -94,8 +94,11 @@ check "unknown preset lists presets" grep -q "camera-frustum-article" <<<"$err"
 run raster "$src/data/default/scenario.json" --out "$tmp/r6" --device no-such-gpu
 check "unknown device exits 2" test "$rc" -eq 2
 check "unknown device lists devices" grep -q "llvmpipe" <<<"$err"
-run raster "$tmp/sphere.json" --out "$tmp/r7"
-check "raster refuses area lights with exit 2" test "$rc" -eq 2
+run raster "$tmp/sphere.json" --out "$tmp/r7" --preset pcss -q
+check "raster draws a sphere light with PCSS" test "$rc" -eq 0
+check "raster.json names the soft-shadow method" grep -q '"method": "pcss"' "$tmp/r7/raster.json"
+run raster "$tmp/sphere.json" --out "$tmp/r7b" --set area_samples=300
+check "too many area samples exit 2" test "$rc" -eq 2
 
 # raster: no Vulkan driver at all is an environment failure (exit 3) that says what to install.
 VK_ICD_FILENAMES=/nonexistent.json run raster "$src/data/default/scenario.json" --out "$tmp/r8"

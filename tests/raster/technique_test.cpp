@@ -42,7 +42,10 @@ TEST(Technique, ErrorsNameTheKeyPath) {
     EXPECT_THAT(error_of({{"resolution", 100000}}), HasSubstr("technique.resolution"));
     EXPECT_THAT(error_of({{"bias", {{"wrold", 1}}}}), HasSubstr("technique.bias.wrold: unknown key"));
     EXPECT_THAT(error_of({{"preset", "nope"}}), HasSubstr("d3d12-textbook"));
-    EXPECT_THAT(error_of({{"filter", {{"type", "pcss"}}}}), HasSubstr("area light"));
+    EXPECT_EQ(error_of({{"filter", {{"type", "pcss"}}}}), "");
+    EXPECT_THAT(error_of({{"filter", {{"type", "pcss"}, {"max_radius_texels", 0.5}}}}),
+                HasSubstr("technique.filter.max_radius_texels"));
+    EXPECT_THAT(error_of({{"area_samples", -1}}), HasSubstr("technique.area_samples"));
     EXPECT_THAT(error_of({{"shadow_distance", 20.0}}), HasSubstr("technique.shadow_distance: only the camera_frustum"));
     EXPECT_THAT(error_of({{"fit", "camera_frustum"}, {"shadow_distance", -1.0}}),
                 HasSubstr("technique.shadow_distance"));
