@@ -254,7 +254,8 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
     so.depth_quantum =
         static_cast<float>(std::max(raster::depth_resolution(technique.depth_format), std::ldexp(1.0, -22)));
-    const std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
+    std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
+    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
     const metrics::FrameScore score = metrics::score_frames(oracle.frame, raster.frame, scoring);
     const double metrics_s = seconds_since(t3);
 

@@ -30,13 +30,28 @@ namespace {
 
 // Sums of one image row; rows are added in order afterwards so the totals do not depend on
 // how the rows were shared between threads.
+// Soft lights' penumbra-width band: V in (kWidthBand, 1 - kWidthBand), wide of the oracle's noise.
+constexpr float kWidthBand = 0.05f;
+
 struct RowSums {
     PixelCounts pixels;
     std::array<std::uint64_t, 5> counts{};
     double abs_sum = 0, sq_sum = 0, signed_sum = 0;
     double gap_sum = 0, gap_max = 0, acne_sum = 0, acne_max = 0;
+    // Soft lights: per oracle region (umbra, penumbra, lit) pixels and |error| sums.
+    std::array<std::uint64_t, 3> region_pixels{};
+    std::array<double, 3> region_abs{};
+    double penumbra_excess = 0;
+    std::uint64_t band_oracle = 0, band_raster = 0;  // pixels with V in the width band
 
     void add(const RowSums& r) {
+        for (std::size_t k = 0; k < 3; ++k) {
+            region_pixels[k] += r.region_pixels[k];
+            region_abs[k] += r.region_abs[k];
+        }
+        penumbra_excess += r.penumbra_excess;
+        band_oracle += r.band_oracle;
+        band_raster += r.band_raster;
         pixels.surface += r.pixels.surface;
         pixels.scored += r.pixels.scored;
         pixels.back_facing += r.pixels.back_facing;
@@ -108,6 +123,18 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                     s.sq_sum += static_cast<double>(e) * e;
                     s.signed_sum += e;
                     c = PixelClass::correct;
+                    if (opt.soft) {
+                        // The oracle's region, with its own uncertainty: umbra and lit are V
+                        // within tau + E of 0 and 1.
+                        const float margin = opt.tolerance + o.E[i];
+                        const std::size_t region = o.V[i] <= margin ? 0 : o.V[i] >= 1 - margin ? 2 : 1;
+                        ++s.region_pixels[region];
+                        s.region_abs[region] += std::abs(e);
+                        if (region == 1) s.penumbra_excess += std::max(0.0f, std::abs(e) - o.E[i]);
+                        auto in_band = [](float v) { return v > kWidthBand && v < 1 - kWidthBand; };
+                        s.band_oracle += in_band(o.V[i]);
+                        s.band_raster += in_band(r.V[i]);
+                    }
                     if (std::abs(e) > opt.tolerance + o.E[i]) {
                         c = classify_wrong(e, o, of.prim[i], r, i, opt);
                         ++s.counts[error_class_index(c)];
@@ -145,6 +172,24 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
     const auto acne = s.count(PixelClass::acne);
     s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
     s.acne_depth = {acne ? t.acne_sum / acne : 0.0, t.acne_max};
+    if (opt.soft) {
+        SoftScore& soft = s.soft.emplace();
+        auto mean = [&](std::size_t k) {
+            return t.region_pixels[k] ? t.region_abs[k] / static_cast<double>(t.region_pixels[k]) : 0.0;
+        };
+        soft.umbra_pixels = t.region_pixels[0];
+        soft.penumbra_pixels = t.region_pixels[1];
+        soft.lit_pixels = t.region_pixels[2];
+        soft.umbra_mae = mean(0);
+        soft.penumbra_mae = mean(1);
+        soft.lit_mae = mean(2);
+        soft.penumbra_mae_beyond_e =
+            t.region_pixels[1] ? t.penumbra_excess / static_cast<double>(t.region_pixels[1]) : 0.0;
+        soft.width_pixels_oracle = t.band_oracle;
+        soft.width_pixels_raster = t.band_raster;
+        soft.penumbra_width_error =
+            t.band_oracle ? static_cast<double>(t.band_raster) / static_cast<double>(t.band_oracle) - 1.0 : 0.0;
+    }
 
     // Both pictures agree wherever the pixel is not scored, so only scored differences show.
     std::vector<float> truth(n), shown(n);
@@ -205,22 +250,34 @@ nlohmann::json to_json(const LightScore& s) {
         counts[name] = s.counts[k];
         rates[name] = s.rate(kErrorClasses[k]);
     }
-    return {{"pixels",
-             {{"surface", s.pixels.surface},
-              {"scored", s.pixels.scored},
-              {"back_facing", s.pixels.back_facing},
-              {"uncertain", s.pixels.uncertain},
-              {"coverage_mismatch", s.pixels.coverage_mismatch}}},
-            {"counts", counts},
-            {"rates", rates},
-            {"wrong", s.wrong},
-            {"mae", s.mae},
-            {"rmse", s.rmse},
-            {"wrong_fraction", s.wrong_fraction},
-            {"bias", s.bias},
-            {"peter_panning_gap", {{"mean", s.peter_panning_gap.mean}, {"max", s.peter_panning_gap.max}}},
-            {"acne_depth", {{"mean", s.acne_depth.mean}, {"max", s.acne_depth.max}}},
-            {"perceptual", {{"mean", s.perceptual.mean}, {"max", s.perceptual.max}}}};
+    nlohmann::json j = {{"pixels",
+                         {{"surface", s.pixels.surface},
+                          {"scored", s.pixels.scored},
+                          {"back_facing", s.pixels.back_facing},
+                          {"uncertain", s.pixels.uncertain},
+                          {"coverage_mismatch", s.pixels.coverage_mismatch}}},
+                        {"counts", counts},
+                        {"rates", rates},
+                        {"wrong", s.wrong},
+                        {"mae", s.mae},
+                        {"rmse", s.rmse},
+                        {"wrong_fraction", s.wrong_fraction},
+                        {"bias", s.bias},
+                        {"peter_panning_gap", {{"mean", s.peter_panning_gap.mean}, {"max", s.peter_panning_gap.max}}},
+                        {"acne_depth", {{"mean", s.acne_depth.mean}, {"max", s.acne_depth.max}}},
+                        {"perceptual", {{"mean", s.perceptual.mean}, {"max", s.perceptual.max}}}};
+    if (s.soft) {
+        const SoftScore& soft = *s.soft;
+        j["soft"] = {
+            {"pixels", {{"umbra", soft.umbra_pixels}, {"penumbra", soft.penumbra_pixels}, {"lit", soft.lit_pixels}}},
+            {"penumbra_mae", soft.penumbra_mae},
+            {"penumbra_mae_beyond_E", soft.penumbra_mae_beyond_e},
+            {"umbra_mae", soft.umbra_mae},
+            {"lit_mae", soft.lit_mae},
+            {"penumbra_width_error", soft.penumbra_width_error},
+            {"width_band_pixels", {{"oracle", soft.width_pixels_oracle}, {"raster", soft.width_pixels_raster}}}};
+    }
+    return j;
 }
 
 }  // namespace penumbra::metrics

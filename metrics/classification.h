@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -46,6 +47,7 @@ struct ScoringOptions {
     float filter_reach_texels = 1.0f;  // aliasing band: this many texel footprints around a true boundary
     float depth_quantum = 0.0f;        // the depth format's resolution r (depth units), 0 for float
     double pixels_per_degree = 67.0;   // viewing condition of the perceptual error (FLIP's default)
+    bool soft = false;                 // an area light: also score the penumbra (SoftScore)
 };
 
 struct PixelCounts {
@@ -54,6 +56,20 @@ struct PixelCounts {
 
 struct MeanMax {
     double mean = 0, max = 0;
+};
+
+// Soft shadows (docs/metrics.md, "Soft shadows"). Scored pixels fall in the oracle's umbra (V
+// within tau + E of 0), lit region (of 1) or penumbra (between).
+struct SoftScore {
+    std::uint64_t umbra_pixels = 0, penumbra_pixels = 0, lit_pixels = 0;
+    double penumbra_mae = 0;           // mean |error| inside the true penumbra
+    double penumbra_mae_beyond_e = 0;  // mean max(0, |error| - E) there: what oracle noise cannot cause
+    double umbra_mae = 0, lit_mae = 0;
+    // Relative width of the raster's penumbrae against the truth's: pixels with V in (0.05,
+    // 0.95) in each, raster / oracle - 1 (the band's area is its width times the shadow
+    // outline, which both share). +0.3: penumbrae 30% too wide; -1: hard shadows.
+    double penumbra_width_error = 0;
+    std::uint64_t width_pixels_oracle = 0, width_pixels_raster = 0;
 };
 
 struct LightScore {
@@ -65,6 +81,7 @@ struct LightScore {
     MeanMax peter_panning_gap;                // metres along the shadow ray to the true occluder, peter-panning pixels
     MeanMax acne_depth;                       // metres the receiver lies behind its own stored surface, acne pixels
     MeanMax perceptual;                       // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
+    std::optional<SoftScore> soft;            // area lights only
     std::uint64_t count(PixelClass c) const;  // 0 for classes that are not errors
     double rate(PixelClass c) const;          // count / scored
 };

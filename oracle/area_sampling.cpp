@@ -9,20 +9,6 @@
 
 namespace penumbra::oracle_detail {
 
-namespace {
-
-// An orthonormal pair perpendicular to unit n (Duff et al. 2017, "Building an orthonormal
-// basis, revisited"): continuous and without a division by a small number.
-void basis(const glm::dvec3& n, glm::dvec3& b1, glm::dvec3& b2) {
-    double sign = std::copysign(1.0, n.z);
-    double a = -1.0 / (sign + n.z);
-    double b = n.x * n.y * a;
-    b1 = glm::dvec3(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-    b2 = glm::dvec3(b, sign + n.y * n.y * a, -n.y);
-}
-
-}  // namespace
-
 AreaLight make_area_light(const Light& l, const glm::dvec3& frame_origin) {
     AreaLight a;
     a.type = l.type;
@@ -34,7 +20,7 @@ AreaLight make_area_light(const Light& l, const glm::dvec3& frame_origin) {
         a.normal = glm::normalize(glm::cross(l.u, l.v));
     } else if (l.type == LightType::disk) {
         a.normal = glm::normalize(l.normal);
-        basis(a.normal, a.e1, a.e2);
+        orthonormal_basis(a.normal, a.e1, a.e2);
     }
     return a;
 }
@@ -65,7 +51,7 @@ AreaView view_area_light(const AreaLight& light, const glm::dvec3& p, const glm:
             }
             view.w = -to_center / d;
             view.cos_rim = light.radius / d;
-            basis(view.w, view.e1, view.e2);
+            orthonormal_basis(view.w, view.e1, view.e2);
             // If any of the sphere pokes above the tangent plane, so does the cap seen from p:
             // the first hit of a ray from p towards such a point is on the cap and above the plane.
             view.lightable = glm::dot(n, to_center) + light.radius > 0;
@@ -79,18 +65,8 @@ glm::dvec3 area_light_point(const AreaLight& light, const AreaView& view, double
     switch (light.type) {
         case LightType::rect: return light.center + (s - 0.5) * light.u + (t - 0.5) * light.v;
         case LightType::disk: {
-            // Shirley-Chiu concentric map: area-preserving, so the net's strata stay equal-area.
-            double a = 2 * s - 1, b = 2 * t - 1;
-            if (a == 0 && b == 0) return light.center;
-            double r, phi;
-            if (std::abs(a) > std::abs(b)) {
-                r = a;
-                phi = std::numbers::pi / 4 * (b / a);
-            } else {
-                r = b;
-                phi = std::numbers::pi / 2 - std::numbers::pi / 4 * (a / b);
-            }
-            return light.center + light.radius * r * (std::cos(phi) * light.e1 + std::sin(phi) * light.e2);
+            glm::dvec2 d = concentric_disk(s, t);
+            return light.center + light.radius * (d.x * light.e1 + d.y * light.e2);
         }
         case LightType::sphere: {
             // Area on a sphere is uniform in cos(theta) (Archimedes): the cap is cos in [cos_rim, 1].

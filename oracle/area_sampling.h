@@ -12,28 +12,15 @@
 #include <cstdint>
 #include <glm/vec3.hpp>
 
+#include "common/light_sampling.h"
 #include "common/scene.h"
 
 namespace penumbra::oracle_detail {
 
 inline constexpr int kRoundRays = 16;
 
-// The i-th point (i < 2^32) of the first two Sobol dimensions, as 32-bit fractions.
-inline std::uint32_t sobol_dim0(std::uint32_t i) {
-    // van der Corput: the bits of i mirrored.
-    i = (i << 16) | (i >> 16);
-    i = ((i & 0x00ff00ffu) << 8) | ((i & 0xff00ff00u) >> 8);
-    i = ((i & 0x0f0f0f0fu) << 4) | ((i & 0xf0f0f0f0u) >> 4);
-    i = ((i & 0x33333333u) << 2) | ((i & 0xccccccccu) >> 2);
-    i = ((i & 0x55555555u) << 1) | ((i & 0xaaaaaaaau) >> 1);
-    return i;
-}
-inline std::uint32_t sobol_dim1(std::uint32_t i) {
-    std::uint32_t x = 0;
-    for (std::uint32_t v = 1u << 31; i != 0; i >>= 1, v ^= v >> 1)
-        if (i & 1u) x ^= v;
-    return x;
-}
+using penumbra::sobol_dim0;
+using penumbra::sobol_dim1;
 
 // A 64-bit mix (splitmix64's finaliser) for per-pixel, per-round scrambles.
 inline std::uint64_t mix64(std::uint64_t z) {

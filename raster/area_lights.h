@@ -14,9 +14,9 @@
 namespace penumbra::raster {
 
 struct ExpandedLights {
-    std::vector<Light> lights;         // what the renderer draws, all punctual
-    std::vector<std::size_t> first;    // per scenario light: its first drawn light
-    std::vector<std::size_t> count;    // ... and how many
+    std::vector<Light> lights;       // what the renderer draws, all punctual
+    std::vector<std::size_t> first;  // per scenario light: its first drawn light
+    std::vector<std::size_t> count;  // ... and how many
 };
 ExpandedLights expand_area_lights(const std::vector<Light>& lights, const Technique& technique);
 

@@ -1,7 +1,5 @@
 #include "raster/raster.h"
 
-#include "raster/area_lights.h"
-
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -13,6 +11,7 @@
 
 #include "common/camera.h"
 #include "common/errors.h"
+#include "raster/area_lights.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
 #include "camera_frag.h"

@@ -79,8 +79,9 @@ const std::vector<Preset>& presets() {
               {"filter", {{"type", "none"}}}}},
         {"pcss",
          "reference 001 / Fernando 2005: percentage-closer soft shadows from the area light's centre, 16-tap "
-         "blocker search and filter up to 32 texels, slope bias 1.5, 2048^2",
-         json{{"bias", {{"slope", 1.5}, {"constant", 2}}},
+         "blocker search and filter up to 32 texels, receiver-plane and slope bias 1.5 (wide kernels need the "
+         "first), 2048^2",
+         json{{"bias", {{"slope", 1.5}, {"constant", 2}, {"receiver_plane", true}}},
               {"filter", {{"type", "pcss"}, {"taps", 16}, {"max_radius_texels", 32}}}}},
         {"averaged-hard-shadows",
          "reference 001: 16 hard shadow maps from points spread over the area light, averaged; slope bias 1.5, "

@@ -2,6 +2,7 @@
 // summary numbers, the perceptual error and the gates. No Embree, no Vulkan.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/errors.h"
@@ -290,6 +291,52 @@ TEST(Gate, BadGatesNameThePathAndWhatWasExpected) {
     expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "limit": 2}]})", "checks[0].limit");
     expect_gate_error(R"({"checks": {"metric": "mae"}})", "checks");
     expect_gate_error(R"({"check": []})", "check");
+}
+
+// Soft lights: a horizontal ramp from umbra through penumbra to full light, 100 px wide.
+Frames soft_ramp() {
+    Frames f(100, 4);
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 100; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * 100 + x;
+            f.ol().V[i] = std::clamp((x - 20) / 60.0f, 0.0f, 1.0f);  // penumbra: x in (20, 80)
+            f.ol().E[i] = f.ol().V[i] > 0 && f.ol().V[i] < 1 ? 0.003f : 0.0f;
+            f.rl().V[i] = f.ol().V[i];
+        }
+    return f;
+}
+
+TEST(SoftScore, ARightPenumbraScoresNothingBeyondTheOraclesBound) {
+    Frames f = soft_ramp();
+    for (std::size_t i = 0; i < f.rl().V.size(); ++i) f.rl().V[i] += (i % 2 ? 0.002f : -0.002f);  // noise < E
+    ScoringOptions opt;
+    opt.soft = true;
+    const LightScore s = f.score(opt).lights[0];
+    ASSERT_TRUE(s.soft);
+    EXPECT_EQ(s.soft->umbra_pixels + s.soft->penumbra_pixels + s.soft->lit_pixels, s.pixels.scored);
+    EXPECT_GT(s.soft->penumbra_pixels, 200u);
+    EXPECT_NEAR(s.soft->penumbra_mae, 0.002, 1e-4);
+    EXPECT_EQ(s.soft->penumbra_mae_beyond_e, 0.0);
+    EXPECT_NEAR(s.soft->penumbra_width_error, 0.0, 0.05);
+    EXPECT_FALSE(f.score().lights[0].soft) << "punctual lights carry no soft score";
+}
+
+TEST(SoftScore, WidthErrorTellsHardFromWideShadows) {
+    ScoringOptions opt;
+    opt.soft = true;
+    Frames hard = soft_ramp(), wide = soft_ramp();
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 100; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * 100 + x;
+            hard.rl().V[i] = x < 50 ? 0.0f : 1.0f;
+            wide.rl().V[i] = std::clamp((x - 5) / 90.0f, 0.0f, 1.0f);  // 1.5x as wide
+        }
+    const SoftScore h = *hard.score(opt).lights[0].soft, w = *wide.score(opt).lights[0].soft;
+    EXPECT_NEAR(h.penumbra_width_error, -1.0, 1e-9);
+    EXPECT_NEAR(w.penumbra_width_error, 0.5, 0.06);
+    EXPECT_GT(h.penumbra_mae, 0.1);
+    EXPECT_LT(h.umbra_mae + h.lit_mae, 1e-9);
+    EXPECT_GT(h.penumbra_mae_beyond_e, h.penumbra_mae - 0.0031);
 }
 
 }  // namespace

@@ -139,5 +139,37 @@ TEST_F(Verdict, ALightFrustumThatMissesReceiversIsFalseLitNotAcne) {
     EXPECT_LT(covered.score.count(PixelClass::false_lit), j.score.count(PixelClass::false_lit) / 10);
 }
 
+// Soft shadows: a box under a rect light. The truth's penumbra is wide; a single hard map
+// (no filter) has almost none, PCSS widens it from the blockers' depth, and averaging 16 hard
+// maps over the light comes closest, as reference 001 says.
+TEST_F(Verdict, SoftShadowMetricsRankHardPcssAndAveragedMaps) {
+    test::SceneBuilder b;
+    b.grid({-3, 0, 3}, {6, 0, 0}, {0, 0, -6}, 6, 6);
+    b.box({-0.5, 0, -0.5}, {0.5, 1.0, 0.5});
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 5, 5}, {0, 0, 0}, 45),
+                                      {test::rect({0.5, 3.5, 0.3}, {1.2, 0, 0}, {0, 0, 1.2})}, 160, 120);
+    const OracleResult truth = run_oracle(sc);
+    auto soft_score = [&](const nlohmann::json& technique_json) {
+        const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
+        const raster::RasterResult drawn = raster::run_raster(sc, technique, *ctx_);
+        metrics::ScoringOptions opt;
+        opt.soft = true;
+        opt.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
+        const metrics::FrameScore s = metrics::score_frames(truth.frame, drawn.frame, std::span(&opt, 1));
+        EXPECT_TRUE(s.lights[0].soft.has_value());
+        return *s.lights[0].soft;
+    };
+    const auto hard = soft_score({{"resolution", 1024}, {"bias", {{"slope", 1.5}, {"constant", 2}}}});
+    const auto pcss = soft_score({{"preset", "pcss"}, {"resolution", 1024}});
+    const auto averaged = soft_score({{"preset", "averaged-hard-shadows"}, {"resolution", 1024}});
+    EXPECT_GT(hard.penumbra_pixels, 500u);
+    EXPECT_LT(hard.penumbra_width_error, -0.7) << "a hard shadow has next to no penumbra";
+    EXPECT_GT(pcss.penumbra_width_error, hard.penumbra_width_error + 0.3);
+    EXPECT_LT(averaged.penumbra_mae, pcss.penumbra_mae);
+    EXPECT_LT(pcss.penumbra_mae, hard.penumbra_mae);
+    EXPECT_LT(std::abs(averaged.penumbra_width_error), 0.35);
+    EXPECT_LT(averaged.penumbra_mae, 0.08);
+}
+
 }  // namespace
 }  // namespace penumbra
