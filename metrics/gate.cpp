@@ -36,11 +36,18 @@ const nlohmann::json* find_path(const nlohmann::json& j, const std::string& dott
     return at;
 }
 
+// Every number a light's object can hold: an area light's carries "soft" as well.
+nlohmann::json template_light() {
+    LightScore s;
+    s.soft.emplace();
+    return to_json(s);
+}
+
 }  // namespace
 
 std::vector<std::string> gate_metrics() {
     std::vector<std::string> paths;
-    collect_paths(to_json(LightScore{}), "", paths);
+    collect_paths(template_light(), "", paths);
     return paths;
 }
 
@@ -54,12 +61,12 @@ Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::size_
     const nlohmann::json& checks = top.get("checks");
     if (!checks.is_array()) top.fail("checks", "expected an array of checks");
     top.finish();
-    const nlohmann::json template_light = to_json(LightScore{});
+    const nlohmann::json every_number = template_light();
     for (std::size_t k = 0; k < checks.size(); ++k) {
         JsonObject c(checks[k], label, fmt::format("checks[{}]", k));
         GateCheck check;
         check.metric = c.string("metric");
-        const nlohmann::json* known = find_path(template_light, check.metric);
+        const nlohmann::json* known = find_path(every_number, check.metric);
         if (!known || !known->is_number()) {
             std::string list;
             for (const auto& p : gate_metrics()) list += (list.empty() ? "" : ", ") + p;
@@ -92,6 +99,8 @@ GateResult evaluate_gate(const Gate& gate, const std::vector<nlohmann::json>& li
         for (std::size_t li = 0; li < lights.size(); ++li) {
             if (check.light && *check.light != li) continue;
             const nlohmann::json* v = find_path(lights[li], check.metric);
+            // "soft.*" numbers exist for area lights only; elsewhere the check does not apply.
+            if (!v && check.metric.starts_with("soft.") && !lights[li].contains("soft")) continue;
             const double value = v && v->is_number() ? v->get<double>() : std::nan("");
             auto add = [&](const char* bound, double limit, bool ok) {
                 CheckOutcome o{li, check.metric, bound, value, limit, ok && std::isfinite(value)};

@@ -339,5 +339,20 @@ TEST(SoftScore, WidthErrorTellsHardFromWideShadows) {
     EXPECT_GT(h.penumbra_mae_beyond_e, h.penumbra_mae - 0.0031);
 }
 
+TEST(SoftScore, GatesNameSoftNumbersAndSkipPunctualLights) {
+    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "soft.penumbra_mae_beyond_E", "max": 0.05}]})"),
+                        "g", 2);
+    Frames f = soft_ramp();
+    ScoringOptions opt;
+    opt.soft = true;
+    const nlohmann::json area = to_json(f.score(opt).lights[0]), punctual = to_json(f.score().lights[0]);
+    GateResult r = evaluate_gate(g, {area, punctual});
+    ASSERT_EQ(r.outcomes.size(), 1u) << "the punctual light has no soft numbers to check";
+    EXPECT_TRUE(r.passed);
+    nlohmann::json worse = area;
+    worse["soft"]["penumbra_mae_beyond_E"] = 0.2;
+    EXPECT_FALSE(evaluate_gate(g, {worse}).passed);
+}
+
 }  // namespace
 }  // namespace penumbra::metrics
