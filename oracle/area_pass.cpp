@@ -139,7 +139,6 @@ OracleAreaStats sample_area_light(const Tracer& tracer, OracleFrame& frame, std:
         if (img.lightable[i] != 0 && (uniform || sums[i].mixed())) frontier.push_back(i);
     std::vector<double> curve_sum(marks.size(), 0.0), curve_max(marks.size(), 0.0);
     std::vector<std::uint64_t> curve_sampling(marks.size(), 0);
-    std::vector<std::uint8_t> queued(n, 0);
     while (!frontier.empty()) {
         std::vector<std::size_t> wave;
         const int reach = uniform ? 0 : kDilation;
@@ -148,8 +147,8 @@ OracleAreaStats sample_area_light(const Tracer& tracer, OracleFrame& frame, std:
             for (int y = std::max(0, fy - reach); y <= std::min(H - 1, fy + reach); ++y)
                 for (int x = std::max(0, fx - reach); x <= std::min(W - 1, fx + reach); ++x) {
                     const std::size_t i = static_cast<std::size_t>(y) * W + x;
-                    if (img.lightable[i] == 0 || refined[i] || queued[i]) continue;
-                    queued[i] = 1;
+                    if (img.lightable[i] == 0 || refined[i]) continue;
+                    refined[i] = 1;  // claimed by this wave
                     wave.push_back(i);
                 }
         }
@@ -182,7 +181,6 @@ OracleAreaStats sample_area_light(const Tracer& tracer, OracleFrame& frame, std:
         });
         frontier.clear();
         for (std::size_t w = 0; w < wave.size(); ++w) {
-            refined[wave[w]] = 1;
             if (sums[wave[w]].mixed()) frontier.push_back(wave[w]);
             for (std::size_t m = 0; m < marks.size(); ++m) {
                 double e = wave_e[w * marks.size() + m];

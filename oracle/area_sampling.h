@@ -19,9 +19,6 @@ namespace penumbra::oracle_detail {
 
 inline constexpr int kRoundRays = 16;
 
-using penumbra::sobol_dim0;
-using penumbra::sobol_dim1;
-
 // A 64-bit mix (splitmix64's finaliser) for per-pixel, per-round scrambles.
 inline std::uint64_t mix64(std::uint64_t z) {
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;

@@ -76,12 +76,13 @@ RasterResult fold_area_lights(const ExpandedLights& expanded, RasterResult drawn
     out.frame.frame_origin = drawn.frame.frame_origin;
     out.frame.A = std::move(drawn.frame.A);
     out.frame.prim = std::move(drawn.frame.prim);
-    out.stats = drawn.stats;
+    const std::vector<RasterLightStats> drawn_lights = std::move(drawn.stats.lights);
+    out.stats = std::move(drawn.stats);
     out.stats.lights.clear();
     for (std::size_t li = 0; li < expanded.first.size(); ++li) {
         const std::size_t first = expanded.first[li], n = expanded.count[li];
         RasterLightImage img = std::move(drawn.frame.lights[first]);
-        RasterLightStats ls = drawn.stats.lights[first];
+        RasterLightStats ls = drawn_lights[first];
         for (std::size_t j = first + 1; j < first + n; ++j) {
             const RasterLightImage& other = drawn.frame.lights[j];
             for (std::size_t i = 0; i < img.V.size(); ++i) {
@@ -89,7 +90,7 @@ RasterResult fold_area_lights(const ExpandedLights& expanded, RasterResult drawn
                 // Back-facing only where every point is behind the receiver's tangent plane.
                 if (!(other.flags[i] & kRasterBackFacing)) img.flags[i] &= ~kRasterBackFacing;
             }
-            const RasterLightStats& o = drawn.stats.lights[j];
+            const RasterLightStats& o = drawn_lights[j];
             ls.layers_sampled |= o.layers_sampled;
             ls.layers_rendered += o.layers_rendered;
             ls.shadow_ms += o.shadow_ms;

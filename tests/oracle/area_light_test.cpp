@@ -233,8 +233,8 @@ TEST(AreaSampling, TheFirstSixteenSobolPointsAreAZeroFourTwoNet) {
             std::vector<int> cells(16, 0);
             for (std::uint32_t i = 0; i < 16; ++i) {
                 auto top_bits = [](std::uint32_t v, int bits) { return bits == 0 ? 0u : v >> (32 - bits); };
-                std::uint32_t x = top_bits(oracle_detail::sobol_dim0(i) ^ shift, a);
-                std::uint32_t y = top_bits(oracle_detail::sobol_dim1(i) ^ (shift * 3u), 4 - a);
+                std::uint32_t x = top_bits(sobol_dim0(i) ^ shift, a);
+                std::uint32_t y = top_bits(sobol_dim1(i) ^ (shift * 3u), 4 - a);
                 ++cells[(x << (4 - a)) | y];
             }
             for (int c : cells) EXPECT_EQ(c, 1) << "a = " << a;
