@@ -15,13 +15,6 @@ namespace {
 
 constexpr int kPacket = 16;  // rays per Embree packet: a 4x4 block of pixels, or one area-light round
 static_assert(kRoundRays == kPacket);
-// Point and spot shadow rays stop this relative distance short of the light, so geometry
-// touching the light position does not count and float rounding of the direction cannot
-// carry the ray past it.
-constexpr double kLightMargin = 64 * robust::kFloatEps;
-// |N.L| (or the spot-cone cosine difference) below this is within float error of the
-// terminator: a rasteriser may decide either way, so the pixel is flagged ambiguous.
-constexpr double kTerminatorTolerance = 64 * robust::kFloatEps;
 
 glm::vec3 to_float(const glm::dvec3& v) {
     return glm::vec3(static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
@@ -100,40 +93,6 @@ float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_h
     return static_cast<float>(glm::length(glm::dvec3(setup.origin) + static_cast<double>(t_hit) * setup.dir - p));
 }
 
-glm::dvec3 direction_to_light(const LocalLight& l, const glm::dvec3& p) {
-    if (l.type == LightType::directional) return l.to_light;
-    glm::dvec3 d = l.position - p;
-    double len = glm::length(d);
-    return len > 0 ? d / len : glm::dvec3(0.0);
-}
-
-ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s) {
-    ShadowSetup r;
-    glm::dvec3 to_light = direction_to_light(light, s.p);
-    double cos_nl = glm::dot(s.n, to_light);
-    bool in_cone = true;
-    if (light.type == LightType::spot) {
-        double c = glm::dot(-to_light, light.spot_axis);
-        in_cone = c >= light.cos_outer;
-        r.ambiguous |= std::abs(c - light.cos_outer) <= kTerminatorTolerance;
-    }
-    r.ambiguous |= std::abs(cos_nl) <= kTerminatorTolerance;
-    r.lightable = cos_nl > 0 && in_cone;
-    if (!r.lightable) return r;
-    r.origin = robust::offset_ray_origin(s.p, s.n, s.error);
-    if (light.type == LightType::directional) {
-        r.dir = to_light;
-        r.tfar = std::numeric_limits<float>::infinity();
-    } else {
-        glm::dvec3 d = light.position - glm::dvec3(r.origin);
-        double dist = glm::length(d);
-        r.dir = d / dist;
-        r.tfar = static_cast<float>(dist * (1.0 - kLightMargin));
-    }
-    r.dir_f = to_float(r.dir);
-    return r;
-}
-
 Tracer::Tracer(const Scenario& scenario)
     : scenario_(scenario),
       device_("verbose=0"),
@@ -209,9 +168,6 @@ double Tracer::suspicious_hit_distance(const glm::dvec3& p, double cos_hit) cons
 
 SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
                                  const glm::dvec3& n_ccw) const {
-    SurfacePoint s;
-    s.hit = true;
-    s.prim = prim;
     // Rebuild the point from Embree's barycentrics and the double vertices: it lies on the
     // exact triangle whatever the float error of t.
     double b1 = std::clamp(u, 0.0, 1.0), b2 = std::clamp(v, 0.0, 1.0);
@@ -222,12 +178,12 @@ SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double 
     }
     double b0 = 1.0 - b1 - b2;
     const glm::dvec3 &v0 = vertex(prim, 0), &v1 = vertex(prim, 1), &v2 = vertex(prim, 2);
-    s.p = b0 * v0 + b1 * v1 + b2 * v2;
-    s.error = robust::surface_error_bound(s.p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2));
-    s.n = glm::normalize(n_ccw);
-    if (glm::dot(s.n, ray_dir) > 0) s.n = -s.n;
-    s.depth = t;
-    return s;
+    const glm::dvec3 p = b0 * v0 + b1 * v1 + b2 * v2;
+    glm::dvec3 n = glm::normalize(n_ccw);
+    if (glm::dot(n, ray_dir) > 0) n = -n;
+    // Every field at once: no zero-fill of the struct first (it showed in profiles).
+    return SurfacePoint{true, prim, p, n,
+                        robust::surface_error_bound(p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2)), t};
 }
 
 ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p,
@@ -330,6 +286,9 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     rtcInitIntersectContext(&coherent);
     coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     const PrimaryRays rays(cam, W, H);
+    // Per-packet state, declared once per tile: zero-filling it per packet showed in profiles.
+    SurfacePoint surf[kPacket];
+    ShadowSetup setup[kPacket];
 
     for (int by = y0; by < std::min(y0 + size, H); by += 4) {
         for (int bx = x0; bx < std::min(x0 + size, W); bx += 4) {
@@ -349,8 +308,18 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
             }
             rtcIntersect16(valid, scene_.get(), &coherent, &rh);
 
-            SurfacePoint surf[kPacket];
+            // The double vertices of the 16 hit triangles are cache misses on large scenes:
+            // load every lane's indices, then touch every vertex, so the misses overlap instead
+            // of queueing one after another inside the per-lane work below.
+            for (int k = 0; k < kPacket; ++k)
+                if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
+                    __builtin_prefetch(&tris_[rh.hit.primID[k]]);
+            for (int k = 0; k < kPacket; ++k)
+                if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
+                    for (int c = 0; c < 3; ++c) __builtin_prefetch(&vertex(rh.hit.primID[k], c));
+
             for (int k = 0; k < kPacket; ++k) {
+                surf[k].hit = false;
                 if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
                 std::uint32_t prim = rh.hit.primID[k];
                 double t = rh.ray.tfar[k], u = rh.hit.u[k], v = rh.hit.v[k];
@@ -390,7 +359,6 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 OracleLightImage& img = frame.lights[li];
                 alignas(64) RTCRayHit16 sh;
                 alignas(64) int svalid[kPacket];
-                ShadowSetup setup[kPacket];
                 bool any = false;
                 for (int k = 0; k < kPacket; ++k) {
                     svalid[k] = 0;

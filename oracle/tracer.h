@@ -2,7 +2,9 @@
 // built on it. Shared by tracing (tracer.cpp) and the shadow-boundary search.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 #include <limits>
 #include <vector>
@@ -26,8 +28,21 @@ struct LocalLight {
     AreaLight area;  // rect, disk, sphere
 };
 
+// Point and spot shadow rays stop this relative distance short of the light, so geometry
+// touching the light position does not count and float rounding of the direction cannot
+// carry the ray past it.
+inline constexpr double kLightMargin = 64 * robust::kFloatEps;
+// |N.L| (or the spot-cone cosine difference) below this is within float error of the
+// terminator: a rasteriser may decide either way, so the pixel is flagged ambiguous.
+inline constexpr double kTerminatorTolerance = 64 * robust::kFloatEps;
+
 // Unit direction from p towards the light (for a directional light, the same everywhere).
-glm::dvec3 direction_to_light(const LocalLight& light, const glm::dvec3& p);
+inline glm::dvec3 direction_to_light(const LocalLight& l, const glm::dvec3& p) {
+    if (l.type == LightType::directional) return l.to_light;
+    glm::dvec3 d = l.position - p;
+    double len = glm::length(d);
+    return len > 0 ? d / len : glm::dvec3(0.0);
+}
 
 // What the primary ray found at one pixel.
 struct SurfacePoint {
@@ -47,7 +62,33 @@ struct ShadowSetup {
     glm::dvec3 dir{0.0};
     float tfar = 0;
 };
-ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s);
+// Inline: it runs once per pixel and light on the hot path.
+inline ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s) {
+    ShadowSetup r;
+    glm::dvec3 to_light = direction_to_light(light, s.p);
+    double cos_nl = glm::dot(s.n, to_light);
+    bool in_cone = true;
+    if (light.type == LightType::spot) {
+        double c = glm::dot(-to_light, light.spot_axis);
+        in_cone = c >= light.cos_outer;
+        r.ambiguous |= std::abs(c - light.cos_outer) <= kTerminatorTolerance;
+    }
+    r.ambiguous |= std::abs(cos_nl) <= kTerminatorTolerance;
+    r.lightable = cos_nl > 0 && in_cone;
+    if (!r.lightable) return r;
+    r.origin = robust::offset_ray_origin(s.p, s.n, s.error);
+    if (light.type == LightType::directional) {
+        r.dir = to_light;
+        r.tfar = std::numeric_limits<float>::infinity();
+    } else {
+        glm::dvec3 d = light.position - glm::dvec3(r.origin);
+        double dist = glm::length(d);
+        r.dir = d / dist;
+        r.tfar = static_cast<float>(dist * (1.0 - kLightMargin));
+    }
+    r.dir_f = glm::vec3(r.dir);
+    return r;
+}
 
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit);

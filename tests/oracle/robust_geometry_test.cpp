@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cmath>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <random>
 
 namespace penumbra {
@@ -77,6 +80,19 @@ TEST(RobustGeometry, VerifyHitJudgesInDouble) {
     // 10 um above a plane 1e7 m from the origin is still above it in double.
     const glm::dvec3 w0(1e7, 0, 1e7), w1(1e7 + 1, 0, 1e7), w2(1e7, 0, 1e7 - 1);
     EXPECT_EQ(robust::verify_hit({1e7 + 0.2, 1e-5, 1e7 - 0.2}, {0, -1, 0}, w0, w1, w2), HitVerdict::real);
+}
+
+TEST(RobustGeometry, NextFloatMatchesNextafter) {
+    const float inf = std::numeric_limits<float>::infinity();
+    for (float v : {0.0f, -0.0f, 1.0f, -1.0f, 1e-40f, -1e-40f, 3.4e38f, -3.4e38f, 0.1f, -123.456f,
+                    std::numeric_limits<float>::denorm_min(), std::numeric_limits<float>::min()}) {
+        EXPECT_EQ(std::bit_cast<std::uint32_t>(robust::next_float(v, true)),
+                  std::bit_cast<std::uint32_t>(std::nextafter(v, inf)))
+            << v;
+        EXPECT_EQ(std::bit_cast<std::uint32_t>(robust::next_float(v, false)),
+                  std::bit_cast<std::uint32_t>(std::nextafter(v, -inf)))
+            << v;
+    }
 }
 
 }  // namespace
