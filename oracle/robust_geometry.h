@@ -29,12 +29,14 @@ inline glm::dvec3 surface_error_bound(const glm::dvec3& p, const glm::dvec3& wei
     return 4.0 * kFloatEps * (glm::abs(p) + weighted_vertex_abs);
 }
 
-// The next float above (up) or below v: std::nextafter without the library call, which
-// costs more than the rest of a shadow ray's set-up. v must be finite.
+// The next float above (up) or below v: std::nextafter without the library call, and
+// without a data-dependent branch (the sign of v and the direction vary pixel by pixel).
+// v must be finite.
 inline float next_float(float v, bool up) {
     if (v == 0.0f) return up ? std::numeric_limits<float>::denorm_min() : -std::numeric_limits<float>::denorm_min();
-    auto bits = std::bit_cast<std::uint32_t>(v);
-    return std::bit_cast<float>((v > 0.0f) == up ? bits + 1 : bits - 1);  // sign-magnitude: a step in |v|
+    const auto bits = std::bit_cast<std::uint32_t>(v);
+    const std::uint32_t away = (v > 0.0f) == up;  // sign-magnitude: a step away from 0 adds 1
+    return std::bit_cast<float>(bits + 2 * away - 1);
 }
 
 // Moves p off its surface along n by the error bound and rounds the float result away from p

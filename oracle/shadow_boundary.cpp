@@ -84,7 +84,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
                         m.p = on_plane(0.5 * (a + b));
                         m.n = n_lit;
                         m.error = robust::surface_error_bound(m.p, vabs);
-                        ShadowSetup setup = setup_shadow(light, m);
+                        ShadowSetup setup;
+                        setup_shadow(light, m, setup);
                         float vm = 0.0f;
                         if (setup.lightable) {
                             vm = tr.trace_shadow_verified(setup, m.p, kNoPrimitive).blocked ? 0.0f : 1.0f;

@@ -1,8 +1,10 @@
 #include "oracle/tracer.h"
 
 #include <fmt/format.h>
+#include <x86intrin.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <glm/geometric.hpp>
 
@@ -166,8 +168,8 @@ double Tracer::suspicious_hit_distance(const glm::dvec3& p, double cos_hit) cons
     return 64 * robust::kFloatEps * (glm::length(p) + max_vertex_norm_) / std::max(cos_hit, 1e-9);
 }
 
-SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
-                                 const glm::dvec3& n_ccw) const {
+void Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
+                         const glm::dvec3& n_ccw, SurfacePoint& s) const {
     // Rebuild the point from Embree's barycentrics and the double vertices: it lies on the
     // exact triangle whatever the float error of t.
     double b1 = std::clamp(u, 0.0, 1.0), b2 = std::clamp(v, 0.0, 1.0);
@@ -178,12 +180,13 @@ SurfacePoint Tracer::primary_hit(std::uint32_t prim, double u, double v, double 
     }
     double b0 = 1.0 - b1 - b2;
     const glm::dvec3 &v0 = vertex(prim, 0), &v1 = vertex(prim, 1), &v2 = vertex(prim, 2);
-    const glm::dvec3 p = b0 * v0 + b1 * v1 + b2 * v2;
-    glm::dvec3 n = glm::normalize(n_ccw);
-    if (glm::dot(n, ray_dir) > 0) n = -n;
-    // Every field at once: no zero-fill of the struct first (it showed in profiles).
-    return SurfacePoint{true, prim, p, n,
-                        robust::surface_error_bound(p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2)), t};
+    s.hit = true;
+    s.prim = prim;
+    s.p = b0 * v0 + b1 * v1 + b2 * v2;
+    s.error = robust::surface_error_bound(s.p, b0 * glm::abs(v0) + b1 * glm::abs(v1) + b2 * glm::abs(v2));
+    s.n = glm::normalize(n_ccw);
+    if (glm::dot(s.n, ray_dir) > 0) s.n = -s.n;
+    s.depth = t;
 }
 
 ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p,
@@ -286,9 +289,12 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     rtcInitIntersectContext(&coherent);
     coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     const PrimaryRays rays(cam, W, H);
-    // Per-packet state, declared once per tile: zero-filling it per packet showed in profiles.
+    // Per-packet state lives for the whole tile and every per-pixel result is written in
+    // place: zero-filled temporaries and struct copies per pixel (store-forwarding stalls) cost
+    // a quarter of the trace phase in profiles (docs/oracle.md, "Speed").
     SurfacePoint surf[kPacket];
     ShadowSetup setup[kPacket];
+    TraceCounters local;  // counted here, not through `counters`, which the compiler must assume aliases
 
     for (int by = y0; by < std::min(y0 + size, H); by += 4) {
         for (int bx = x0; bx < std::min(x0 + size, W); bx += 4) {
@@ -304,19 +310,15 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 ray_dir[k] = r.direction;
                 set_lane(rh.ray, k, to_float(r.origin), to_float(r.direction), znear, zfar);
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-                if (valid[k]) ++counters.primary;
+                local.primary += valid[k] != 0;
             }
             rtcIntersect16(valid, scene_.get(), &coherent, &rh);
 
-            // The double vertices of the 16 hit triangles are cache misses on large scenes:
-            // load every lane's indices, then touch every vertex, so the misses overlap instead
-            // of queueing one after another inside the per-lane work below.
+            // The double vertices of the hit triangles are cache misses on large scenes: ask for
+            // all lanes' indices first, so the misses overlap instead of queueing lane by lane.
             for (int k = 0; k < kPacket; ++k)
                 if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
                     __builtin_prefetch(&tris_[rh.hit.primID[k]]);
-            for (int k = 0; k < kPacket; ++k)
-                if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
-                    for (int c = 0; c < 3; ++c) __builtin_prefetch(&vertex(rh.hit.primID[k], c));
 
             for (int k = 0; k < kPacket; ++k) {
                 surf[k].hit = false;
@@ -324,7 +326,8 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 std::uint32_t prim = rh.hit.primID[k];
                 double t = rh.ray.tfar[k], u = rh.hit.u[k], v = rh.hit.v[k];
                 glm::dvec3 n_ccw = normal_ccw(prim);
-                if (!double_sided_[prim] && glm::dot(n_ccw, ray_dir[k]) > 0) {  // culled_for_camera
+                // culled_for_camera, the facing test first: it needs no memory.
+                if (glm::dot(n_ccw, ray_dir[k]) > 0 && !double_sided_[prim]) {
                     // Rare: re-trace this ray alone, culling the backs of single-sided surfaces.
                     FilterContext ctx;
                     rtcInitIntersectContext(&ctx.embree);
@@ -336,7 +339,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                             glm::vec3(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]), znear, zfar);
                     one.hit.geomID = RTC_INVALID_GEOMETRY_ID;
                     rtcIntersect1(scene_.get(), &ctx.embree, &one);
-                    ++counters.retraced;
+                    ++local.retraced;
                     if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     prim = one.hit.primID;
                     n_ccw = normal_ccw(prim);
@@ -344,8 +347,8 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     u = one.hit.u;
                     v = one.hit.v;
                 }
-                surf[k] = primary_hit(prim, u, v, t, ray_dir[k], n_ccw);
-                int i = pixel[k];
+                primary_hit(prim, u, v, t, ray_dir[k], n_ccw, surf[k]);
+                const int i = pixel[k];
                 frame.A[i] = 1.0f;
                 frame.prim[i] = prim;
                 frame.depth[i] = static_cast<float>(t);
@@ -363,16 +366,17 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 for (int k = 0; k < kPacket; ++k) {
                     svalid[k] = 0;
                     if (!surf[k].hit) continue;
-                    setup[k] = setup_shadow(lights_[li], surf[k]);
-                    int i = pixel[k];
-                    img.lightable[i] = setup[k].lightable ? 1.0f : 0.0f;
-                    img.U[i] = setup[k].ambiguous ? 1.0f : 0.0f;
-                    if (!setup[k].lightable) continue;  // back-facing or outside the cone: V = 0, no ray
+                    ShadowSetup& st = setup[k];
+                    setup_shadow(lights_[li], surf[k], st);
+                    const int i = pixel[k];
+                    img.lightable[i] = st.lightable ? 1.0f : 0.0f;
+                    img.U[i] = st.ambiguous ? 1.0f : 0.0f;
+                    if (!st.lightable) continue;  // back-facing or outside the cone: V = 0, no ray
                     svalid[k] = -1;
                     any = true;
-                    set_lane(sh.ray, k, setup[k].origin, setup[k].dir_f, 0.0f, setup[k].tfar);
+                    set_lane(sh.ray, k, st.origin, st.dir_f, 0.0f, st.tfar);
                     sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-                    ++counters.shadow;
+                    ++local.shadow;
                 }
                 if (!any) continue;
                 // Closest hit, not any hit: the occluder distance is part of the answer (the
@@ -380,8 +384,10 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 rtcIntersect16(svalid, scene_.get(), &coherent, &sh);
                 for (int k = 0; k < kPacket; ++k) {
                     if (!svalid[k]) continue;
-                    ShadowAnswer ans = judge_lane(sh, k, setup[k], surf[k], counters);
-                    int i = pixel[k];
+                    const int i = pixel[k];
+                    ShadowAnswer ans;
+                    if (sh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)  // most lanes miss: judge only hits
+                        ans = judge_lane(sh, k, setup[k], surf[k], local);
                     img.V[i] = ans.blocked ? 0.0f : 1.0f;
                     img.occluder_m[i] = ans.blocked ? ans.occluder_t : kNoDistance;
                     if (ans.ambiguous) img.U[i] = 1.0f;
@@ -389,6 +395,9 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
             }
         }
     }
+    counters.primary += local.primary;
+    counters.shadow += local.shadow;
+    counters.retraced += local.retraced;
 }
 
 }  // namespace penumbra::oracle_detail

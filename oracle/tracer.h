@@ -62,20 +62,20 @@ struct ShadowSetup {
     glm::dvec3 dir{0.0};
     float tfar = 0;
 };
-// Inline: it runs once per pixel and light on the hot path.
-inline ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s) {
-    ShadowSetup r;
-    glm::dvec3 to_light = direction_to_light(light, s.p);
-    double cos_nl = glm::dot(s.n, to_light);
-    bool in_cone = true;
+// Fills `r` in place (inline, no temporary): it runs once per pixel and light on the hot
+// path, where building a struct and copying it cost store-forwarding stalls.
+inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowSetup& r) {
+    const glm::dvec3 to_light = direction_to_light(light, s.p);
+    const double cos_nl = glm::dot(s.n, to_light);
+    bool in_cone = true, ambiguous = std::abs(cos_nl) <= kTerminatorTolerance;
     if (light.type == LightType::spot) {
         double c = glm::dot(-to_light, light.spot_axis);
         in_cone = c >= light.cos_outer;
-        r.ambiguous |= std::abs(c - light.cos_outer) <= kTerminatorTolerance;
+        ambiguous |= std::abs(c - light.cos_outer) <= kTerminatorTolerance;
     }
-    r.ambiguous |= std::abs(cos_nl) <= kTerminatorTolerance;
+    r.ambiguous = ambiguous;
     r.lightable = cos_nl > 0 && in_cone;
-    if (!r.lightable) return r;
+    if (!r.lightable) return;
     r.origin = robust::offset_ray_origin(s.p, s.n, s.error);
     if (light.type == LightType::directional) {
         r.dir = to_light;
@@ -87,7 +87,6 @@ inline ShadowSetup setup_shadow(const LocalLight& light, const SurfacePoint& s) 
         r.tfar = static_cast<float>(dist * (1.0 - kLightMargin));
     }
     r.dir_f = glm::vec3(r.dir);
-    return r;
 }
 
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).
@@ -145,9 +144,10 @@ class Tracer {
     // re-judged in double, re-tracing the ray when Embree's hit was spurious.
     ShadowAnswer judge_lane(const RTCRayHit16& sh, int k, const ShadowSetup& setup, const SurfacePoint& s,
                             TraceCounters& counters) const;
-    // `n_ccw` is normal_ccw(prim), computed once by the caller.
-    SurfacePoint primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
-                             const glm::dvec3& n_ccw) const;
+    // Fills `s` (every field) from Embree's hit; `n_ccw` is normal_ccw(prim), computed once by
+    // the caller.
+    void primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
+                     const glm::dvec3& n_ccw, SurfacePoint& s) const;
     double suspicious_hit_distance(const glm::dvec3& p, double cos_hit) const;
 
     const Scenario& scenario_;
