@@ -1,10 +1,8 @@
 #include "oracle/tracer.h"
 
 #include <fmt/format.h>
-#include <x86intrin.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <glm/geometric.hpp>
 
