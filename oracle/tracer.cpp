@@ -16,10 +16,6 @@ namespace {
 constexpr int kPacket = 16;  // rays per Embree packet: a 4x4 block of pixels, or one area-light round
 static_assert(kRoundRays == kPacket);
 
-glm::vec3 to_float(const glm::dvec3& v) {
-    return glm::vec3(static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
-}
-
 // Context for rays re-traced with a filter: Embree hands the RTCIntersectContext pointer back
 // to the filter, so it is the first member.
 struct FilterContext {
@@ -121,7 +117,7 @@ void Tracer::build() {
         device_.check("buffer allocation");
         if (!vb || !ib) throw EnvironmentError("Embree: cannot allocate geometry buffers");
         for (std::size_t i = 0; i < vertices_.size(); ++i) {
-            glm::vec3 f = to_float(vertices_[i]);
+            glm::vec3 f = glm::vec3(vertices_[i]);
             vb[3 * i] = f.x;
             vb[3 * i + 1] = f.y;
             vb[3 * i + 2] = f.z;
@@ -233,7 +229,6 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
                                    std::uint64_t scramble, TraceCounters& counters) const {
     const AreaLight& light = lights_[li].area;
     const glm::vec3 origin = robust::offset_ray_origin(s.p, s.n, s.error);
-    const glm::dvec3 origin_d(origin);
     const auto shift_s = static_cast<std::uint32_t>(scramble), shift_t = static_cast<std::uint32_t>(scramble >> 32);
     RTCIntersectContext coherent;
     rtcInitIntersectContext(&coherent);
@@ -250,13 +245,8 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
         glm::dvec3 q = area_light_point(light, view, u, v);
         // A point under the receiver's tangent plane is hidden by the receiver itself.
         if (!(glm::dot(s.n, q - s.p) > 0)) continue;
-        glm::dvec3 d = q - origin_d;
-        double dist = glm::length(d);
-        if (!(dist > 0)) continue;
         setup[k].origin = origin;
-        setup[k].dir = d / dist;
-        setup[k].dir_f = to_float(setup[k].dir);
-        setup[k].tfar = static_cast<float>(dist * (1.0 - kLightMargin));
+        if (!(aim_at_light_point(setup[k], q) > 0)) continue;
         set_lane(sh.ray, k, origin, setup[k].dir_f, 0.0f, setup[k].tfar);
         sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
         valid[k] = -1;
@@ -306,7 +296,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 pixel[k] = valid[k] ? y * W + x : -1;
                 PrimaryRay r = rays.at(x + 0.5, y + 0.5);
                 ray_dir[k] = r.direction;
-                set_lane(rh.ray, k, to_float(r.origin), to_float(r.direction), znear, zfar);
+                set_lane(rh.ray, k, glm::vec3(r.origin), glm::vec3(r.direction), znear, zfar);
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                 local.primary += valid[k] != 0;
             }
@@ -350,8 +340,8 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 frame.A[i] = 1.0f;
                 frame.prim[i] = prim;
                 frame.depth[i] = static_cast<float>(t);
-                frame.P[i] = to_float(surf[k].p);
-                frame.N[i] = to_float(surf[k].n);
+                frame.P[i] = glm::vec3(surf[k].p);
+                frame.N[i] = glm::vec3(surf[k].n);
                 if (surfaces) (*surfaces)[static_cast<std::size_t>(i)] = surf[k];
             }
 

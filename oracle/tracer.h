@@ -62,6 +62,17 @@ struct ShadowSetup {
     glm::dvec3 dir{0.0};
     float tfar = 0;
 };
+// Aims r (whose origin is set) at a point on a light: the ray stops kLightMargin short of it.
+// Returns the distance from the origin to the point.
+inline double aim_at_light_point(ShadowSetup& r, const glm::dvec3& target) {
+    const glm::dvec3 d = target - glm::dvec3(r.origin);
+    const double dist = glm::length(d);
+    r.dir = d / dist;
+    r.dir_f = glm::vec3(r.dir);
+    r.tfar = static_cast<float>(dist * (1.0 - kLightMargin));
+    return dist;
+}
+
 // Fills `r` in place (inline, no temporary): it runs once per pixel and light on the hot
 // path, where building a struct and copying it cost store-forwarding stalls.
 inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowSetup& r) {
@@ -79,14 +90,11 @@ inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowS
     r.origin = robust::offset_ray_origin(s.p, s.n, s.error);
     if (light.type == LightType::directional) {
         r.dir = to_light;
+        r.dir_f = glm::vec3(r.dir);
         r.tfar = std::numeric_limits<float>::infinity();
     } else {
-        glm::dvec3 d = light.position - glm::dvec3(r.origin);
-        double dist = glm::length(d);
-        r.dir = d / dist;
-        r.tfar = static_cast<float>(dist * (1.0 - kLightMargin));
+        aim_at_light_point(r, light.position);
     }
-    r.dir_f = glm::vec3(r.dir);
 }
 
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).

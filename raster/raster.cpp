@@ -42,10 +42,6 @@ VkFormat vk_format(DepthFormat f) {
     return VK_FORMAT_D32_SFLOAT;
 }
 
-glm::mat4 to_float(const glm::dmat4& m) {
-    return glm::mat4(m);
-}
-
 UniqueShaderModule make_module(const VulkanContext& ctx, const std::uint32_t* code, std::size_t bytes) {
     VkShaderModuleCreateInfo ci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     ci.codeSize = bytes;
@@ -556,7 +552,7 @@ void Renderer::make_light_resources() {
         // A punctual light has no size: PCSS then degenerates to a one-texel filter.
         p.pcss = glm::vec4(light.radius, ls.projection.near, ls.projection.far, t_.filter.max_radius_texels);
         for (std::size_t l = 0; l < ls.projection.view_proj.size(); ++l) {
-            p.view_proj[l] = to_float(ls.projection.view_proj[l]);
+            p.view_proj[l] = glm::mat4(ls.projection.view_proj[l]);
             p.light_axis[l] = glm::vec4(glm::vec3(ls.projection.axis[l]), 0.0f);
         }
         for (std::size_t k = 0; k < disk.size(); ++k) {
@@ -739,7 +735,7 @@ void Renderer::record_light(VkCommandBuffer cmd, std::size_t li) {
             begin_rendering(cmd, shadow_prim_layers_[layer].get(), shadow_depth_layers_[layer].get(), res, res, 1.0f);
             vkCmdSetDepthBias(cmd, static_cast<float>(t_.bias.constant), static_cast<float>(t_.bias.clamp),
                               static_cast<float>(t_.bias.slope));
-            glm::mat4 vp = to_float(ls.projection.view_proj[layer]);
+            glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
             vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
             if (index_count_ > 0) vkCmdDrawIndexed(cmd, index_count_, 1, 0, 0, 0);
             vkCmdEndRendering(cmd);
