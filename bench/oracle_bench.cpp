@@ -5,7 +5,8 @@
 // that faces the light, from o + t d plus a fixed 1e-3 epsilon along the normal: what a
 // quick Embree renderer does. It runs twice: with closest-hit shadow rays (rtcIntersect16, what
 // the oracle needs for occluder distances) and with any-hit ones (rtcOccluded16).
-// Prints Mrays/s for each and the oracle's ratio; best of --repeat runs.
+// Prints Mrays/s for each and the oracle's ratio; best of --repeat runs. --bare 0 runs the
+// oracle alone (for profilers and scaling checks).
 #include <embree3/rtcore.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -155,7 +156,7 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    int size = 2048, grid = 1086, repeat = 3, threads = 0;
+    int size = 2048, grid = 1086, repeat = 3, threads = 0, bare = 1;
     for (int i = 1; i + 1 < argc; i += 2) {
         std::string a = argv[i];
         int v = std::atoi(argv[i + 1]);
@@ -167,6 +168,8 @@ int main(int argc, char** argv) {
             repeat = std::max(1, v);
         else if (a == "--threads")
             threads = v;
+        else if (a == "--bare")
+            bare = v;
     }
     Scenario s = terrain_scenario(grid, size);
     OracleSettings settings;
@@ -186,6 +189,7 @@ int main(int argc, char** argv) {
             best_oracle = o.stats.trace_s;
             boundary = o.stats.boundary_s;
         }
+        if (!bare) continue;
         BareResult c = bare_loop(s, true), a = bare_loop(s, false);
         bare_rays = c.rays;
         best_closest = std::min(best_closest, c.seconds);
@@ -195,10 +199,12 @@ int main(int argc, char** argv) {
            m_any = bare_rays / best_any * 1e-6;
     std::printf("oracle trace:            %7.3f s  %8.2f Mrays/s  (%llu rays, %llu re-traced in double)\n", best_oracle,
                 m_oracle, (unsigned long long)oracle_rays, (unsigned long long)retraced);
-    std::printf("bare loop, closest hit:  %7.3f s  %8.2f Mrays/s  ratio oracle/bare = %.3f\n", best_closest, m_closest,
-                m_oracle / m_closest);
-    std::printf("bare loop, any hit:      %7.3f s  %8.2f Mrays/s  ratio oracle/bare = %.3f\n", best_any, m_any,
-                m_oracle / m_any);
+    if (bare) {
+        std::printf("bare loop, closest hit:  %7.3f s  %8.2f Mrays/s  ratio oracle/bare = %.3f\n", best_closest,
+                    m_closest, m_oracle / m_closest);
+        std::printf("bare loop, any hit:      %7.3f s  %8.2f Mrays/s  ratio oracle/bare = %.3f\n", best_any, m_any,
+                    m_oracle / m_any);
+    }
     std::printf("oracle boundary phase:   %7.3f s  (%llu bisection rays; not in the trace phase)\n", boundary,
                 (unsigned long long)boundary_rays);
     return 0;
