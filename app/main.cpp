@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,6 +14,7 @@
 #include "common/json_reader.h"
 #include "common/output_files.h"
 #include "common/scenario.h"
+#include "common/stopwatch.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
 #include "oracle/oracle.h"
@@ -69,10 +69,6 @@ OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
     return settings;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // Loads and validates the scenario every subcommand starts from; prints the scene's warnings.
 Scenario load_for_command(const std::filesystem::path& scenario_file, const Common& c) {
     ScenarioOptions so;
@@ -84,7 +80,7 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
 }
 
 int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c, const SamplingArgs& a) {
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     OracleTimings timings;
     timings.load_s = seconds_since(t0);
@@ -147,13 +143,13 @@ raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArg
 }
 
 int run_raster_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t) {
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     raster::Technique technique = resolve_technique(scenario, t);
     raster::RasterTimings timings;
     timings.load_s = seconds_since(t0);
 
-    auto t1 = std::chrono::steady_clock::now();
+    auto t1 = SteadyClock::now();
     raster::ContextOptions co;
     co.device = t.device;
     raster::VulkanContext ctx(co);
@@ -194,7 +190,7 @@ struct OracleForValidate {
 
 OracleForValidate oracle_for_validate(const Scenario& scenario, const Common& c, const ValidateArgs& v,
                                       OutputTransaction& out) {
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     const OracleSettings settings = oracle_settings(c, v.sampling);
     OracleCache cache(v.no_cache             ? std::filesystem::path()
                       : !v.cache_dir.empty() ? v.cache_dir
@@ -226,7 +222,7 @@ OracleForValidate oracle_for_validate(const Scenario& scenario, const Common& c,
 
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
                          const ValidateArgs& v) {
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     // Everything the user wrote is checked before any work starts.
     raster::Technique technique = resolve_technique(scenario, t);
@@ -239,16 +235,16 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     OutputTransaction out(c.out);
     OracleForValidate oracle = oracle_for_validate(scenario, c, v, out);
 
-    auto t1 = std::chrono::steady_clock::now();
+    auto t1 = SteadyClock::now();
     raster::ContextOptions co;
     co.device = t.device;
     raster::VulkanContext ctx(co);
     raster_timings.device_s = seconds_since(t1);
-    auto t2 = std::chrono::steady_clock::now();
+    auto t2 = SteadyClock::now();
     raster::RasterResult raster = raster::run_raster(scenario, technique, ctx);
     const double raster_s = seconds_since(t2);
 
-    auto t3 = std::chrono::steady_clock::now();
+    auto t3 = SteadyClock::now();
     metrics::ScoringOptions so;
     so.tolerance = static_cast<float>(v.tolerance);
     so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
@@ -282,7 +278,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     if (!gate.checks.empty()) in.gate = &gate_result;
     const nlohmann::json report = report::report_json(in, score);
 
-    auto t4 = std::chrono::steady_clock::now();
+    auto t4 = SteadyClock::now();
     if (v.frames) {
         raster::write_raster_outputs(out, scenario, technique, raster, raster_timings);
     } else {

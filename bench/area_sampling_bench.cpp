@@ -5,11 +5,11 @@
 // 128, 256, ... up to the cap). "The same bound" means: the uniform run must bring at least
 // the same share of lightable pixels to E <= target as the adaptive run did. Prints rays,
 // seconds and the share for each run, and the ratio of rays. A measurement, not a test.
-#include <chrono>
 #include <cstdio>
 #include <string>
 
 #include "common/scenario.h"
+#include "common/stopwatch.h"
 #include "oracle/oracle.h"
 
 namespace {
@@ -23,10 +23,10 @@ struct Run {
 };
 
 Run run(const Scenario& s, const OracleSettings& settings) {
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     OracleResult r = run_oracle(s, settings);
     Run out;
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.seconds = seconds_since(t0);
     const OracleLightImage& img = r.frame.lights[0];
     std::uint64_t met = 0;
     for (std::size_t i = 0; i < img.E.size(); ++i) {

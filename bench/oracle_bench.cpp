@@ -13,19 +13,18 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <glm/geometric.hpp>
 #include <string>
 
 #include "common/camera.h"
+#include "common/stopwatch.h"
 #include "oracle/oracle.h"
 
 namespace {
 
 using namespace penumbra;
-using Clock = std::chrono::steady_clock;
 
 Scenario terrain_scenario(int grid, int size) {
     Scenario s;
@@ -105,7 +104,7 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
     const int tiles_x = W / tile, tiles_y = H / tile;
     const glm::vec3 L = glm::vec3(-s.lights[0].direction);
     std::atomic<std::uint64_t> rays{0};
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 4), [&](const tbb::blocked_range<int>& r) {
         std::uint64_t local = 0;
         RTCIntersectContext ctx;
@@ -147,7 +146,7 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
         }
         rays += local;
     });
-    double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    double seconds = seconds_since(t0);
     rtcReleaseScene(scene);
     rtcReleaseDevice(device);
     return {seconds, rays};

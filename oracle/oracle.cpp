@@ -6,21 +6,16 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cstdio>
 #include <mutex>
 #include <thread>
 
+#include "common/stopwatch.h"
 #include "oracle/tracer.h"
 
 namespace penumbra {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-    return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 constexpr int kTile = 16;  // pixels per tile side: the unit of parallel work
 
@@ -57,7 +52,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     OracleStats& stats = result.stats;
     stats.threads = threads;
 
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     Tracer tracer(scenario);
     stats.embree_version = tracer.device().version();
     tracer.build();
@@ -69,7 +64,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
 
     // ---- primary and shadow rays, tile by tile; each pixel's answer is independent of the
     // tiling and of the thread that computes it, so the output is deterministic ----
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     const int tiles_x = (frame.width + kTile - 1) / kTile, tiles_y = (frame.height + kTile - 1) / kTile;
     const int tile_count = tiles_x * tiles_y;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0};
@@ -107,7 +102,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     stats.verified_retraces = retraced;
 
     // ---- area lights: adaptive sampling, one light after the other (each is parallel inside) ----
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     stats.lights.resize(lights.size());
     for (std::size_t li = 0; li < lights.size(); ++li) {
         if (!is_area_light(lights[li].type)) continue;
@@ -122,7 +117,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
 
     // ---- shadow boundaries of punctual lights (and the ambiguity they imply), one light per
     // task; an area light's visibility is continuous, it has no such boundary ----
-    t0 = Clock::now();
+    t0 = SteadyClock::now();
     std::atomic<std::uint64_t> boundary_rays{0};
     tbb::parallel_for(std::size_t(0), lights.size(), [&](std::size_t li) {
         if (is_area_light(lights[li].type)) return;

@@ -2,11 +2,11 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
 #include <cmath>
 #include <glm/geometric.hpp>
 
 #include "common/preview.h"
+#include "common/stopwatch.h"
 
 namespace penumbra {
 
@@ -52,10 +52,10 @@ std::vector<float> preview(const OracleFrame& f) {
 }  // namespace
 
 double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     out.write_exr("oracle.exr", f.width, f.height, exr_channels(f));
     out.write_png("oracle.png", f.width, f.height, preview(f));
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return seconds_since(t0);
 }
 
 void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -16,6 +15,7 @@
 // SPIR-V compiled from shaders/ at build time.
 #include "camera_frag.h"
 #include "camera_vert.h"
+#include "common/stopwatch.h"
 #include "lookup_comp.h"
 #include "shadow_frag.h"
 #include "shadow_vert.h"
@@ -27,8 +27,6 @@ static_assert(gpu::kFlagSurface == kRasterSurface && gpu::kFlagBackFacing == kRa
 static_assert(sizeof(gpu::LookupTexel) == 36);
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 constexpr VkFormat kPrimFormat = VK_FORMAT_R32_UINT;
 constexpr VkFormat kCameraDepthFormat = VK_FORMAT_D32_SFLOAT;
@@ -307,10 +305,6 @@ glm::mat4 camera_matrix(const Camera& cam, int w, int h, const Bounds& scene) {
     m[3][2] = persp ? near * far / (far - near) : far / (far - near);
     m[3][3] = persp ? 0.0 : 1.0;
     return glm::mat4(m);
-}
-
-double elapsed(Clock::time_point t0) {
-    return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
 class Renderer {
@@ -816,7 +810,7 @@ void Renderer::read_back(RasterResult& out) {
 }
 
 RasterResult Renderer::run() {
-    auto t0 = Clock::now();
+    auto t0 = SteadyClock::now();
     W_ = static_cast<std::uint32_t>(s_.width);
     H_ = static_cast<std::uint32_t>(s_.height);
     pixels_ = static_cast<std::size_t>(W_) * H_;
@@ -827,16 +821,16 @@ RasterResult Renderer::run() {
     make_pipelines();
     make_targets();
     make_light_resources();
-    stats_.setup_s = elapsed(t0);
+    stats_.setup_s = seconds_since(t0);
 
-    auto t1 = Clock::now();
+    auto t1 = SteadyClock::now();
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) { record_camera_and_masks(cmd); });
     for (std::size_t li = 0; li < lights_.size(); ++li)
         stats_.lights[li].layers_sampled = *static_cast<const std::uint32_t*>(masks_[li].mapped);
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
         for (std::size_t li = 0; li < lights_.size(); ++li) record_light(cmd, li);
     });
-    stats_.render_s = elapsed(t1);
+    stats_.render_s = seconds_since(t1);
 
     read_timings();
     RasterResult out;

@@ -2,9 +2,8 @@
 
 #include <fmt/format.h>
 
-#include <chrono>
-
 #include "common/preview.h"
+#include "common/stopwatch.h"
 
 namespace penumbra::raster {
 
@@ -125,13 +124,13 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
 void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, const Technique& technique,
                           const RasterResult& result, const RasterTimings& timings) {
     const RasterFrame& f = result.frame;
-    auto t0 = std::chrono::steady_clock::now();
+    auto t0 = SteadyClock::now();
     out.write_exr("raster.exr", f.width, f.height, exr_channels(f));
     std::vector<PreviewLight> lights;
     for (const auto& l : f.lights) lights.push_back({&l.V, nullptr});
     out.write_png("raster.png", f.width, f.height, visibility_preview(f.A, {}, lights));
     nlohmann::json j = raster_json(scenario, technique, result, timings);
-    j["seconds"]["write"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    j["seconds"]["write"] = seconds_since(t0);
     out.write_json("raster.json", j);
 }
 
