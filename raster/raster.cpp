@@ -199,6 +199,19 @@ UniqueDescriptorSetLayout make_set_layout(const VulkanContext& ctx,
     return UniqueDescriptorSetLayout(ctx.device(), l);
 }
 
+// One descriptor of a set: an image (ii) or a buffer (bi), the other null.
+VkWriteDescriptorSet descriptor_write(VkDescriptorSet set, std::uint32_t binding, VkDescriptorType type,
+                                      const VkDescriptorImageInfo* ii, const VkDescriptorBufferInfo* bi) {
+    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    w.dstSet = set;
+    w.dstBinding = binding;
+    w.descriptorCount = 1;
+    w.descriptorType = type;
+    w.pImageInfo = ii;
+    w.pBufferInfo = bi;
+    return w;
+}
+
 UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border) {
     VkSamplerCreateInfo ci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
     ci.magFilter = ci.minFilter = linear ? VK_FILTER_LINEAR : VK_FILTER_NEAREST;
@@ -512,12 +525,8 @@ void Renderer::make_light_resources() {
     };
     camera_set_ = allocate_set(camera_set_layout_.get());
     VkDescriptorBufferInfo ds_info{double_sided_.buffer.get(), 0, VK_WHOLE_SIZE};
-    VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-    w.dstSet = camera_set_;
-    w.dstBinding = gpu::kBindingDoubleSided;
-    w.descriptorCount = 1;
-    w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    w.pBufferInfo = &ds_info;
+    VkWriteDescriptorSet w =
+        descriptor_write(camera_set_, gpu::kBindingDoubleSided, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, nullptr, &ds_info);
     vkUpdateDescriptorSets(ctx_.device(), 1, &w, 0, nullptr);
 
     std::vector<glm::vec2> disk = poisson_disk(t_.filter.taps);
@@ -579,16 +588,7 @@ void Renderer::make_light_resources() {
         VkDescriptorBufferInfo out{outputs_.back().buffer.get(), 0, VK_WHOLE_SIZE};
         VkDescriptorBufferInfo msk{masks_.back().buffer.get(), 0, VK_WHOLE_SIZE};
         auto write = [&](std::uint32_t binding, VkDescriptorType type, const VkDescriptorImageInfo* ii,
-                         const VkDescriptorBufferInfo* bi) {
-            VkWriteDescriptorSet x{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-            x.dstSet = set;
-            x.dstBinding = binding;
-            x.descriptorCount = 1;
-            x.descriptorType = type;
-            x.pImageInfo = ii;
-            x.pBufferInfo = bi;
-            return x;
-        };
+                         const VkDescriptorBufferInfo* bi) { return descriptor_write(set, binding, type, ii, bi); };
         std::array<VkWriteDescriptorSet, 9> writes = {
             write(gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &gb, nullptr),
             write(gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, nullptr, &pos),
