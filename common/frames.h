@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <glm/vec3.hpp>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,10 +44,10 @@ inline constexpr std::uint32_t kRasterBackFacing = 2u;   // N.L <= 0: V = 0 with
 inline constexpr std::uint32_t kRasterOutsideCone = 4u;  // spot light: outside the cone, V = 0
 inline constexpr std::uint32_t kRasterOutsideMap = 8u;   // the lookup fell outside the light's map (V = 1)
 
-// What a shadow-mapping technique decided for one light at every pixel, and the lookups
-// behind the decision (design.md, "Data flow").
-struct RasterLightImage {
-    std::vector<float> V;                    // the technique's shadow factor, 1 lit
+// The lookups behind a depth-map technique's verdict (docs/raster.md, "Lookup channels"): an
+// optional layer, present when the technique samples a depth map. Without it (an engine's frame,
+// shadow volumes) the metrics decide the classes from the oracle's geometry (docs/metrics.md).
+struct DepthMapLookups {
     std::vector<float> ref_depth;            // receiver depth at the centre texel after every bias (map depth units)
     std::vector<float> stored_depth;         // depth stored in the centre texel; inf outside the map
     std::vector<std::uint32_t> stored_prim;  // triangle stored in the centre texel
@@ -55,6 +56,23 @@ struct RasterLightImage {
     std::vector<float> bias_m;               // every bias together, as metres along the light ray (estimate)
     std::vector<float> depth_to_m;           // metres along the light ray per depth unit, at the receiver
     std::vector<std::uint32_t> flags;        // kRaster*
+
+    void resize(std::size_t n) {
+        ref_depth.resize(n);
+        stored_depth.resize(n);
+        stored_prim.resize(n);
+        footprint_m.resize(n);
+        texel_slope.resize(n);
+        bias_m.resize(n);
+        depth_to_m.resize(n);
+        flags.resize(n);
+    }
+};
+
+// What a shadow technique decided for one light at every pixel (docs/design.md, "Data flow").
+struct RasterLightImage {
+    std::vector<float> V;                    // the technique's shadow factor, 1 lit
+    std::optional<DepthMapLookups> lookups;  // depth-map diagnostics, when the technique has them
 };
 
 struct RasterFrame {

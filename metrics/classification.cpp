@@ -69,7 +69,7 @@ struct RowSums {
 };
 
 // The wrong pixel's class, in design.md's order: aliasing, acne, peter-panning, the rest.
-PixelClass classify_wrong(float error, const OracleLightImage& o, std::uint32_t oracle_prim, const RasterLightImage& r,
+PixelClass classify_wrong(float error, const OracleLightImage& o, std::uint32_t oracle_prim, const DepthMapLookups& r,
                           std::size_t i, const ScoringOptions& opt) {
     const float footprint = r.footprint_m[i];
     // 1. Within the filter's reach of a true boundary: finite resolution, not a bias problem.
@@ -93,6 +93,7 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                        LightErrorImage& img) {
     const OracleLightImage& o = of.lights[li];
     const RasterLightImage& r = rf.lights[li];
+    const DepthMapLookups& lk = *r.lookups;
     const std::size_t n = of.pixel_count();
     const int W = of.width;
     img.error.assign(n, 0.0f);
@@ -136,13 +137,13 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                         s.band_raster += in_band(r.V[i]);
                     }
                     if (std::abs(e) > opt.tolerance + o.E[i]) {
-                        c = classify_wrong(e, o, of.prim[i], r, i, opt);
+                        c = classify_wrong(e, o, of.prim[i], lk, i, opt);
                         ++s.counts[error_class_index(c)];
                         if (c == PixelClass::peter_panning) {
                             s.gap_sum += o.occluder_m[i];
                             s.gap_max = std::max(s.gap_max, static_cast<double>(o.occluder_m[i]));
                         } else if (c == PixelClass::acne) {
-                            double depth = std::max(0.0f, (r.ref_depth[i] - r.stored_depth[i]) * r.depth_to_m[i]);
+                            double depth = std::max(0.0f, (lk.ref_depth[i] - lk.stored_depth[i]) * lk.depth_to_m[i]);
                             s.acne_sum += depth;
                             s.acne_max = std::max(s.acne_max, depth);
                         }
@@ -220,11 +221,14 @@ void require_same_image(const OracleFrame& o, const RasterFrame& r) {
     for (std::size_t li = 0; li < o.lights.size(); ++li) {
         const auto& a = o.lights[li];
         const auto& b = r.lights[li];
-        for (std::size_t size :
-             {a.V.size(), a.E.size(), a.U.size(), a.lightable.size(), a.occluder_m.size(), a.boundary_m.size(),
-              b.V.size(), b.ref_depth.size(), b.stored_depth.size(), b.stored_prim.size(), b.footprint_m.size(),
-              b.texel_slope.size(), b.bias_m.size(), b.depth_to_m.size(), b.flags.size()})
+        for (std::size_t size : {a.V.size(), a.E.size(), a.U.size(), a.lightable.size(), a.occluder_m.size(),
+                                 a.boundary_m.size(), b.V.size()})
             if (size != n) throw std::invalid_argument("score_frames: a light image has the wrong size");
+        if (!b.lookups) throw std::invalid_argument("score_frames: a light has no depth-map lookups");
+        const DepthMapLookups& l = *b.lookups;
+        for (std::size_t size : {l.ref_depth.size(), l.stored_depth.size(), l.stored_prim.size(), l.footprint_m.size(),
+                                 l.texel_slope.size(), l.bias_m.size(), l.depth_to_m.size(), l.flags.size()})
+            if (size != n) throw std::invalid_argument("score_frames: a lookup image has the wrong size");
     }
 }
 

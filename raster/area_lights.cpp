@@ -88,7 +88,8 @@ RasterResult fold_area_lights(const ExpandedLights& expanded, RasterResult drawn
             for (std::size_t i = 0; i < img.V.size(); ++i) {
                 img.V[i] += other.V[i];
                 // Back-facing only where every point is behind the receiver's tangent plane.
-                if (!(other.flags[i] & kRasterBackFacing)) img.flags[i] &= ~kRasterBackFacing;
+                if (img.lookups && other.lookups && !(other.lookups->flags[i] & kRasterBackFacing))
+                    img.lookups->flags[i] &= ~kRasterBackFacing;
             }
             const RasterLightStats& o = drawn_lights[j];
             ls.layers_sampled |= o.layers_sampled;

@@ -785,25 +785,19 @@ void Renderer::read_back(RasterResult& out) {
         const auto* texels = static_cast<const gpu::LookupTexel*>(outputs_[li].mapped);
         RasterLightImage img;
         img.V.resize(pixels_);
-        img.ref_depth.resize(pixels_);
-        img.stored_depth.resize(pixels_);
-        img.stored_prim.resize(pixels_);
-        img.footprint_m.resize(pixels_);
-        img.texel_slope.resize(pixels_);
-        img.bias_m.resize(pixels_);
-        img.depth_to_m.resize(pixels_);
-        img.flags.resize(pixels_);
+        DepthMapLookups& lk = img.lookups.emplace();
+        lk.resize(pixels_);
         for (std::size_t i = 0; i < pixels_; ++i) {
             const gpu::LookupTexel& t = texels[i];
             img.V[i] = t.V;
-            img.ref_depth[i] = t.ref_depth;
-            img.stored_depth[i] = t.stored_depth;
-            img.stored_prim[i] = t.stored_prim;
-            img.footprint_m[i] = t.footprint_m;
-            img.texel_slope[i] = t.texel_slope;
-            img.bias_m[i] = t.bias_m;
-            img.depth_to_m[i] = t.depth_to_m;
-            img.flags[i] = t.flags;
+            lk.ref_depth[i] = t.ref_depth;
+            lk.stored_depth[i] = t.stored_depth;
+            lk.stored_prim[i] = t.stored_prim;
+            lk.footprint_m[i] = t.footprint_m;
+            lk.texel_slope[i] = t.texel_slope;
+            lk.bias_m[i] = t.bias_m;
+            lk.depth_to_m[i] = t.depth_to_m;
+            lk.flags[i] = t.flags;
         }
         f.lights.push_back(std::move(img));
     }

@@ -21,14 +21,16 @@ std::vector<ExrChannel> exr_channels(const RasterFrame& f) {
         const RasterLightImage& img = f.lights[li];
         std::string p = fmt::format("light{}.", li);
         add(p + "V", img.V);
-        add(p + "ref_depth", img.ref_depth);
-        add(p + "stored_depth", img.stored_depth);
-        add_u(p + "stored_prim", img.stored_prim);
-        add(p + "footprint_m", img.footprint_m);
-        add(p + "texel_slope", img.texel_slope);
-        add(p + "bias_m", img.bias_m);
-        add(p + "depth_to_m", img.depth_to_m);
-        add_u(p + "flags", img.flags);
+        if (!img.lookups) continue;
+        const DepthMapLookups& lk = *img.lookups;
+        add(p + "ref_depth", lk.ref_depth);
+        add(p + "stored_depth", lk.stored_depth);
+        add_u(p + "stored_prim", lk.stored_prim);
+        add(p + "footprint_m", lk.footprint_m);
+        add(p + "texel_slope", lk.texel_slope);
+        add(p + "bias_m", lk.bias_m);
+        add(p + "depth_to_m", lk.depth_to_m);
+        add_u(p + "flags", lk.flags);
     }
     return ch;
 }
@@ -62,11 +64,12 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
             layers.push_back(layer);
         }
         std::size_t surface = 0, lit = 0, outside = 0;
+        const RasterLightImage& img = f.lights[li];
         for (std::size_t i = 0; i < f.pixel_count(); ++i) {
-            if (!(f.lights[li].flags[i] & kRasterSurface)) continue;
+            if (f.A[i] == 0) continue;
             ++surface;
-            lit += f.lights[li].V[i] >= 1.0f;
-            outside += (f.lights[li].flags[i] & kRasterOutsideMap) != 0;
+            lit += img.V[i] >= 1.0f;
+            outside += img.lookups && (img.lookups->flags[i] & kRasterOutsideMap) != 0;
         }
         nlohmann::json j = {{"index", li},
                             {"type", to_string(light.type)},

@@ -78,8 +78,8 @@ TEST(Classification, ToleranceAddsTheOraclesConfidenceBound) {
 TEST(Classification, NearATrueBoundaryWithinTheFiltersReachIsAliasing) {
     Frames f(3, 1);
     for (std::size_t i = 0; i < 3; ++i) f.rl().V[i] = 0.0f;  // false shadow everywhere
-    f.rl().stored_prim.assign(3, 99u);                       // cast by another triangle, far in front
-    f.rl().stored_depth.assign(3, 0.1f);
+    f.lk().stored_prim.assign(3, 99u);                       // cast by another triangle, far in front
+    f.lk().stored_depth.assign(3, 0.1f);
     f.ol().boundary_m = {0.009f, 0.024f, 0.026f};  // footprint 0.01 m
     ScoringOptions pcf5;
     pcf5.filter_reach_texels = 2.5f;
@@ -95,18 +95,18 @@ TEST(Classification, FalseShadowFromTheReceiversOwnSurfaceIsAcne) {
     Frames f(4, 1);
     f.rl().V.assign(4, 0.0f);
     // 0: the centre texel holds the receiver's own triangle, 0.002 depth units in front.
-    f.rl().ref_depth[0] = 0.502f;
-    f.rl().stored_depth[0] = 0.5f;
+    f.lk().ref_depth[0] = 0.502f;
+    f.lk().stored_depth[0] = 0.5f;
     // 1: another triangle (a coplanar neighbour) within the receiver plane's slope.
-    f.rl().stored_prim[1] = 8;
-    f.rl().ref_depth[1] = 0.50005f;
-    f.rl().stored_depth[1] = 0.5f;
+    f.lk().stored_prim[1] = 8;
+    f.lk().ref_depth[1] = 0.50005f;
+    f.lk().stored_depth[1] = 0.5f;
     // 2: another triangle well in front: a real (but false) occluder.
-    f.rl().stored_prim[2] = 8;
-    f.rl().stored_depth[2] = 0.3f;
+    f.lk().stored_prim[2] = 8;
+    f.lk().stored_depth[2] = 0.3f;
     // 3: own triangle, but the lookup fell outside the map.
-    f.rl().flags[3] |= kRasterOutsideMap;
-    f.rl().stored_depth[3] = kNoDistance;
+    f.lk().flags[3] |= kRasterOutsideMap;
+    f.lk().stored_depth[3] = kNoDistance;
     FrameScore s = f.score();
     EXPECT_EQ(class_of(s, 0), PixelClass::acne);
     EXPECT_EQ(class_of(s, 1), PixelClass::acne);
@@ -119,7 +119,7 @@ TEST(Classification, FalseShadowFromTheReceiversOwnSurfaceIsAcne) {
 
 TEST(Classification, LightLostToBiasIsPeterPanningAndReportsTheGap) {
     Frames f(3, 1);
-    f.rl().bias_m.assign(3, 0.05f);  // + one 0.01 m texel = 0.06 m reach
+    f.lk().bias_m.assign(3, 0.05f);  // + one 0.01 m texel = 0.06 m reach
     f.shadow(0, 0.03f);
     f.shadow(1, 0.059f);
     f.shadow(2, 0.2f);
@@ -146,8 +146,8 @@ TEST(Classification, SummaryNumbersUseScoredPixelsAsTheDenominator) {
     Frames f(4, 1);
     f.ol().U[3] = 1;                      // not scored
     f.rl().V = {1.0f, 0.5f, 0.0f, 0.0f};  // errors 0, -0.5, -1 (pixel 3 unscored)
-    f.rl().stored_prim.assign(4, 99u);
-    f.rl().stored_depth.assign(4, 0.1f);
+    f.lk().stored_prim.assign(4, 99u);
+    f.lk().stored_depth.assign(4, 0.1f);
     FrameScore s = f.score();
     const LightScore& l = s.lights[0];
     EXPECT_EQ(l.pixels.scored, 3u);
@@ -173,7 +173,7 @@ TEST(Classification, RefusesFramesOfDifferentShape) {
     ScoringOptions opt;
     EXPECT_THROW(score_frames(a.o, b.r, std::span(&opt, 1)), std::invalid_argument);
     b = Frames(4, 2);
-    b.r.lights[0].depth_to_m.clear();
+    b.r.lights[0].lookups->depth_to_m.clear();
     EXPECT_THROW(score_frames(a.o, b.r, std::span(&opt, 1)), std::invalid_argument);
 }
 

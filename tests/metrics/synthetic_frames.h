@@ -31,18 +31,20 @@ struct Frames {
         o.lights.push_back(ol);
         RasterLightImage rl;
         rl.V.assign(n, 1.0f);
-        rl.ref_depth.assign(n, 0.5f);
-        rl.stored_depth.assign(n, 0.6f);
-        rl.stored_prim.assign(n, 7u);
-        rl.footprint_m.assign(n, 0.01f);
-        rl.texel_slope.assign(n, 1e-4f);
-        rl.bias_m.assign(n, 0.0f);
-        rl.depth_to_m.assign(n, 10.0f);
-        rl.flags.assign(n, kRasterSurface);
+        DepthMapLookups& lk = rl.lookups.emplace();
+        lk.ref_depth.assign(n, 0.5f);
+        lk.stored_depth.assign(n, 0.6f);
+        lk.stored_prim.assign(n, 7u);
+        lk.footprint_m.assign(n, 0.01f);
+        lk.texel_slope.assign(n, 1e-4f);
+        lk.bias_m.assign(n, 0.0f);
+        lk.depth_to_m.assign(n, 10.0f);
+        lk.flags.assign(n, kRasterSurface);
         r.lights.push_back(rl);
     }
     OracleLightImage& ol() { return o.lights[0]; }
     RasterLightImage& rl() { return r.lights[0]; }
+    DepthMapLookups& lk() { return *r.lights[0].lookups; }
     // The true shadow at pixel i: occluder `d` metres away along the ray, boundary far away.
     void shadow(std::size_t i, float occluder_m) {
         ol().V[i] = 0.0f;

@@ -102,7 +102,7 @@ TEST_F(Raster, AgreesWithTheOracleAwayFromShadowBoundaries) {
                 EXPECT_EQ(rl.V[i], 0.0f);  // back-facing or outside the cone: V = 0 in both paths
                 continue;
             }
-            if (ol.boundary_m[i] < 4.0f * rl.footprint_m[i] + 0.05f) continue;
+            if (ol.boundary_m[i] < 4.0f * rl.lookups->footprint_m[i] + 0.05f) continue;
             ++scored;
             agree += (rl.V[i] >= 0.5f) == (ol.V[i] >= 0.5f);
         }
@@ -130,7 +130,7 @@ TEST_F(Raster, ZeroBiasSelfShadowsAPlaneAndSlopeBiasCuresIt) {
             ++surface;
             if (r.frame.lights[0].V[i] < 1.0f) {
                 ++dark;
-                self += r.frame.lights[0].stored_prim[i] == r.frame.prim[i];
+                self += r.frame.lights[0].lookups->stored_prim[i] == r.frame.prim[i];
             }
         }
         return static_cast<double>(dark) / surface;
@@ -323,7 +323,7 @@ TEST_F(Raster, PointLightRendersOnlyTheCubeFacesThatReceiversSample) {
     for (std::size_t i = 0; i < o.frame.pixel_count(); ++i) {
         const auto& ol = o.frame.lights[0];
         if (o.frame.prim[i] != r.frame.prim[i] || o.frame.prim[i] == kNoPrimitive || ol.U[i] != 0 ||
-            ol.lightable[i] == 0 || ol.boundary_m[i] < 4 * r.frame.lights[0].footprint_m[i] + 0.02f)
+            ol.lightable[i] == 0 || ol.boundary_m[i] < 4 * r.frame.lights[0].lookups->footprint_m[i] + 0.02f)
             continue;
         ++scored;
         agree += (r.frame.lights[0].V[i] >= 0.5f) == (ol.V[i] >= 0.5f);
