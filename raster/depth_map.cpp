@@ -1,0 +1,554 @@
+// The depth-map family (docs/raster.md): one depth map per light (six cube faces for a point
+// light) drawn with the technique's fit, format, culling and hardware depth bias, then one
+// compute lookup per light that applies the shader biases and the filter (none, 2x2 compare,
+// PCF, Poisson, PCSS) and writes V with the lookups behind it. Everything it builds is cached
+// for the session's next render: pipelines by their specialisation, maps by size and format,
+// per-light buffers and descriptor sets by light count; a map whose inputs did not change is
+// not drawn again.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <tuple>
+
+#include "common/camera.h"
+#include "common/errors.h"
+#include "common/stopwatch.h"
+#include "raster/area_lights.h"
+#include "raster/technique_family.h"
+#include "shaders/penumbra_shared.h"
+// SPIR-V compiled from shaders/ at build time.
+#include "lookup_comp.h"
+#include "shadow_frag.h"
+#include "shadow_vert.h"
+
+namespace penumbra::raster {
+
+static_assert(gpu::kFlagSurface == kRasterSurface && gpu::kFlagBackFacing == kRasterBackFacing &&
+              gpu::kFlagOutsideCone == kRasterOutsideCone && gpu::kFlagOutsideMap == kRasterOutsideMap);
+static_assert(sizeof(gpu::LookupTexel) == 36);
+
+namespace {
+
+VkFormat vk_format(DepthFormat f) {
+    switch (f) {
+        case DepthFormat::d16: return VK_FORMAT_D16_UNORM;
+        case DepthFormat::d24: return VK_FORMAT_X8_D24_UNORM_PACK32;
+        case DepthFormat::d32: return VK_FORMAT_D32_SFLOAT;
+    }
+    return VK_FORMAT_D32_SFLOAT;
+}
+
+// Deterministic Poisson-disk taps in the unit disk: best-candidate dart throwing with a fixed
+// integer generator, so every run and every platform uses the same pattern.
+std::vector<glm::vec2> poisson_disk(int n) {
+    std::uint64_t state = 0x9E3779B97F4A7C15ull;
+    auto next = [&] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return static_cast<double>(state >> 40) / static_cast<double>(1ull << 24);
+    };
+    std::vector<glm::vec2> pts;
+    while (static_cast<int>(pts.size()) < n) {
+        glm::dvec2 best(0.0);
+        double best_d = -1;
+        for (int c = 0; c < 32; ++c) {
+            glm::dvec2 q;
+            do q = glm::dvec2(next() * 2 - 1, next() * 2 - 1);
+            while (glm::dot(q, q) > 1.0);
+            double d = 1e9;
+            for (const auto& p : pts) d = std::min(d, glm::length(q - glm::dvec2(p)));
+            if (d > best_d) {
+                best_d = d;
+                best = q;
+            }
+        }
+        pts.emplace_back(best);
+    }
+    return pts;
+}
+
+gpu::uint light_kind(LightType t) {
+    switch (t) {
+        case LightType::directional: return gpu::kLightDirectional;
+        case LightType::spot: return gpu::kLightSpot;
+        default: return gpu::kLightPoint;
+    }
+}
+
+gpu::uint filter_kind(FilterType f) {
+    switch (f) {
+        case FilterType::none: return gpu::kFilterNone;
+        case FilterType::hw2x2: return gpu::kFilterHw2x2;
+        case FilterType::pcf: return gpu::kFilterPcf;
+        case FilterType::poisson: return gpu::kFilterPoisson;
+        case FilterType::pcss: return gpu::kFilterPcss;
+    }
+    return gpu::kFilterNone;
+}
+
+using SpecData = std::array<std::uint32_t, 8>;  // indexed by gpu::kSpec*
+
+UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const SpecData& spec) {
+    UniqueShaderModule cs = make_module(ctx, kLookupComp, sizeof(kLookupComp));
+    std::array<VkSpecializationMapEntry, 8> entries;
+    for (std::uint32_t i = 0; i < 8; ++i) entries[i] = {i, i * 4, 4};
+    VkSpecializationInfo si{8, entries.data(), sizeof(spec), spec.data()};
+    VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = cs.get();
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = &si;
+    ci.layout = layout;
+    VkPipeline p;
+    VK_CHECK(vkCreateComputePipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
+    return UniquePipeline(ctx.device(), p);
+}
+
+// The lookup set, declared once: the layout, the pool and the writes come from this table.
+constexpr std::array<BindingDecl, 9> kLookupBindings = {{
+    {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+    {gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingIndices, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingShadowDepth, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+    {gpu::kBindingShadowPrim, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+    {gpu::kBindingShadowCompare, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+    {gpu::kBindingLookupParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER},
+    {gpu::kBindingLookupOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingFaceMask, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+}};
+
+// Everything a shadow pass's map depends on: equal keys draw equal maps.
+struct MapContent {
+    std::vector<glm::dmat4> view_proj;
+    std::uint32_t layers = 0;
+    int resolution = 0;
+    DepthFormat format = DepthFormat::d32;
+    Cull cull = Cull::back;
+    double constant = 0, slope = 0, clamp = 0;
+    bool operator==(const MapContent&) const = default;
+};
+
+class DepthMapFamily final : public TechniqueFamily {
+  public:
+    explicit DepthMapFamily(const SceneOnGpu& scene);
+    void render(const Technique& t, std::span<const Light> lights, const RenderOptions& options, RasterFrame& frame,
+                RasterStats& stats) override;
+
+  private:
+    // Per light: its uniform parameters, its lookup output, the cube-face mask.
+    struct Slot {
+        GpuBuffer params, output, readback, mask;
+    };
+
+    void check_supported(const Technique& t, RasterStats& stats);
+    VkPipeline shadow_pipeline(const Technique& t);
+    VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
+    VkSampler compare_sampler(bool linear, bool clamp_to_border);
+    void ensure_maps(const Technique& t, std::uint32_t layers);
+    void ensure_slots(std::size_t n);
+    void ensure_queries(std::uint32_t count);
+    gpu::LookupParams light_params(const Technique& t, const Light& light, const LightProjection& projection) const;
+    void record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t);
+    void record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li, RasterLightStats& ls,
+                      const RenderOptions& options);
+    RasterLightImage read_back(std::size_t li, bool lookups) const;
+
+    const SceneOnGpu& s_;
+    const VulkanContext& ctx_;
+    bool hardware_compare_ = false;
+    bool direct_readback_ = false;  // the device shares host memory: the lookup writes where the CPU reads
+
+    DescriptorSets sets_;
+    UniquePipelineLayout shadow_layout_, lookup_layout_;
+    std::map<std::tuple<VkFormat, Cull, bool>, UniquePipeline> shadow_pipelines_;
+    std::map<SpecData, UniquePipeline> lookup_pipelines_;
+    std::map<std::pair<bool, bool>, UniqueSampler> compare_samplers_;
+    UniqueSampler nearest_;
+
+    GpuImage shadow_depth_, shadow_prim_;
+    std::vector<UniqueImageView> depth_layers_, prim_layers_;
+    std::optional<MapContent> map_content_;  // what the map images hold now
+    std::vector<glm::vec2> disk_;
+    std::vector<Slot> slots_;
+    UniqueQueryPool queries_;
+    std::uint32_t query_capacity_ = 0;
+};
+
+DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
+    : s_(scene),
+      ctx_(scene.ctx),
+      direct_readback_(scene.ctx.info().type == "cpu" || scene.ctx.info().type == "integrated-gpu"),
+      sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
+    shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
+    lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
+    nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
+}
+
+void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
+    std::uint32_t max_dim = ctx_.limits().maxImageDimension2D;
+    if (static_cast<std::uint32_t>(t.resolution) > max_dim)
+        throw InputError(fmt::format("technique.resolution: {} exceeds the device's maxImageDimension2D {} ({})",
+                                     t.resolution, max_dim, ctx_.info().name));
+    if (!ctx_.supports_depth_attachment(vk_format(t.depth_format)))
+        throw EnvironmentError(fmt::format("Vulkan device '{}' cannot render and sample depth format {}",
+                                           ctx_.info().name, to_string(t.depth_format)));
+    bool wants_bilinear =
+        t.filter.type == FilterType::hw2x2 ||
+        (t.filter.bilinear_taps && (t.filter.type == FilterType::pcf || t.filter.type == FilterType::poisson));
+    hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
+    stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
+}
+
+VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t) {
+    const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
+    auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias);
+    UniquePipeline& p = shadow_pipelines_[key];
+    if (!p) {
+        // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from
+        // the light is VK_FRONT_FACE_CLOCKWISE here (pinned by the culling test).
+        VkCullModeFlags cull = t.cull == Cull::none   ? VK_CULL_MODE_NONE
+                               : t.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
+                                                      : VK_CULL_MODE_FRONT_BIT;
+        p = make_graphics_pipeline(
+            ctx_, shadow_layout_.get(),
+            {kShadowVert, sizeof(kShadowVert), kShadowFrag, sizeof(kShadowFrag), vk_format(t.depth_format),
+             VK_COMPARE_OP_LESS, cull, VK_FRONT_FACE_CLOCKWISE, true, bias});
+    }
+    return p.get();
+}
+
+VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode) {
+    SpecData spec = {kind,
+                     filter_kind(t.filter.type),
+                     static_cast<std::uint32_t>(t.filter.size),
+                     static_cast<std::uint32_t>(t.filter.taps),
+                     t.filter.bilinear_taps ? 1u : 0u,
+                     t.bias.receiver_plane ? 1u : 0u,
+                     hardware_compare_ ? 1u : 0u,
+                     mode};
+    UniquePipeline& p = lookup_pipelines_[spec];
+    if (!p) p = make_lookup_pipeline(ctx_, lookup_layout_.get(), spec);
+    return p.get();
+}
+
+VkSampler DepthMapFamily::compare_sampler(bool linear, bool clamp_to_border) {
+    UniqueSampler& s = compare_samplers_[{linear, clamp_to_border}];
+    if (!s) s = make_sampler(ctx_, true, linear, clamp_to_border);
+    return s.get();
+}
+
+void DepthMapFamily::ensure_maps(const Technique& t, std::uint32_t layers) {
+    const VkFormat format = vk_format(t.depth_format);
+    const auto res = static_cast<std::uint32_t>(t.resolution);
+    if (shadow_depth_.image && shadow_depth_.format == format && shadow_depth_.width == res &&
+        shadow_depth_.layers == layers)
+        return;
+    map_content_.reset();
+    depth_layers_.clear();
+    prim_layers_.clear();
+    shadow_depth_ = create_image(ctx_, format, res, res, layers,
+                                 VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                                 VK_IMAGE_ASPECT_DEPTH_BIT, true);
+    shadow_prim_ =
+        create_image(ctx_, kPrimFormat, res, res, layers,
+                     VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT, true);
+    for (std::uint32_t l = 0; l < layers; ++l) {
+        depth_layers_.push_back(create_layer_view(ctx_, shadow_depth_, l, VK_IMAGE_ASPECT_DEPTH_BIT));
+        prim_layers_.push_back(create_layer_view(ctx_, shadow_prim_, l, VK_IMAGE_ASPECT_COLOR_BIT));
+    }
+}
+
+void DepthMapFamily::ensure_slots(std::size_t n) {
+    const VkDeviceSize bytes = s_.pixels * sizeof(gpu::LookupTexel);
+    while (slots_.size() < n) {
+        Slot slot;
+        slot.params = create_buffer(ctx_, sizeof(gpu::LookupParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, true);
+        // A GPU writes the lookups into its own memory and copies them back once; a CPU
+        // device writes them where they are read.
+        slot.output = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                    direct_readback_);
+        if (!direct_readback_) slot.readback = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+        slot.mask = create_buffer(ctx_, 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+        slots_.push_back(std::move(slot));
+    }
+    sets_.reserve(n);
+}
+
+void DepthMapFamily::ensure_queries(std::uint32_t count) {
+    if (count <= query_capacity_) return;
+    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qi.queryCount = count;
+    VkQueryPool qp;
+    VK_CHECK(vkCreateQueryPool(ctx_.device(), &qi, nullptr, &qp));
+    queries_ = UniqueQueryPool(ctx_.device(), qp);
+    query_capacity_ = count;
+}
+
+gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& light,
+                                               const LightProjection& projection) const {
+    const Scenario& sc = s_.scenario;
+    const Camera& cam = sc.camera;
+    const bool persp = cam.type == ProjectionType::perspective;
+    const glm::dvec2 plane = ndc_to_image_plane(cam, sc.width, sc.height);
+    gpu::LookupParams p{};
+    p.cam_forward = glm::vec4(glm::vec3(cam.forward), persp ? 1.0f : 0.0f);
+    p.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
+    p.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
+    p.image = glm::vec4(sc.width, sc.height, 1.0f / sc.width, 1.0f / sc.height);
+    p.light_pos = glm::vec4(glm::vec3(light.position - s_.origin), 0.0f);
+    p.light_dir = glm::vec4(glm::vec3(light.direction), static_cast<float>(std::cos(light.outer_cone_rad)));
+    p.bias = glm::vec4(t.bias.world, t.bias.normal_offset, t.bias.shader_depth, t.bias.constant);
+    p.bias2 = glm::vec4(t.bias.slope, t.bias.clamp, depth_resolution(t.depth_format), 0.0f);
+    p.map = glm::vec4(t.resolution, 1.0f / t.resolution, t.filter.radius_texels,
+                      static_cast<float>(projection.view_proj.size()));
+    p.footprint = glm::vec4(projection.metres_per_texel, projection.tan_per_texel, 0.0f, 0.0f);
+    // A punctual light has no size: PCSS then degenerates to a one-texel filter.
+    p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
+    for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
+        p.view_proj[l] = glm::mat4(projection.view_proj[l]);
+        p.light_axis[l] = glm::vec4(glm::vec3(projection.axis[l]), 0.0f);
+    }
+    for (std::size_t k = 0; k < disk_.size(); ++k) {
+        glm::vec4& pair = p.poisson[k / 2];
+        if (k % 2 == 0) {
+            pair.x = disk_[k].x;
+            pair.y = disk_[k].y;
+        } else {
+            pair.z = disk_[k].x;
+            pair.w = disk_[k].y;
+        }
+    }
+    return p;
+}
+
+// Point lights: which cube faces some receiver samples, so that only those are drawn.
+void DepthMapFamily::record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t) {
+    // The lookup descriptors name the maps in SHADER_READ_ONLY; make that true before the mask
+    // dispatches (which never read them).
+    image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
+                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE,
+                  VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
+                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE,
+                  VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    map_content_.reset();  // the transition above discards what the maps held
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 0);
+    for (std::size_t li = 0; li < lights.size(); ++li) {
+        if (lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                          lookup_pipeline(t, gpu::kLightPoint, gpu::kModeFaceMask));
+        VkDescriptorSet set = sets_[li];
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
+        vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
+    }
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 1);
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li,
+                                  RasterLightStats& ls, const RenderOptions& options) {
+    const auto q = static_cast<std::uint32_t>(2 + 3 * li);
+    const auto res = static_cast<std::uint32_t>(t.resolution);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
+    MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
+                       t.bias.constant,         t.bias.slope,      t.bias.clamp};
+    ls.map_reused = options.reuse_maps && ls.layers_sampled != 0 && map_content_ == content;
+    if (ls.layers_sampled != 0 && !ls.map_reused) {
+        // The previous light's lookup read these images; its contents are not needed again.
+        image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
+                      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+        image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
+                      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE,
+                      VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t));
+        VkDeviceSize zero = 0;
+        vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
+        vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
+        for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
+            if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
+            begin_rendering(cmd, prim_layers_[layer].get(), depth_layers_[layer].get(), res, res, 1.0f);
+            vkCmdSetDepthBias(cmd, static_cast<float>(t.bias.constant), static_cast<float>(t.bias.clamp),
+                              static_cast<float>(t.bias.slope));
+            glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
+            vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+            if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
+            vkCmdEndRendering(cmd);
+            ++ls.layers_rendered;
+        }
+        image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
+                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                      kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
+                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                      VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        map_content_ = content;
+    }
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                      lookup_pipeline(t, light_kind(light.type), gpu::kModeLookup));
+    VkDescriptorSet set = sets_[li];
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
+    vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 2);
+    const Slot& slot = slots_[li];
+    if (direct_readback_) {
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+        return;
+    }
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferCopy region{0, 0, s_.pixels * sizeof(gpu::LookupTexel)};
+    vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.readback.buffer.get(), 1, &region);
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                   VK_ACCESS_2_HOST_READ_BIT);
+}
+
+RasterLightImage DepthMapFamily::read_back(std::size_t li, bool lookups) const {
+    const Slot& slot = slots_[li];
+    const auto* texels =
+        static_cast<const gpu::LookupTexel*>(direct_readback_ ? slot.output.mapped : slot.readback.mapped);
+    const std::size_t n = s_.pixels;
+    RasterLightImage img;
+    img.V.resize(n);
+    for (std::size_t i = 0; i < n; ++i) img.V[i] = texels[i].V;
+    if (!lookups) return img;
+    DepthMapLookups& lk = img.lookups.emplace();
+    lk.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const gpu::LookupTexel& t = texels[i];
+        lk.ref_depth[i] = t.ref_depth;
+        lk.stored_depth[i] = t.stored_depth;
+        lk.stored_prim[i] = t.stored_prim;
+        lk.footprint_m[i] = t.footprint_m;
+        lk.texel_slope[i] = t.texel_slope;
+        lk.bias_m[i] = t.bias_m;
+        lk.depth_to_m[i] = t.depth_to_m;
+        lk.flags[i] = t.flags;
+    }
+    return img;
+}
+
+void DepthMapFamily::render(const Technique& t, std::span<const Light> all_lights, const RenderOptions& options,
+                            RasterFrame& frame, RasterStats& stats) {
+    auto t0 = SteadyClock::now();
+    check_supported(t, stats);
+    // An area light is drawn from its centre as a point light carrying its size (for PCSS).
+    Technique centred_technique = t;
+    centred_technique.area_samples = 0;
+    const std::vector<Light> centred =
+        expand_area_lights({all_lights.begin(), all_lights.end()}, centred_technique).lights;
+    const std::span<const Light> lights = centred;
+    const std::size_t n = lights.size();
+    const bool any_point =
+        std::any_of(lights.begin(), lights.end(), [](const Light& l) { return l.type == LightType::point; });
+    // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
+    Technique sized = t;
+    if (n == 0) sized.resolution = 1;
+    ensure_maps(sized, any_point ? 6 : 1);
+    ensure_slots(n);
+    ensure_queries(static_cast<std::uint32_t>(2 + 3 * n));
+    if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
+    // Point lights clamp inside a face; 2D maps read a lit border.
+    const VkSampler compare = compare_sampler(hardware_compare_, !any_point);
+
+    const Scenario& sc = s_.scenario;
+    stats.lights.resize(n);
+    for (std::size_t li = 0; li < n; ++li) {
+        const Light& light = lights[li];
+        RasterLightStats& ls = stats.lights[li];
+        ls = {};
+        ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, s_.origin,
+                                  t.shadow_distance);
+        for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
+        const gpu::LookupParams p = light_params(t, light, ls.projection);
+        std::memcpy(slots_[li].params.mapped, &p, sizeof(p));
+        // Only cube maps are worth a mask pass; a single map is rendered whenever the light exists.
+        const std::uint32_t initial = light.type == LightType::point ? 0u : 1u;
+        std::memcpy(slots_[li].mask.mapped, &initial, 4);
+
+        const Slot& slot = slots_[li];
+        std::array<DescriptorResource, kLookupBindings.size()> r{};
+        r[0].image = {VK_NULL_HANDLE, s_.gbuffer_prim.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+        r[1].buffer = {s_.positions.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[2].buffer = {s_.indices.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[3].image = {nearest_.get(), shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        r[4].image = {nearest_.get(), shadow_prim_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        r[5].image = {compare, shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        r[6].buffer = {slot.params.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[7].buffer = {slot.output.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[8].buffer = {slot.mask.buffer.get(), 0, VK_WHOLE_SIZE};
+        sets_.write(li, r);
+    }
+    stats.setup_s += seconds_since(t0);
+
+    auto t1 = SteadyClock::now();
+    if (any_point) {
+        ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
+            vkCmdResetQueryPool(cmd, queries_.get(), 0, 2);
+            record_masks(cmd, lights, t);
+        });
+        for (std::size_t li = 0; li < n; ++li)
+            stats.lights[li].layers_sampled = *static_cast<const std::uint32_t*>(slots_[li].mask.mapped);
+    } else {
+        for (std::size_t li = 0; li < n; ++li) stats.lights[li].layers_sampled = 1u;
+    }
+    ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
+        if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(3 * n));
+        if (!any_point) {
+            // The lookup descriptors name the maps in SHADER_READ_ONLY even where no pass drew.
+            image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
+                          map_content_ ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
+                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+            image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
+                          map_content_ ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
+                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        }
+        for (std::size_t li = 0; li < n; ++li) record_light(cmd, t, lights[li], li, stats.lights[li], options);
+    });
+    stats.render_s += seconds_since(t1);
+
+    // All timestamps in one query-pool read.
+    const std::uint32_t queries = static_cast<std::uint32_t>(2 + 3 * n);
+    std::vector<std::uint64_t> ts(queries, 0);
+    const std::uint32_t first = any_point ? 0 : 2;
+    if (queries > first)
+        VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), first, queries - first,
+                                       (queries - first) * sizeof(std::uint64_t), ts.data() + first,
+                                       sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    auto ms = [&](std::uint32_t a, std::uint32_t b) {
+        return ts[b] >= ts[a] ? static_cast<double>(ts[b] - ts[a]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
+    };
+    if (any_point) stats.mask_ms += ms(0, 1);
+    for (std::size_t li = 0; li < n; ++li) {
+        const auto q = static_cast<std::uint32_t>(2 + 3 * li);
+        RasterLightStats& ls = stats.lights[li];
+        ls.shadow_ms = ms(q, q + 1);
+        ls.lookup_ms = ms(q + 1, q + 2);
+        stats.shadow_ms += ls.shadow_ms;
+        stats.lookup_ms += ls.lookup_ms;
+        frame.lights.push_back(read_back(li, options.lookups));
+    }
+}
+
+}  // namespace
+
+std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene) {
+    return std::make_unique<DepthMapFamily>(scene);
+}
+
+}  // namespace penumbra::raster

@@ -1,0 +1,245 @@
+#include "raster/gpu_passes.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "shaders/penumbra_shared.h"
+
+namespace penumbra::raster {
+
+UniqueShaderModule make_module(const VulkanContext& ctx, const std::uint32_t* code, std::size_t bytes) {
+    VkShaderModuleCreateInfo ci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    ci.codeSize = bytes;
+    ci.pCode = code;
+    VkShaderModule m;
+    VK_CHECK(vkCreateShaderModule(ctx.device(), &ci, nullptr, &m));
+    return UniqueShaderModule(ctx.device(), m);
+}
+
+GpuBuffer upload(const VulkanContext& ctx, const void* data, std::size_t bytes, VkBufferUsageFlags usage) {
+    GpuBuffer staging = create_buffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+    if (bytes) std::memcpy(staging.mapped, data, bytes);
+    GpuBuffer dst = create_buffer(ctx, bytes, usage | VK_BUFFER_USAGE_TRANSFER_DST_BIT, false);
+    ctx.submit_and_wait([&](VkCommandBuffer cmd) {
+        VkBufferCopy region{0, 0, std::max<VkDeviceSize>(bytes, 4)};
+        vkCmdCopyBuffer(cmd, staging.buffer.get(), dst.buffer.get(), 1, &region);
+    });
+    return dst;
+}
+
+void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, std::uint32_t layers,
+                   VkImageLayout from, VkImageLayout to, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                   VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
+    VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+    b.srcStageMask = src_stage;
+    b.srcAccessMask = src_access;
+    b.dstStageMask = dst_stage;
+    b.dstAccessMask = dst_access;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image;
+    b.subresourceRange = {aspect, 0, 1, 0, layers};
+    VkDependencyInfo di{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    di.imageMemoryBarrierCount = 1;
+    di.pImageMemoryBarriers = &b;
+    vkCmdPipelineBarrier2(cmd, &di);
+}
+
+void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access) {
+    VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+    b.srcStageMask = src_stage;
+    b.srcAccessMask = src_access;
+    b.dstStageMask = dst_stage;
+    b.dstAccessMask = dst_access;
+    VkDependencyInfo di{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    di.memoryBarrierCount = 1;
+    di.pMemoryBarriers = &b;
+    vkCmdPipelineBarrier2(cmd, &di);
+}
+
+UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g) {
+    UniqueShaderModule vs = make_module(ctx, g.vert, g.vert_bytes), fs = make_module(ctx, g.frag, g.frag_bytes);
+    VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
+                                                 {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
+    stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+    stages[0].module = vs.get();
+    stages[0].pName = "main";
+    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+    stages[1].module = fs.get();
+    stages[1].pName = "main";
+
+    VkVertexInputBindingDescription binding{0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
+    VkVertexInputAttributeDescription attribute{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
+    VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+    vi.vertexBindingDescriptionCount = 1;
+    vi.pVertexBindingDescriptions = &binding;
+    vi.vertexAttributeDescriptionCount = 1;
+    vi.pVertexAttributeDescriptions = &attribute;
+    VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+    ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+    vp.viewportCount = 1;
+    vp.scissorCount = 1;
+    VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+    rs.depthClampEnable = g.depth_clamp;
+    rs.polygonMode = VK_POLYGON_MODE_FILL;
+    rs.cullMode = g.cull;
+    rs.frontFace = g.front_face;
+    rs.depthBiasEnable = g.depth_bias;
+    rs.lineWidth = 1.0f;
+    VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+    ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+    ds.depthTestEnable = VK_TRUE;
+    ds.depthWriteEnable = VK_TRUE;
+    ds.depthCompareOp = g.depth_compare;
+    VkPipelineColorBlendAttachmentState blend{};
+    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
+    VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+    cb.attachmentCount = 1;
+    cb.pAttachments = &blend;
+    VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR, VK_DYNAMIC_STATE_DEPTH_BIAS};
+    VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+    dy.dynamicStateCount = 3;
+    dy.pDynamicStates = dyn;
+    VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
+    ri.colorAttachmentCount = 1;
+    VkFormat color = kPrimFormat;
+    ri.pColorAttachmentFormats = &color;
+    ri.depthAttachmentFormat = g.depth_format;
+
+    VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+    ci.pNext = &ri;
+    ci.stageCount = 2;
+    ci.pStages = stages;
+    ci.pVertexInputState = &vi;
+    ci.pInputAssemblyState = &ia;
+    ci.pViewportState = &vp;
+    ci.pRasterizationState = &rs;
+    ci.pMultisampleState = &ms;
+    ci.pDepthStencilState = &ds;
+    ci.pColorBlendState = &cb;
+    ci.pDynamicState = &dy;
+    ci.layout = layout;
+    VkPipeline p;
+    VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
+    return UniquePipeline(ctx.device(), p);
+}
+
+UniquePipelineLayout make_pipeline_layout(const VulkanContext& ctx, VkDescriptorSetLayout set_layout,
+                                          std::uint32_t push_bytes, VkShaderStageFlags push_stages) {
+    VkPushConstantRange range{push_stages, 0, push_bytes};
+    VkPipelineLayoutCreateInfo ci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    ci.setLayoutCount = set_layout ? 1 : 0;
+    ci.pSetLayouts = &set_layout;
+    ci.pushConstantRangeCount = push_bytes ? 1 : 0;
+    ci.pPushConstantRanges = &range;
+    VkPipelineLayout l;
+    VK_CHECK(vkCreatePipelineLayout(ctx.device(), &ci, nullptr, &l));
+    return UniquePipelineLayout(ctx.device(), l);
+}
+
+UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border) {
+    VkSamplerCreateInfo ci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    ci.magFilter = ci.minFilter = linear ? VK_FILTER_LINEAR : VK_FILTER_NEAREST;
+    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    ci.addressModeU = ci.addressModeV = ci.addressModeW =
+        clamp_to_border ? VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;  // outside the map reads as lit
+    ci.compareEnable = compare;
+    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    ci.maxLod = 0.0f;
+    VkSampler s;
+    VK_CHECK(vkCreateSampler(ctx.device(), &ci, nullptr, &s));
+    return UniqueSampler(ctx.device(), s);
+}
+
+void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h) {
+    VkViewport vp{0, 0, static_cast<float>(w), static_cast<float>(h), 0.0f, 1.0f};
+    VkRect2D scissor{{0, 0}, {w, h}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+}
+
+void begin_rendering(VkCommandBuffer cmd, VkImageView color, VkImageView depth, std::uint32_t w, std::uint32_t h,
+                     float depth_clear) {
+    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    ca.imageView = color;
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ca.clearValue.color.uint32[0] = gpu::kNoPrim;
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = depth;
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    da.clearValue.depthStencil.depth = depth_clear;
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {w, h}};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &ca;
+    ri.pDepthAttachment = &da;
+    vkCmdBeginRendering(cmd, &ri);
+    set_viewport(cmd, w, h);
+}
+
+UniqueDescriptorSetLayout make_set_layout(const VulkanContext& ctx, std::span<const BindingDecl> decls,
+                                          VkShaderStageFlags stages) {
+    std::vector<VkDescriptorSetLayoutBinding> bindings;
+    for (const BindingDecl& d : decls) bindings.push_back({d.binding, d.type, 1, stages, nullptr});
+    VkDescriptorSetLayoutCreateInfo ci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    ci.bindingCount = static_cast<std::uint32_t>(bindings.size());
+    ci.pBindings = bindings.data();
+    VkDescriptorSetLayout l;
+    VK_CHECK(vkCreateDescriptorSetLayout(ctx.device(), &ci, nullptr, &l));
+    return UniqueDescriptorSetLayout(ctx.device(), l);
+}
+
+DescriptorSets::DescriptorSets(const VulkanContext& ctx, std::span<const BindingDecl> decls, VkShaderStageFlags stages)
+    : ctx_(&ctx), decls_(decls.begin(), decls.end()), layout_(make_set_layout(ctx, decls, stages)) {}
+
+void DescriptorSets::reserve(std::size_t count) {
+    if (count <= sets_.size()) return;
+    const std::size_t capacity = std::max<std::size_t>(count, 2 * sets_.size());
+    std::vector<VkDescriptorPoolSize> sizes;
+    for (const BindingDecl& d : decls_) {
+        auto it = std::find_if(sizes.begin(), sizes.end(), [&](const auto& s) { return s.type == d.type; });
+        if (it == sizes.end()) it = sizes.insert(sizes.end(), {d.type, 0});
+        it->descriptorCount += static_cast<std::uint32_t>(capacity);
+    }
+    VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    pi.maxSets = static_cast<std::uint32_t>(capacity);
+    pi.poolSizeCount = static_cast<std::uint32_t>(sizes.size());
+    pi.pPoolSizes = sizes.data();
+    VkDescriptorPool pool;
+    VK_CHECK(vkCreateDescriptorPool(ctx_->device(), &pi, nullptr, &pool));
+    pool_ = UniqueDescriptorPool(ctx_->device(), pool);  // frees the sets of the old pool
+    std::vector<VkDescriptorSetLayout> layouts(capacity, layout_.get());
+    sets_.assign(capacity, VK_NULL_HANDLE);
+    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ai.descriptorPool = pool_.get();
+    ai.descriptorSetCount = static_cast<std::uint32_t>(capacity);
+    ai.pSetLayouts = layouts.data();
+    VK_CHECK(vkAllocateDescriptorSets(ctx_->device(), &ai, sets_.data()));
+}
+
+void DescriptorSets::write(std::size_t index, std::span<const DescriptorResource> resources) const {
+    std::vector<VkWriteDescriptorSet> writes;
+    for (std::size_t k = 0; k < decls_.size(); ++k) {
+        VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+        w.dstSet = sets_[index];
+        w.dstBinding = decls_[k].binding;
+        w.descriptorCount = 1;
+        w.descriptorType = decls_[k].type;
+        w.pImageInfo = &resources[k].image;
+        w.pBufferInfo = &resources[k].buffer;
+        writes.push_back(w);
+    }
+    vkUpdateDescriptorSets(ctx_->device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+}  // namespace penumbra::raster

@@ -1,0 +1,88 @@
+// Vulkan building blocks the raster path's passes share: pipelines, barriers, dynamic
+// rendering, samplers, and descriptor sets declared once as a table of bindings (the set
+// layout, the pool sizes and the writes all come from the same table).
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "raster/vulkan_context.h"
+
+namespace penumbra::raster {
+
+// The primitive-id colour target of the camera and shadow passes.
+inline constexpr VkFormat kPrimFormat = VK_FORMAT_R32_UINT;
+
+inline constexpr VkPipelineStageFlags2 kFragmentTests =
+    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+
+UniqueShaderModule make_module(const VulkanContext& ctx, const std::uint32_t* code, std::size_t bytes);
+// A device-local buffer holding `bytes` of `data` (through a staging copy).
+GpuBuffer upload(const VulkanContext& ctx, const void* data, std::size_t bytes, VkBufferUsageFlags usage);
+
+void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect, std::uint32_t layers,
+                   VkImageLayout from, VkImageLayout to, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                   VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
+void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
+                    VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
+
+// A graphics pipeline for the camera and shadow passes: one vec3 stream, one R32_UINT colour
+// target (the primitive id) and a depth target, dynamic rendering, dynamic depth bias.
+struct GraphicsSetup {
+    const std::uint32_t* vert;
+    std::size_t vert_bytes;
+    const std::uint32_t* frag;
+    std::size_t frag_bytes;
+    VkFormat depth_format;
+    VkCompareOp depth_compare;
+    VkCullModeFlags cull;
+    VkFrontFace front_face;
+    bool depth_clamp;
+    bool depth_bias;
+};
+UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g);
+UniquePipelineLayout make_pipeline_layout(const VulkanContext& ctx, VkDescriptorSetLayout set_layout,
+                                          std::uint32_t push_bytes, VkShaderStageFlags push_stages);
+UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border);
+
+void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h);
+// Clears the R32_UINT colour target to "no primitive" and the depth target to `depth_clear`.
+void begin_rendering(VkCommandBuffer cmd, VkImageView color, VkImageView depth, std::uint32_t w, std::uint32_t h,
+                     float depth_clear);
+
+// One binding of a descriptor set (one descriptor each).
+struct BindingDecl {
+    std::uint32_t binding;
+    VkDescriptorType type;
+};
+// What one binding points at: `image` for image types, `buffer` for buffer types.
+struct DescriptorResource {
+    VkDescriptorImageInfo image{};
+    VkDescriptorBufferInfo buffer{};
+};
+UniqueDescriptorSetLayout make_set_layout(const VulkanContext& ctx, std::span<const BindingDecl> decls,
+                                          VkShaderStageFlags stages);
+
+// Sets of one layout, grown on demand; `write` takes one resource per declared binding, in
+// the table's order.
+class DescriptorSets {
+  public:
+    DescriptorSets(const VulkanContext& ctx, std::span<const BindingDecl> decls, VkShaderStageFlags stages);
+    void reserve(std::size_t count);  // may reallocate: sets must be written again after growing
+    void write(std::size_t index, std::span<const DescriptorResource> resources) const;
+    VkDescriptorSetLayout layout() const { return layout_.get(); }
+    VkDescriptorSet operator[](std::size_t index) const { return sets_[index]; }
+    std::size_t size() const { return sets_.size(); }
+
+  private:
+    const VulkanContext* ctx_;
+    std::vector<BindingDecl> decls_;
+    UniqueDescriptorSetLayout layout_;
+    UniqueDescriptorPool pool_;
+    std::vector<VkDescriptorSet> sets_;
+};
+
+}  // namespace penumbra::raster
