@@ -139,7 +139,7 @@ raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArg
     }
     if (!t.preset.empty()) j["preset"] = t.preset;
     for (const auto& s : t.sets) raster::apply_override(j, s);
-    return raster::parse_technique(j, label);
+    return raster::parse_technique(j, label, scenario.lights);
 }
 
 int run_raster_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t) {

@@ -552,7 +552,7 @@ void Renderer::make_light_resources() {
         p.map = glm::vec4(t_.resolution, 1.0f / t_.resolution, t_.filter.radius_texels,
                           static_cast<float>(ls.projection.view_proj.size()));
         p.footprint = glm::vec4(ls.projection.metres_per_texel, ls.projection.tan_per_texel, 0.0f, 0.0f);
-        // A punctual light has no size: PCSS then degenerates to a one-texel filter.
+        // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
         p.pcss = glm::vec4(light.radius, ls.projection.near, ls.projection.far, t_.filter.max_radius_texels);
         for (std::size_t l = 0; l < ls.projection.view_proj.size(); ++l) {
             p.view_proj[l] = glm::mat4(ls.projection.view_proj[l]);
@@ -842,6 +842,7 @@ RasterResult Renderer::run() {
 }  // namespace
 
 RasterResult run_raster(const Scenario& scenario, const Technique& technique, const VulkanContext& ctx) {
+    check_technique_lights(technique, scenario.lights, scenario.label + ": technique");  // before any work
     ExpandedLights expanded = expand_area_lights(scenario.lights, technique);
     Renderer r(scenario, expanded.lights, technique, ctx);
     RasterResult drawn = r.run();
