@@ -551,7 +551,7 @@ void Renderer::make_light_resources() {
         p.bias2 = glm::vec4(t_.bias.slope, t_.bias.clamp, depth_resolution(t_.depth_format), 0.0f);
         p.map = glm::vec4(t_.resolution, 1.0f / t_.resolution, t_.filter.radius_texels,
                           static_cast<float>(ls.projection.view_proj.size()));
-        p.footprint = glm::vec4(ls.projection.metres_per_texel, ls.projection.tan_per_texel, 0.0f, 0.0f);
+        p.footprint = glm::vec4(ls.projection.metres_per_texel, ls.projection.metres_per_texel_per_metre, 0.0f, 0.0f);
         // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
         p.pcss = glm::vec4(light.radius, ls.projection.near, ls.projection.far, t_.filter.max_radius_texels);
         for (std::size_t l = 0; l < ls.projection.view_proj.size(); ++l) {

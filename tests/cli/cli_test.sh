@@ -204,5 +204,10 @@ check "validate: pcss on a directional light names the key and the light" grep -
 check "validate: pcss is refused before the oracle runs" test ! -e "$tmp/cache-pcss"
 check "validate: pcss refused writes nothing" test ! -e "$tmp/p2"
 
+# raster.json names each map's texel size by its unit: the default scenario has both kinds.
+check "raster.json: orthographic maps give metres_per_texel" grep -q '"metres_per_texel":' "$tmp/r1/raster.json"
+check "raster.json: perspective maps give metres_per_texel_per_metre" \
+    grep -q '"metres_per_texel_per_metre":' "$tmp/r1/raster.json"
+
 echo "$passed passed, $failed failed"
 test "$failed" -eq 0
