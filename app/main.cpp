@@ -1,5 +1,5 @@
 // penumbra: where shadow maps are wrong, pixel by pixel, and why. The command-line front end:
-// parses arguments, wires the modules together, maps failures to the exit codes of design.md.
+// parses arguments, wires the modules together, maps failures to the exit codes of docs/design.md.
 #include <fmt/format.h>
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-// Per-pixel results exchanged between modules (design.md, "Data flow"). Images are row-major,
+// Per-pixel results exchanged between modules (docs/design.md, "Data flow"). Images are row-major,
 // row 0 at the top, one value per pixel.
 #pragma once
 
@@ -44,7 +44,7 @@ inline constexpr std::uint32_t kRasterOutsideCone = 4u;  // spot light: outside 
 inline constexpr std::uint32_t kRasterOutsideMap = 8u;   // the lookup fell outside the light's map (V = 1)
 
 // What a shadow-mapping technique decided for one light at every pixel, and the lookups
-// behind the decision (design.md, "Data flow").
+// behind the decision (docs/design.md, "Data flow").
 struct RasterLightImage {
     std::vector<float> V;                    // the technique's shadow factor, 1 lit
     std::vector<float> ref_depth;            // receiver depth at the centre texel after every bias (map depth units)

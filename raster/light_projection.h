@@ -1,4 +1,4 @@
-// Where each light's shadow map looks: the fits of design.md ("fit") for directional lights,
+// Where each light's shadow map looks: the fits of docs/raster.md ("fit") for directional lights,
 // the cone for spot lights, six 90-degree faces for point lights. Pure double-precision math
 // (no Vulkan), in the camera-centred frame the raster path renders in.
 #pragma once

@@ -295,7 +295,7 @@ UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout l
     return UniquePipeline(ctx.device(), p);
 }
 
-// Camera clip space from camera-relative positions, matching design.md's pixel centres:
+// Camera clip space from camera-relative positions, matching docs/design.md's pixel centres:
 // y is flipped so that row 0 is the top row; reversed depth (1 at znear) for precision. The
 // far plane is zfar or just beyond the scene, whichever is nearer (glTF allows zfar = inf).
 glm::mat4 camera_matrix(const Camera& cam, int w, int h, const Bounds& scene) {

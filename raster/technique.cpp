@@ -52,7 +52,7 @@ const char* to_string(FilterType f) {
 }
 
 const std::vector<Preset>& presets() {
-    // The configurations of shared/reference, in design.md's keys.
+    // The configurations of references 000-004 (docs/design.md, "References") in technique keys.
     static const std::vector<Preset> kPresets = {
         {"d3d12-textbook",
          "references 000/003: D3D12 textbook demo. Sphere fit, D24, DepthBias 100000 (r = 2^-24, the same r in "

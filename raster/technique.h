@@ -1,5 +1,5 @@
-// The raster technique (design.md, "Technique"): what a shadow-mapping implementation does,
-// as a validated value. Named presets reproduce the seed systems of shared/reference.
+// The raster technique (docs/design.md, "Technique"): what a shadow-mapping implementation does,
+// as a validated value. Named presets reproduce the seed systems of docs/design.md's "References".
 #pragma once
 
 #include <nlohmann/json.hpp>
