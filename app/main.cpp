@@ -1,5 +1,5 @@
 // penumbra: where shadow maps are wrong, pixel by pixel, and why. The command-line front end:
-// parses arguments, wires the modules together, maps failures to the exit codes of design.md.
+// parses arguments, wires the modules together, maps failures to the exit codes of docs/design.md.
 #include <fmt/format.h>
 #include <unistd.h>
 
@@ -139,7 +139,7 @@ raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArg
     }
     if (!t.preset.empty()) j["preset"] = t.preset;
     for (const auto& s : t.sets) raster::apply_override(j, s);
-    return raster::parse_technique(j, label);
+    return raster::parse_technique(j, label, scenario.lights);
 }
 
 int run_raster_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t) {

@@ -1,4 +1,4 @@
-// Primary-ray generation shared by the oracle and the raster path (design.md, "Conventions").
+// Primary-ray generation shared by the oracle and the raster path (docs/design.md, "Conventions").
 #pragma once
 
 #include <glm/vec2.hpp>

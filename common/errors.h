@@ -1,4 +1,4 @@
-// Error channels of penumbra and the exit codes they map to (design.md, "CLI").
+// Error channels of penumbra and the exit codes they map to (docs/design.md, "Exit codes").
 #pragma once
 
 #include <stdexcept>

@@ -1,4 +1,4 @@
-// Per-pixel results exchanged between modules (design.md, "Data flow"). Images are row-major,
+// Per-pixel results exchanged between modules (docs/design.md, "Data flow"). Images are row-major,
 // row 0 at the top, one value per pixel.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The scenario file of design.md: scene, image, camera, lights, optional technique and gate.
+// The scenario file of docs/scenario.md: scene, image, camera, lights, optional technique and gate.
 #pragma once
 
 #include <filesystem>

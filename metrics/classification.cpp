@@ -68,7 +68,7 @@ struct RowSums {
     }
 };
 
-// The wrong pixel's class, in design.md's order: aliasing, acne, peter-panning, the rest.
+// The wrong pixel's class, in docs/metrics.md's order: aliasing, acne, peter-panning, the rest.
 PixelClass classify_wrong(float error, const OracleLightImage& o, std::uint32_t oracle_prim, const DepthMapLookups& r,
                           std::size_t i, const ScoringOptions& opt) {
     const float footprint = r.footprint_m[i];

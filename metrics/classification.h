@@ -1,5 +1,5 @@
 // The verdict per pixel: compares what a technique decided (RasterFrame) with the truth
-// (OracleFrame) and gives every wrong pixel exactly one class, by the rules of design.md
+// (OracleFrame) and gives every wrong pixel exactly one class, by the rules of docs/metrics.md
 // ("What the error classes mean"); docs/metrics.md states each rule with its units.
 #pragma once
 
@@ -101,7 +101,7 @@ struct FrameScore {
 // used for all). Throws std::invalid_argument when the frames do not describe the same image.
 FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, std::span<const ScoringOptions> options);
 
-// The light's numbers as report.json writes them (design.md), less "index" and "type".
+// The light's numbers as report.json writes them (docs/design.md, "report.json"), less "index" and "type".
 nlohmann::json to_json(const LightScore& s);
 
 }  // namespace penumbra::metrics

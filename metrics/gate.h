@@ -1,4 +1,4 @@
-// CI gates (design.md, "Gate"): thresholds on a light's report.json numbers. A gate that
+// CI gates (docs/design.md, "Gate"): thresholds on a light's report.json numbers. A gate that
 // fails makes validate exit 1; each failure is one line a person reads in a CI log.
 #pragma once
 

@@ -1,7 +1,7 @@
 // Area lights in the oracle: points spread uniformly (in area) over a light's emitting surface,
 // the low-discrepancy patterns that place them, and the confidence interval of the estimate.
 //
-// V of an area light is the visible fraction of its emitting area (design.md). Each pixel
+// V of an area light is the visible fraction of its emitting area (docs/design.md). Each pixel
 // estimates it in rounds of kRoundRays shadow rays; a round is the first 16 points of the
 // Sobol (0,2)-sequence (a (0,4,2)-net: one point in every elementary interval of area 1/16)
 // under its own random digital shift. Rounds are therefore independent and each is an

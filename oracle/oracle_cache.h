@@ -1,6 +1,6 @@
 // The oracle's answer depends only on the scene, camera, lights, image size and oracle
 // settings, so it is computed once and reused: validate, tune and sweep with another technique
-// pay for the raster pass and the metrics only (design.md, "Data flow").
+// pay for the raster pass and the metrics only (docs/design.md, "Data flow").
 #pragma once
 
 #include <filesystem>

@@ -1,4 +1,4 @@
-// The oracle's files: oracle.exr, oracle.json, oracle.png (design.md, "Output directory").
+// The oracle's files: oracle.exr, oracle.json, oracle.png (docs/outputs.md).
 #pragma once
 
 #include "common/output_files.h"

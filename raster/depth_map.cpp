@@ -307,8 +307,8 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.bias2 = glm::vec4(t.bias.slope, t.bias.clamp, depth_resolution(t.depth_format), 0.0f);
     p.map = glm::vec4(t.resolution, 1.0f / t.resolution, t.filter.radius_texels,
                       static_cast<float>(projection.view_proj.size()));
-    p.footprint = glm::vec4(projection.metres_per_texel, projection.tan_per_texel, 0.0f, 0.0f);
-    // A punctual light has no size: PCSS then degenerates to a one-texel filter.
+    p.footprint = glm::vec4(projection.metres_per_texel, projection.metres_per_texel_per_metre, 0.0f, 0.0f);
+    // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
     p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
         p.view_proj[l] = glm::mat4(projection.view_proj[l]);

@@ -185,7 +185,7 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
         Basis b = light_basis(light.direction);
         lp.view_proj.push_back(perspective_matrix(b, eye_rel, t, lp.near, lp.far));
         lp.axis.push_back(b.forward);
-        lp.tan_per_texel = 2.0 * t / resolution;
+        lp.metres_per_texel_per_metre = 2.0 * t / resolution;
         return lp;
     }
     // Point light: six exact 90-degree faces.
@@ -196,7 +196,7 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
         lp.view_proj.push_back(perspective_matrix({right, up, f}, eye_rel, 1.0, lp.near, lp.far));
         lp.axis.push_back(f);
     }
-    lp.tan_per_texel = 2.0 / resolution;
+    lp.metres_per_texel_per_metre = 2.0 / resolution;
     return lp;
 }
 

@@ -1,4 +1,4 @@
-// Where each light's shadow map looks: the fits of design.md ("fit") for directional lights,
+// Where each light's shadow map looks: the fits of docs/raster.md ("fit") for directional lights,
 // the cone for spot lights, six 90-degree faces for point lights. Pure double-precision math
 // (no Vulkan), in the camera-centred frame the raster path renders in.
 #pragma once
@@ -20,9 +20,10 @@ struct LightProjection {
     std::vector<glm::dmat4> view_proj;
     std::vector<glm::dvec3> axis;  // per layer: unit forward axis of the light's view
     double metres_per_texel = 0;   // orthographic: texel size (larger of the two axes)
-    double tan_per_texel = 0;      // perspective: 2 tan(fov/2) / resolution, texel size per metre of depth
-    double near = 0, far = 0;      // metres along the axis (orthographic: from the box's front face)
-    glm::dvec2 half_extent{0.0};   // orthographic: half width and height of the box, metres
+    // perspective: texel size per metre of depth along the axis, 2 tan(fov/2) / resolution
+    double metres_per_texel_per_metre = 0;
+    double near = 0, far = 0;     // metres along the axis (orthographic: from the box's front face)
+    glm::dvec2 half_extent{0.0};  // orthographic: half width and height of the box, metres
     std::vector<std::string> warnings;
 };
 

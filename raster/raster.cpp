@@ -21,7 +21,7 @@ constexpr VkFormat kCameraDepthFormat = VK_FORMAT_D32_SFLOAT;
 constexpr std::array<BindingDecl, 1> kCameraBindings = {
     {{gpu::kBindingDoubleSided, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}}};
 
-// Camera clip space from camera-relative positions, matching design.md's pixel centres:
+// Camera clip space from camera-relative positions, matching docs/design.md's pixel centres:
 // y is flipped so that row 0 is the top row; reversed depth (1 at znear) for precision. The
 // far plane is zfar or just beyond the scene, whichever is nearer (glTF allows zfar = inf).
 glm::mat4 camera_matrix(const Camera& cam, int w, int h, const Bounds& scene) {
@@ -203,6 +203,7 @@ double RasterSession::setup_s() const {
 
 RasterResult RasterSession::render(const Technique& technique, const RenderOptions& options) {
     const SceneOnGpu& s = impl_->scene;
+    check_technique_lights(technique, s.scenario.lights, s.scenario.label + ": technique");  // before any work
     RasterResult out;
     RasterStats& stats = out.stats;
     stats.device = s.ctx.info();

@@ -1,5 +1,5 @@
 // The raster validator: draws the scenario with a shadow-mapping technique on a Vulkan device
-// and returns, per pixel, what the technique decided for every light (design.md).
+// and returns, per pixel, what the technique decided for every light (docs/raster.md).
 #pragma once
 
 #include <memory>

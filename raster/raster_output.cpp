@@ -90,7 +90,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
                          {"maps", averaged ? technique.area_samples : 1}};
         }
         if (l.projection.perspective)
-            j["texel_per_metre_depth"] = l.projection.tan_per_texel;
+            j["metres_per_texel_per_metre"] = l.projection.metres_per_texel_per_metre;
         else {
             j["metres_per_texel"] = l.projection.metres_per_texel;
             j["half_extent"] = {l.projection.half_extent.x, l.projection.half_extent.y};

@@ -1,4 +1,4 @@
-// raster.exr, raster.json and raster.png (design.md, "Output directory").
+// raster.exr, raster.json and raster.png (docs/outputs.md).
 #pragma once
 
 #include "common/output_files.h"

@@ -52,7 +52,7 @@ const char* to_string(FilterType f) {
 }
 
 const std::vector<Preset>& presets() {
-    // The configurations of shared/reference, in design.md's keys.
+    // The configurations of references 000-004 (docs/design.md, "References") in technique keys.
     static const std::vector<Preset> kPresets = {
         {"d3d12-textbook",
          "references 000/003: D3D12 textbook demo. Sphere fit, D24, DepthBias 100000 (r = 2^-24, the same r in "
@@ -164,6 +164,31 @@ Technique parse_technique(const json& value, const std::string& label) {
     t.area_samples = static_cast<int>(o.integer("area_samples", 0, 0, 256));
     o.finish();
     return t;
+}
+
+Technique parse_technique(const json& value, const std::string& label, const std::vector<Light>& lights) {
+    Technique t = parse_technique(value, label);
+    check_technique_lights(t, lights, label);
+    return t;
+}
+
+void check_technique_lights(const Technique& t, const std::vector<Light>& lights, const std::string& label) {
+    if (t.filter.type != FilterType::pcss) return;
+    for (const Light& l : lights) {
+        if (is_area_light(l.type)) continue;
+        // `label` is "file: technique" or a file name, as in parse_technique.
+        const char* separator = label.find(": ") != std::string::npos ? "." : ": ";
+        // Name the preset when it, not the user's own keys, chose PCSS.
+        std::string from_preset;
+        for (const auto& p : presets())
+            if (p.name == t.preset && p.technique.contains("filter") &&
+                p.technique["filter"].value("type", "") == "pcss")
+                from_preset = fmt::format(" (from preset \"{}\")", p.name);
+        throw InputError(
+            fmt::format("{}{}filter.type: \"pcss\"{} needs a light with a size; {} is {} (only rect, "
+                        "disk and sphere lights have one)",
+                        label, separator, from_preset, l.origin, to_string(l.type)));
+    }
 }
 
 json Technique::to_json() const {

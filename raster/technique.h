@@ -1,10 +1,12 @@
-// The raster technique (design.md, "Technique"): what a shadow-mapping implementation does,
-// as a validated value. Named presets reproduce the seed systems of shared/reference.
+// The raster technique (docs/design.md, "Technique"): what a shadow-mapping implementation does,
+// as a validated value. Named presets reproduce the seed systems of docs/design.md's "References".
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include "common/scene.h"
 
 namespace penumbra::raster {
 
@@ -61,6 +63,17 @@ const std::vector<Preset>& presets();
 // Validates a technique object; `label` names its source ("scene.json: technique").
 // A "preset" key supplies defaults for the keys the object leaves out.
 Technique parse_technique(const nlohmann::json& value, const std::string& label);
+
+// Refuses a technique that some light cannot be drawn with (InputError, exit 2). PCSS sizes
+// its penumbra by the light's size: directional, spot and point lights have none, so it would
+// divide 0 by 0 (directional) or shrink to a one-texel filter (spot, point) and silently draw
+// a hard shadow (docs/raster.md, "Technique"). `label` names the technique as for
+// parse_technique; lights are named by their origin ("lights[0]").
+void check_technique_lights(const Technique& technique, const std::vector<Light>& lights, const std::string& label);
+
+// parse_technique, then check_technique_lights: where the technique meets the scenario's
+// lights, before any work.
+Technique parse_technique(const nlohmann::json& value, const std::string& label, const std::vector<Light>& lights);
 
 // Applies `--set key.path=value` overrides: value is parsed as JSON when it is JSON
 // (numbers, true/false, quoted strings), else taken as a string.

@@ -1,4 +1,4 @@
-// What validate leaves behind for people and CI (design.md, "Output directory"):
+// What validate leaves behind for people and CI (docs/design.md, "Output directory"):
 // report.json, errors.exr, the PNG maps, report.html and the JUnit file.
 #pragma once
 
@@ -27,7 +27,7 @@ struct ReportInputs {
     const metrics::GateResult* gate = nullptr;     // null: no gate given
 };
 
-// report.json (design.md's keys, and more).
+// report.json (docs/design.md's keys; docs/outputs.md).
 nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& score);
 
 // errors.exr, light<i>.classes.png, light<i>.error.png, light<i>.compare.png, report.json and

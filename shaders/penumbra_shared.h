@@ -75,7 +75,7 @@ struct LookupParams {
     vec4 bias;           // world metres, normal offset (texels), shader depth, hardware constant (depth units)
     vec4 bias2;          // hardware slope factor, hardware clamp, format r (0 = float), unused
     vec4 map;            // resolution, 1/resolution, filter radius (texels), layer count
-    vec4 footprint;      // x: metres per texel (orthographic); y: 2 tan(fov/2)/resolution (perspective)
+    vec4 footprint;      // x: metres per texel (orthographic); y: metres per texel per metre of depth (perspective)
     mat4 view_proj[6];   // light clip space from camera-relative position, per layer
     vec4 light_axis[6];  // perspective: unit forward axis of each layer
     vec4 poisson[kMaxPoissonTaps / 2];  // two taps (x, y) per vec4, unit disk

@@ -190,5 +190,24 @@ check "missing --out exits 2" test "$rc" -eq 2
 run oracle "$tmp/nope.json" --out "$tmp/g"
 check "missing scenario exits 2" test "$rc" -eq 2
 
+# PCSS needs a light with a size: on a directional light it is bad input (exit 2) naming the
+# key and the light, refused before any work (validate traces no oracle, caches nothing).
+run raster "$src/data/default/scenario.json" --out "$tmp/p1" --preset pcss
+check "pcss on a directional light exits 2" test "$rc" -eq 2
+check "pcss on a directional light names the key and the light" grep -q -F \
+    'scenario.json: technique.filter.type: "pcss" (from preset "pcss") needs a light with a size; lights[0] is directional' <<<"$err"
+check "pcss on a directional light writes nothing" test ! -e "$tmp/p1"
+PENUMBRA_CACHE_DIR="$tmp/cache-pcss" run validate "$tmp/small.json" --out "$tmp/p2" --set filter.type=pcss
+check "validate: pcss on a directional light exits 2" test "$rc" -eq 2
+check "validate: pcss on a directional light names the key and the light" grep -q -F \
+    'small.json: technique.filter.type: "pcss" needs a light with a size; lights[0] is directional' <<<"$err"
+check "validate: pcss is refused before the oracle runs" test ! -e "$tmp/cache-pcss"
+check "validate: pcss refused writes nothing" test ! -e "$tmp/p2"
+
+# raster.json names each map's texel size by its unit: the default scenario has both kinds.
+check "raster.json: orthographic maps give metres_per_texel" grep -q '"metres_per_texel":' "$tmp/r1/raster.json"
+check "raster.json: perspective maps give metres_per_texel_per_metre" \
+    grep -q '"metres_per_texel_per_metre":' "$tmp/r1/raster.json"
+
 echo "$passed passed, $failed failed"
 test "$failed" -eq 0

@@ -1,4 +1,4 @@
-// metrics on synthetic frames: every rule of design.md's error classes, the exclusions, the
+// metrics on synthetic frames: every rule of docs/metrics.md's error classes, the exclusions, the
 // summary numbers, the perceptual error and the gates. No Embree, no Vulkan.
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // The oracle against analytic answers: shadows of random triangles projected onto a plane
-// (point light: the planar projection matrix of shared/reference 001; directional light), a box's
+// (point light: the planar projection matrix of docs/design.md's reference 001; directional light), a box's
 // shadow as the convex hull of its projected corners, spot cones, grazing light, invariance
 // under translation, scaling and rotation of the whole scenario, and determinism.
 #include "oracle/oracle.h"
@@ -33,7 +33,7 @@ bool inside_triangle(glm::dvec2 p, glm::dvec2 a, glm::dvec2 b, glm::dvec2 c) {
     return (d1 >= 0 && d2 >= 0 && d3 >= 0) || (d1 <= 0 && d2 <= 0 && d3 <= 0);
 }
 
-// Planar projection onto y = 0 from a point light l (shared/reference 001, "Projection Shadows"):
+// Planar projection onto y = 0 from a point light l (reference 001 of docs/design.md, "Projection Shadows"):
 // M = [[ly, -lx, 0, 0], [0, 0, 0, 0], [0, -lz, ly, 0], [0, -1, 0, ly]], p = M v / w.
 glm::dvec2 project_from_point(const glm::dvec3& l, const glm::dvec3& v) {
     glm::dmat4 m(0.0);  // glm is column-major: m[col][row]

@@ -351,8 +351,10 @@ TEST_F(Raster, FarFromTheOriginGivesTheSameVerdicts) {
 }
 
 TEST_F(Raster, PresetsRunAndRecordWhichBilinearCompareRan) {
-    Scenario sc = perspective_scene();
     for (const auto& p : raster::presets()) {
+        Scenario sc = perspective_scene();
+        // PCSS needs a light with a size: its preset draws a rect light (emitting down).
+        if (p.name == "pcss") sc.lights = {test::rect({0, 5, 0}, {1, 0, 0}, {0, 0, 1})};
         raster::RasterResult r = render(sc, {{"preset", p.name}});
         // Only the presets of references 000/002 use bilinear compare taps.
         bool bilinear = p.name == "d3d12-textbook" || p.name == "diligent-tutorial13";
@@ -371,6 +373,13 @@ TEST_F(Raster, LightsWithoutReceiversAndAbsentLightsCostNoPasses) {
     sc.lights = {test::point({0, -5, 0})};
     r = render(sc, nlohmann::json::object());
     EXPECT_EQ(r.stats.lights[0].layers_rendered, 0);
+}
+
+// The library refuses PCSS on a light without a size too, whoever parsed the technique.
+TEST_F(Raster, PcssOnALightWithoutASizeIsBadInput) {
+    Scenario sc = perspective_scene();
+    sc.lights = {test::directional({-0.3, -1, -0.2})};
+    EXPECT_THROW(render(sc, {{"filter", {{"type", "pcss"}}}}), InputError);
 }
 
 TEST_F(Raster, AreaLightsAreDrawnFromTheirCentreOrFromPointsSpreadOverThem) {

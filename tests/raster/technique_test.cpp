@@ -1,6 +1,7 @@
 // The technique contract and the light fits: pure code, no Vulkan.
 #include "raster/technique.h"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -49,6 +50,44 @@ TEST(Technique, ErrorsNameTheKeyPath) {
     EXPECT_THAT(error_of({{"shadow_distance", 20.0}}), HasSubstr("technique.shadow_distance: only the camera_frustum"));
     EXPECT_THAT(error_of({{"fit", "camera_frustum"}, {"shadow_distance", -1.0}}),
                 HasSubstr("technique.shadow_distance"));
+}
+
+// PCSS sizes the penumbra by the light; a light without a size would divide 0 by 0
+// (directional) or shrink the filter to one texel (spot, point): refused, naming both.
+TEST(Technique, PcssIsRefusedForLightsWithoutASize) {
+    auto named = [](Light l, int i) {
+        l.origin = fmt::format("lights[{}]", i);
+        return l;
+    };
+    const std::vector<Light> area = {named(test::rect({0, 5, 0}, {1, 0, 0}, {0, 0, 1}), 0),
+                                     named(test::disk({0, 5, 0}, {0, -1, 0}, 0.5), 1),
+                                     named(test::sphere({0, 5, 0}, 0.5), 2)};
+    auto error_with = [](const nlohmann::json& j, const std::vector<Light>& lights, const std::string& label) {
+        try {
+            parse_technique(j, label, lights);
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    const nlohmann::json pcss = {{"filter", {{"type", "pcss"}}}};
+    EXPECT_EQ(error_with(pcss, area, "s.json: technique"), "");
+    EXPECT_EQ(error_with({{"preset", "averaged-hard-shadows"}}, area, "s.json: technique"), "");
+
+    std::vector<Light> mixed = area;
+    mixed.push_back(named(test::directional({0, -1, 0}), 3));
+    EXPECT_EQ(error_with(pcss, mixed, "s.json: technique"),
+              "s.json: technique.filter.type: \"pcss\" needs a light with a size; lights[3] is directional (only "
+              "rect, disk and sphere lights have one)");
+    EXPECT_THAT(
+        error_with({{"preset", "pcss"}}, {named(test::spot({0, 5, 0}, {0, -1, 0}, 30), 0)}, "s.json: technique"),
+        HasSubstr("technique.filter.type: \"pcss\" (from preset \"pcss\") needs a light with a size; "
+                  "lights[0] is spot"));
+    // A technique file is its own root: the key path starts at filter.
+    EXPECT_THAT(error_with(pcss, {named(test::point({0, 5, 0}), 0)}, "t.json"),
+                HasSubstr("t.json: filter.type: \"pcss\" needs a light with a size; lights[0] is point"));
+    // Other filters draw every light.
+    EXPECT_EQ(error_with({{"filter", {{"type", "poisson"}}}}, mixed, "s.json: technique"), "");
 }
 
 TEST(Technique, FilterReachAndDepthResolutionForTheMetrics) {

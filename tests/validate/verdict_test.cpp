@@ -1,6 +1,6 @@
 // The verdict end to end: scenes built so that one error dominates, traced by the oracle,
 // drawn by the raster path on lavapipe, and judged by metrics. Each test asserts the class
-// design.md says that error is.
+// docs/metrics.md says that error is.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
