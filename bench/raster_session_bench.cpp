@@ -1,0 +1,105 @@
+// RasterSession speed: a cold render (a session made for one technique: scene upload, camera
+// pass, pipelines, maps, buffers, then the render) against the Nth render on a warm session,
+// as tune and sweep pay it. Both in the same run, as a ratio (the machine is shared and noisy).
+//
+// Scene: the bundled default scenario with only its directional light, 1280 x 720 px, 2048^2
+// map, on the chosen Vulkan device (lavapipe unless --device or $PENUMBRA_VK_DEVICE). The warm
+// renders alternate between techniques of one kind of change, so that each render really
+// redoes what that change needs:
+//   slope     bias.slope changes: shadow pass + lookup (the map must be drawn again)
+//   world     bias.world changes: lookup only (the map is still in place)
+//   filter    filter.type changes: a lookup pipeline per filter (cached after the first)
+// Wall clock of render() per call, including the read-back of V and the lookups.
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "common/scenario.h"
+#include "common/stopwatch.h"
+#include "raster/raster.h"
+
+namespace {
+
+using namespace penumbra;
+
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+raster::Technique technique(const nlohmann::json& change) {
+    nlohmann::json j = {{"resolution", 2048}, {"bias", {{"slope", 1.5}}}};
+    j.merge_patch(change);
+    return raster::parse_technique(j, "bench");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    int repeat = 5;
+    std::string device;
+    bool lookups = true;
+    std::filesystem::path scenario_file = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json";
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        if (a == "--repeat" && i + 1 < argc)
+            repeat = std::max(1, std::atoi(argv[++i]));
+        else if (a == "--device" && i + 1 < argc)
+            device = argv[++i];
+        else if (a == "--scenario" && i + 1 < argc)
+            scenario_file = argv[++i];
+        else if (a == "--v-only")
+            lookups = false;
+        else {
+            std::fprintf(stderr,
+                         "usage: raster_session_bench [--repeat N] [--device D] [--scenario FILE] [--v-only]\n");
+            return 2;
+        }
+    }
+    try {
+        Scenario sc = load_scenario(scenario_file);
+        sc.lights.resize(1);
+        raster::ContextOptions co;
+        co.device = device;
+        raster::VulkanContext ctx(co);
+        std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light, 2048^2 map, %s\n",
+                    ctx.info().name.c_str(), ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height,
+                    lookups ? "V + lookups read back" : "V only read back");
+        raster::RenderOptions options;
+        options.lookups = lookups;
+
+        std::vector<double> cold;
+        for (int r = 0; r < repeat; ++r) {
+            auto t0 = SteadyClock::now();
+            raster::RasterSession session(sc, ctx);
+            session.render(technique(nlohmann::json::object()), options);
+            cold.push_back(seconds_since(t0));
+        }
+        const double cold_s = median(cold);
+        std::printf("%-8s %10s %10s %8s\n", "change", "median ms", "min ms", "warm/cold");
+        std::printf("%-8s %10.1f %10.1f %8s\n", "cold", cold_s * 1e3, *std::min_element(cold.begin(), cold.end()) * 1e3,
+                    "1.00");
+        const std::vector<std::pair<std::string, std::vector<nlohmann::json>>> changes = {
+            {"slope", {{{"bias", {{"slope", 1.0}}}}, {{"bias", {{"slope", 2.0}}}}}},
+            {"world", {{{"bias", {{"world", 0.01}}}}, {{"bias", {{"world", 0.02}}}}}},
+            {"filter", {{{"filter", {{"type", "pcf"}}}}, {{"filter", {{"type", "poisson"}}}}}}};
+        for (const auto& [name, variants] : changes) {
+            raster::RasterSession session(sc, ctx);
+            for (const auto& v : variants) session.render(technique(v), options);  // first use builds
+            std::vector<double> warm;
+            for (int r = 0; r < repeat; ++r) {
+                auto t0 = SteadyClock::now();
+                session.render(technique(variants[static_cast<std::size_t>(r) % variants.size()]), options);
+                warm.push_back(seconds_since(t0));
+            }
+            std::printf("%-8s %10.1f %10.1f %8.2f\n", name.c_str(), median(warm) * 1e3,
+                        *std::min_element(warm.begin(), warm.end()) * 1e3, median(warm) / cold_s);
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "raster_session_bench: %s\n", e.what());
+        return 3;
+    }
+    return 0;
+}
