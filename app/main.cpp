@@ -15,11 +15,13 @@
 #include "common/output_files.h"
 #include "common/scenario.h"
 #include "common/stopwatch.h"
+#include "common/version.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
 #include "oracle/oracle.h"
 #include "oracle/oracle_cache.h"
 #include "oracle/oracle_output.h"
+#include "pipeline/validate.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
 #include "raster/technique.h"
@@ -74,8 +76,10 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
     ScenarioOptions so;
     so.allow_external_paths = c.allow_external_paths;
     Scenario scenario = load_scenario(scenario_file, so);
-    if (!c.quiet)
+    if (!c.quiet) {
         for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
+        if (auto w = no_lights_warning(scenario)) fmt::print(stderr, "warning: {}\n", *w);
+    }
     return scenario;
 }
 
@@ -180,130 +184,45 @@ struct ValidateArgs {
     SamplingArgs sampling;
 };
 
-// The oracle's frame, from the cache when an earlier run traced the same thing.
-struct OracleForValidate {
-    OracleFrame frame;
-    nlohmann::json info;
-    bool cached = false;
-    double seconds = 0;
-};
-
-OracleForValidate oracle_for_validate(const Scenario& scenario, const Common& c, const ValidateArgs& v,
-                                      OutputTransaction& out) {
-    auto t0 = SteadyClock::now();
-    const OracleSettings settings = oracle_settings(c, v.sampling);
-    OracleCache cache(v.no_cache             ? std::filesystem::path()
-                      : !v.cache_dir.empty() ? v.cache_dir
-                                             : OracleCache::default_dir());
-    const std::string key = oracle_cache_key(scenario, settings);
-    OracleForValidate o;
-    // --frames writes oracle.exr, whose P, N and depth the cache does not keep: trace.
-    if (!v.frames) {
-        if (auto hit = cache.load(key)) {
-            o.frame = std::move(hit->frame);
-            o.info = std::move(hit->info);
-            o.info["cache"] = {{"hit", true}, {"key", key}, {"dir", cache.dir().string()}};
-            o.cached = true;
-            o.seconds = seconds_since(t0);
-            return o;
-        }
-    }
-    OracleResult result = run_oracle(scenario, settings);
-    OracleTimings timings;
-    if (v.frames) timings.write_s = write_oracle_images(out, result.frame);
-    o.info = oracle_json(scenario, result, timings);
-    o.seconds = seconds_since(t0);
-    if (auto warning = cache.store(key, result.frame, o.info); warning && !c.quiet)
-        fmt::print(stderr, "warning: {}\n", *warning);
-    o.info["cache"] = {{"hit", false}, {"key", key}, {"dir", cache.dir().string()}};
-    o.frame = std::move(result.frame);
-    return o;
-}
-
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
                          const ValidateArgs& v) {
-    auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     // Everything the user wrote is checked before any work starts.
     raster::Technique technique = resolve_technique(scenario, t);
     const nlohmann::json gate_json = v.gate_file.empty() ? scenario.gate : read_json_file(v.gate_file);
     const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
     const metrics::Gate gate = metrics::parse_gate(gate_json, gate_label, scenario.lights.size());
-    raster::RasterTimings raster_timings;
-    raster_timings.load_s = seconds_since(t0);
 
+    ValidateOptions options;
+    options.oracle = oracle_settings(c, v.sampling);
+    options.use_cache = !v.no_cache;
+    options.cache_dir = v.cache_dir;
+    options.keep_oracle_frame = v.frames;
+    options.tolerance = v.tolerance;
+    options.device = t.device;
     OutputTransaction out(c.out);
-    OracleForValidate oracle = oracle_for_validate(scenario, c, v, out);
+    const ValidateResult r = validate(scenario, technique, gate, options);
 
-    auto t1 = SteadyClock::now();
-    raster::ContextOptions co;
-    co.device = t.device;
-    raster::VulkanContext ctx(co);
-    raster_timings.device_s = seconds_since(t1);
-    auto t2 = SteadyClock::now();
-    raster::RasterResult raster = raster::run_raster(scenario, technique, ctx);
-    const double raster_s = seconds_since(t2);
-
-    auto t3 = SteadyClock::now();
-    metrics::ScoringOptions so;
-    so.tolerance = static_cast<float>(v.tolerance);
-    so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
-    so.depth_quantum =
-        static_cast<float>(std::max(raster::depth_resolution(technique.depth_format), std::ldexp(1.0, -22)));
-    std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
-    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
-    const metrics::FrameScore score = metrics::score_frames(oracle.frame, raster.frame, scoring);
-    const double metrics_s = seconds_since(t3);
-
-    report::ReportInputs in;
-    in.version = PENUMBRA_VERSION;
-    in.scenario = &scenario;
-    in.scenario_file = scenario_file;
-    in.technique = technique.to_json();
-    in.raster = raster::raster_json(scenario, technique, raster, raster_timings);
-    in.oracle = oracle.info;
-    in.scoring = scoring;
-    in.timing = {{"oracle_s", oracle.seconds},
-                 {"oracle_cached", oracle.cached},
-                 {"raster_s", raster_s},
-                 {"device_s", raster_timings.device_s},
-                 {"raster_ms",
-                  {{"shadow", raster.stats.shadow_ms},
-                   {"camera", raster.stats.camera_ms + raster.stats.lookup_ms},
-                   {"lookup", raster.stats.lookup_ms}}},
-                 {"metrics_s", metrics_s}};
-    std::vector<nlohmann::json> light_objects;
-    for (const auto& l : score.lights) light_objects.push_back(metrics::to_json(l));
-    const metrics::GateResult gate_result = metrics::evaluate_gate(gate, light_objects);
-    if (!gate.checks.empty()) in.gate = &gate_result;
-    const nlohmann::json report = report::report_json(in, score);
-
-    auto t4 = SteadyClock::now();
-    if (v.frames) {
-        raster::write_raster_outputs(out, scenario, technique, raster, raster_timings);
-    } else {
-        out.write_json("raster.json", in.raster);
-    }
-    out.write_json("oracle.json", oracle.info);
-    report::write_report(out, in, oracle.frame, raster.frame, score, report);
+    auto t0 = SteadyClock::now();
+    write_validate_outputs(out, scenario, r, v.frames);
     out.commit();
-    const double write_s = seconds_since(t4);
+    const double write_s = seconds_since(t0);
     if (!v.junit_file.empty()) {
         std::filesystem::path dir = v.junit_file.parent_path();
         OutputTransaction junit(dir.empty() ? std::filesystem::path(".") : dir);
-        junit.write_text(v.junit_file.filename().string(), report::junit_xml(report));
+        junit.write_text(v.junit_file.filename().string(), report::junit_xml(r.report));
         junit.commit();
     }
 
     if (!c.quiet) {
-        for (const auto& w : raster.stats.warnings) fmt::print(stderr, "warning: {}\n", w);
+        for (const auto& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
         fmt::print(
             "validate: {}x{} px, {} lights; oracle {} ({:.3f} s), Vulkan device {:.3f} s, raster {:.3f} s, metrics "
             "{:.3f} s, writing {:.3f} s\n",
-            scenario.width, scenario.height, scenario.lights.size(), oracle.cached ? "from cache" : "traced",
-            oracle.seconds, raster_timings.device_s, raster_s, metrics_s, write_s);
-        for (std::size_t li = 0; li < score.lights.size(); ++li) {
-            const auto& s = score.lights[li];
+            scenario.width, scenario.height, scenario.lights.size(), r.oracle.cached ? "from cache" : "traced",
+            r.oracle.seconds, r.raster_timings.device_s, r.raster_s, r.metrics_s, write_s);
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
+            const auto& s = r.score.lights[li];
             std::string classes;
             for (std::size_t k = 0; k < metrics::kErrorClasses.size(); ++k)
                 classes += fmt::format("{} {:.3f}%  ", metrics::to_string(metrics::kErrorClasses[k]),
@@ -313,12 +232,12 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
         }
         fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
     }
-    if (!gate.checks.empty()) {
-        for (const auto& o : gate_result.outcomes)
+    if (r.gate) {
+        for (const auto& o : r.gate->outcomes)
             if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
         if (!c.quiet)
-            fmt::print("gate: {} ({} checks)\n", gate_result.passed ? "passed" : "FAILED", gate_result.outcomes.size());
-        if (!gate_result.passed) return kExitGateFailed;
+            fmt::print("gate: {} ({} checks)\n", r.gate->passed ? "passed" : "FAILED", r.gate->outcomes.size());
+        if (!r.gate->passed) return kExitGateFailed;
     }
     return kExitSuccess;
 }
@@ -335,7 +254,7 @@ int run_devices_command() {
 int main(int argc, char** argv) {
     CLI::App app{"penumbra: tells, pixel by pixel, where shadows are wrong and why"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", std::string("penumbra ") + PENUMBRA_VERSION);
+    app.set_version_flag("--version", std::string("penumbra ") + version_string());
 
     Common common;
     std::filesystem::path scenario;

@@ -1,0 +1,140 @@
+#include "pipeline/validate.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <memory>
+
+#include "common/stopwatch.h"
+#include "common/version.h"
+#include "oracle/oracle_cache.h"
+#include "oracle/oracle_output.h"
+#include "report/report.h"
+
+namespace penumbra {
+
+namespace {
+
+// What the report files are made from; pointers into `scenario` and `r`, valid while both are.
+report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResult& r,
+                                   const nlohmann::json& oracle_info) {
+    report::ReportInputs in;
+    in.version = version_string();
+    in.scenario = &scenario;
+    in.scenario_file = scenario.file;
+    in.technique = r.technique.to_json();
+    in.raster = r.raster_info;
+    in.oracle = oracle_info;
+    in.scoring = r.scoring;
+    in.timing = r.timing;
+    in.gate = r.gate ? &*r.gate : nullptr;
+    return in;
+}
+
+}  // namespace
+
+std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, const raster::Technique& technique,
+                                                     double tolerance) {
+    metrics::ScoringOptions so;
+    so.tolerance = static_cast<float>(tolerance);
+    so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
+    // docs/metrics.md, "acne": the shader's reference and stored depths are floats, a few
+    // float steps apart, so the quantum is never finer than 2^-22.
+    so.depth_quantum =
+        static_cast<float>(std::max(raster::depth_resolution(technique.depth_format), std::ldexp(1.0, -22)));
+    std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
+    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
+    return scoring;
+}
+
+std::optional<std::string> no_lights_warning(const Scenario& scenario) {
+    if (!scenario.lights.empty()) return std::nullopt;
+    return fmt::format("{}: the scenario has no lights: nothing is shadowed and nothing is scored", scenario.label);
+}
+
+OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
+    auto t0 = SteadyClock::now();
+    OracleCache cache(!options.use_cache           ? std::filesystem::path()
+                      : !options.cache_dir.empty() ? options.cache_dir
+                                                   : OracleCache::default_dir());
+    const std::string key = oracle_cache_key(scenario, options.oracle);
+    OracleRun o;
+    // The cache keeps neither P, N nor depth: a caller that writes oracle.exr traces.
+    if (!options.keep_oracle_frame) {
+        if (auto hit = cache.load(key)) {
+            o.frame = std::move(hit->frame);
+            o.info = std::move(hit->info);
+            o.info["cache"] = {{"hit", true}, {"key", key}, {"dir", cache.dir().string()}};
+            o.cached = true;
+            o.seconds = seconds_since(t0);
+            return o;
+        }
+    }
+    OracleResult result = run_oracle(scenario, options.oracle);
+    o.info = oracle_json(scenario, result, {});
+    o.seconds = seconds_since(t0);
+    o.warning = cache.store(key, result.frame, o.info);
+    o.info["cache"] = {{"hit", false}, {"key", key}, {"dir", cache.dir().string()}};
+    o.frame = std::move(result.frame);
+    return o;
+}
+
+ValidateResult validate(const Scenario& scenario, const raster::Technique& technique, const metrics::Gate& gate,
+                        const ValidateOptions& options, raster::RasterSession* session, const OracleRun* oracle) {
+    ValidateResult r;
+    r.technique = technique;
+    r.oracle = oracle ? *oracle : oracle_for(scenario, options);
+    if (r.oracle.warning) r.warnings.push_back(*r.oracle.warning);
+
+    std::unique_ptr<raster::VulkanContext> ctx;
+    std::unique_ptr<raster::RasterSession> own;
+    if (!session) {
+        auto t1 = SteadyClock::now();
+        raster::ContextOptions co;
+        co.device = options.device;
+        ctx = std::make_unique<raster::VulkanContext>(co);
+        r.raster_timings.device_s = seconds_since(t1);
+        own = std::make_unique<raster::RasterSession>(scenario, *ctx);
+        session = own.get();
+    }
+    auto t2 = SteadyClock::now();
+    r.raster = session->render(technique, options.render);
+    r.raster_s = seconds_since(t2) + (own ? own->setup_s() : 0.0);
+    r.warnings.insert(r.warnings.end(), r.raster.stats.warnings.begin(), r.raster.stats.warnings.end());
+
+    auto t3 = SteadyClock::now();
+    r.scoring = scoring_options(scenario, technique, options.tolerance);
+    r.score = metrics::score_frames(r.oracle.frame, r.raster.frame, r.scoring);
+    r.metrics_s = seconds_since(t3);
+
+    r.raster_info = raster::raster_json(scenario, technique, r.raster, r.raster_timings);
+    r.timing = {{"oracle_s", r.oracle.seconds},
+                {"oracle_cached", r.oracle.cached},
+                {"raster_s", r.raster_s},
+                {"device_s", r.raster_timings.device_s},
+                {"raster_ms",
+                 {{"shadow", r.raster.stats.shadow_ms},
+                  {"camera", r.raster.stats.camera_ms + r.raster.stats.lookup_ms},
+                  {"lookup", r.raster.stats.lookup_ms}}},
+                {"metrics_s", r.metrics_s}};
+    std::vector<nlohmann::json> light_objects;
+    for (const auto& l : r.score.lights) light_objects.push_back(metrics::to_json(l));
+    if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, light_objects);
+    r.report = report::report_json(report_inputs(scenario, r, r.oracle.info), r.score);
+    return r;
+}
+
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {
+    nlohmann::json oracle_info = r.oracle.info;
+    if (frames) {
+        oracle_info["seconds"]["write"] = write_oracle_images(out, r.oracle.frame);
+        raster::write_raster_outputs(out, scenario, r.technique, r.raster, r.raster_timings);
+    } else {
+        out.write_json("raster.json", r.raster_info);
+    }
+    out.write_json("oracle.json", oracle_info);
+    report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle.frame, r.raster.frame, r.score,
+                         r.report);
+}
+
+}  // namespace penumbra

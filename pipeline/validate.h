@@ -1,0 +1,85 @@
+// The validate pipeline, the one place that composes the modules: the oracle (from the cache
+// when an earlier run traced the same thing), the raster path, the metrics and the gate. The
+// CLI's validate, tune, sweep and the tests call it; report files are written separately
+// (write_validate_outputs), so a loop can score without writing anything.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/frames.h"
+#include "common/output_files.h"
+#include "common/scenario.h"
+#include "metrics/classification.h"
+#include "metrics/gate.h"
+#include "oracle/oracle.h"
+#include "raster/raster.h"
+#include "raster/raster_output.h"
+#include "raster/technique.h"
+
+namespace penumbra {
+
+struct ValidateOptions {
+    OracleSettings oracle;            // threads, progress, area-light sampling
+    bool use_cache = true;            // false: trace and keep nothing (--no-cache)
+    std::filesystem::path cache_dir;  // empty: OracleCache::default_dir()
+    bool keep_oracle_frame = false;   // trace (never from the cache) and keep P, N, depth (--frames)
+    double tolerance = 1.0 / 255.0;   // tau (docs/metrics.md)
+    std::string device;               // Vulkan device when no session is given
+    raster::RenderOptions render;     // lookups on for reports; V only for objectives
+};
+
+// The oracle's frame for a scenario, with the oracle.json of the run that produced it.
+struct OracleRun {
+    OracleFrame frame;
+    nlohmann::json info;
+    bool cached = false;
+    double seconds = 0;
+    std::optional<std::string> warning;  // the cache could not store it (the run is unaffected)
+};
+
+struct ValidateResult {
+    raster::Technique technique;
+    std::vector<metrics::ScoringOptions> scoring;  // per light
+    OracleRun oracle;
+    raster::RasterResult raster;
+    raster::RasterTimings raster_timings;
+    double raster_s = 0, metrics_s = 0;
+    metrics::FrameScore score;
+    std::optional<metrics::GateResult> gate;  // empty when the gate has no checks
+    nlohmann::json raster_info;               // raster.json
+    nlohmann::json timing;                    // report.json's "timing"
+    nlohmann::json report;                    // report.json
+    std::vector<std::string> warnings;  // from the run: the cache's, the raster path's (the scene's are on Scenario)
+    bool passed() const { return !gate || gate->passed; }
+};
+
+// How each light is judged under a technique (docs/metrics.md): tau, the filter's reach, the
+// depth format's quantum, soft scoring for area lights. The one derivation of these options.
+std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, const raster::Technique& technique,
+                                                     double tolerance);
+
+// The warning every command gives for a scenario without lights (nothing is scored), or none.
+// Nothing here prints: warnings are returned, and the caller shows them.
+std::optional<std::string> no_lights_warning(const Scenario& scenario);
+
+// The oracle's frame from the cache or traced (and stored in the cache).
+OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options);
+
+// Oracle + raster + metrics + gate. `session`, when given, draws the technique (it must be a
+// session of this scenario); otherwise a context on options.device and a cold session are made.
+// `oracle`, when given, is used instead of oracle_for (tune and sweep hold it).
+ValidateResult validate(const Scenario& scenario, const raster::Technique& technique, const metrics::Gate& gate,
+                        const ValidateOptions& options, raster::RasterSession* session = nullptr,
+                        const OracleRun* oracle = nullptr);
+
+// report.html, report.json, errors.exr, the PNG maps, raster.json and oracle.json into `out`;
+// with `frames`, oracle.exr/png and raster.exr/png too (the oracle frame must then hold P, N,
+// depth: ValidateOptions::keep_oracle_frame).
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& result,
+                            bool frames);
+
+}  // namespace penumbra
