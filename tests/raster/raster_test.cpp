@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 
 #include "common/errors.h"
 #include "oracle/oracle.h"
@@ -396,6 +397,70 @@ TEST_F(Raster, AreaLightsAreDrawnFromTheirCentreOrFromPointsSpreadOverThem) {
         const float k = v * 4.0f;
         ASSERT_NEAR(k, std::round(k), 1e-5f);
     }
+}
+
+// Two frames are the same bit for bit: V and every lookup channel.
+void expect_identical(const RasterFrame& a, const RasterFrame& b, const std::string& what) {
+    ASSERT_EQ(a.lights.size(), b.lights.size()) << what;
+    EXPECT_EQ(a.prim, b.prim) << what;
+    for (std::size_t li = 0; li < a.lights.size(); ++li) {
+        const RasterLightImage &x = a.lights[li], &y = b.lights[li];
+        EXPECT_EQ(std::memcmp(x.V.data(), y.V.data(), x.V.size() * sizeof(float)), 0) << what << ": light " << li;
+        ASSERT_EQ(x.lookups.has_value(), y.lookups.has_value()) << what;
+        if (!x.lookups) continue;
+        EXPECT_EQ(x.lookups->stored_prim, y.lookups->stored_prim) << what;
+        EXPECT_EQ(x.lookups->flags, y.lookups->flags) << what;
+        for (auto field : {&DepthMapLookups::ref_depth, &DepthMapLookups::stored_depth, &DepthMapLookups::footprint_m,
+                           &DepthMapLookups::texel_slope, &DepthMapLookups::bias_m, &DepthMapLookups::depth_to_m}) {
+            const auto &u = *x.lookups.*field, &v = *y.lookups.*field;
+            EXPECT_EQ(std::memcmp(u.data(), v.data(), u.size() * sizeof(float)), 0) << what << ": light " << li;
+        }
+    }
+}
+
+// A warm session gives what a cold run gives, whatever came before it: every kind of change in
+// turn (a lookup-only bias, a hardware bias, the map's size and format, filters, culling, the
+// light kinds of both families), and back again.
+TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
+    Scenario sc = perspective_scene();
+    sc.width = 240;  // the same view at half the size: 16 renders under the validation layer
+    sc.height = 160;
+    sc.lights.push_back(test::point({1.0, 3.0, 1.5}));
+    sc.lights.push_back(test::rect({-1, 4, 0}, {1, 0, 0}, {0, 0, 1}));
+    const std::vector<nlohmann::json> sequence = {
+        {{"bias", {{"slope", 1.5}}}},
+        {{"bias", {{"slope", 1.5}, {"world", 0.02}}}},
+        {{"bias", {{"slope", 2.5}, {"constant", 4}}}},
+        {{"resolution", 512}, {"depth_format", "d16"}, {"bias", {{"slope", 1.5}}}},
+        {{"filter", {{"type", "pcf"}, {"size", 5}}}, {"cull", "none"}},
+        {{"preset", "averaged-hard-shadows"}, {"area_samples", 3}},
+        {{"filter", {{"type", "poisson"}}}, {"bias", {{"receiver_plane", true}, {"normal_offset", 1}}}},
+        {{"bias", {{"slope", 1.5}}}},
+    };
+    raster::RasterSession session(sc, *ctx_);
+    for (const auto& t : sequence) {
+        const raster::Technique technique = raster::parse_technique(t, "test: technique");
+        expect_identical(session.render(technique).frame, render(sc, t).frame, t.dump());
+    }
+    // A lookup-only change reuses the map that is still in place; with reuse off it is drawn.
+    Scenario one = perspective_scene();
+    raster::RasterSession single(one, *ctx_);
+    const raster::Technique a = raster::parse_technique({{"bias", {{"slope", 1.5}}}}, "a");
+    const raster::Technique b = raster::parse_technique({{"bias", {{"slope", 1.5}, {"world", 0.05}}}}, "b");
+    EXPECT_FALSE(single.render(a).stats.lights[0].map_reused);
+    const raster::RasterResult reused = single.render(b);
+    EXPECT_TRUE(reused.stats.lights[0].map_reused);
+    EXPECT_EQ(reused.stats.lights[0].layers_rendered, 0);
+    expect_identical(reused.frame, render(one, {{"bias", {{"slope", 1.5}, {"world", 0.05}}}}).frame, "reused map");
+    raster::RenderOptions fresh;
+    fresh.reuse_maps = false;
+    EXPECT_FALSE(single.render(b, fresh).stats.lights[0].map_reused);
+    // V only: the same V, no lookup layer.
+    raster::RenderOptions v_only;
+    v_only.lookups = false;
+    const raster::RasterResult v = single.render(b, v_only);
+    EXPECT_FALSE(v.frame.lights[0].lookups.has_value());
+    EXPECT_EQ(v.frame.lights[0].V, reused.frame.lights[0].V);
 }
 
 }  // namespace

@@ -1,14 +1,14 @@
-// The verdict end to end: scenes built so that one error dominates, traced by the oracle,
-// drawn by the raster path on lavapipe, and judged by metrics. Each test asserts the class
-// docs/metrics.md says that error is.
+// The verdict end to end through the validate pipeline: scenes built so that one error
+// dominates, traced by the oracle, drawn by the raster path on lavapipe, and judged by metrics. Each test asserts the
+// class docs/metrics.md says that error is.
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 
 #include "metrics/classification.h"
-#include "oracle/oracle.h"
-#include "raster/raster.h"
+#include "pipeline/validate.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -18,26 +18,40 @@ using metrics::PixelClass;
 
 class Verdict : public ::testing::Test {
   protected:
-    static void SetUpTestSuite() { ctx_ = new raster::VulkanContext(raster::ContextOptions{}); }
+    // Under the Khronos validation layer: any message fails the suite.
+    static void SetUpTestSuite() {
+        raster::ContextOptions co;
+        co.validation = true;
+        ctx_ = new raster::VulkanContext(co);
+    }
     static void TearDownTestSuite() {
         delete ctx_;
         ctx_ = nullptr;
     }
+    void TearDown() override {
+        EXPECT_TRUE(ctx_->validation_messages().empty()) << ctx_->validation_messages().front();
+    }
 
-    // The scoring the CLI derives from a technique.
+    // The verdict as the CLI's validate reaches it: the pipeline, with no cache.
     struct Judged {
         metrics::LightScore score;
         double footprint_m = 0;  // the map's texel size (directional light)
     };
-    static Judged judge(const Scenario& sc, const nlohmann::json& technique_json) {
+    static ValidateResult run(const Scenario& sc, const nlohmann::json& technique_json,
+                              raster::RasterSession* session = nullptr, const OracleRun* oracle = nullptr) {
         const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
-        const OracleResult truth = run_oracle(sc);
-        const raster::RasterResult drawn = raster::run_raster(sc, technique, *ctx_);
-        metrics::ScoringOptions opt;
-        opt.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
-        opt.depth_quantum = static_cast<float>(std::max(raster::depth_resolution(technique.depth_format), 0x1p-22));
-        const metrics::FrameScore s = metrics::score_frames(truth.frame, drawn.frame, std::span(&opt, 1));
-        return {s.lights[0], drawn.stats.lights[0].projection.metres_per_texel};
+        ValidateOptions options;
+        options.use_cache = false;
+        std::unique_ptr<raster::RasterSession> own;
+        if (!session) {
+            own = std::make_unique<raster::RasterSession>(sc, *ctx_);
+            session = own.get();
+        }
+        return validate(sc, technique, metrics::Gate{}, options, session, oracle);
+    }
+    static Judged judge(const Scenario& sc, const nlohmann::json& technique_json) {
+        const ValidateResult r = run(sc, technique_json);
+        return {r.score.lights[0], r.raster.stats.lights[0].projection.metres_per_texel};
     }
 
     static raster::VulkanContext* ctx_;
@@ -148,16 +162,15 @@ TEST_F(Verdict, SoftShadowMetricsRankHardPcssAndAveragedMaps) {
     b.box({-0.5, 0, -0.5}, {0.5, 1.0, 0.5});
     Scenario sc = test::make_scenario(b.build(), test::look_at({0, 5, 5}, {0, 0, 0}, 45),
                                       {test::rect({0.5, 3.5, 0.3}, {1.2, 0, 0}, {0, 0, 1.2})}, 160, 120);
-    const OracleResult truth = run_oracle(sc);
+    // One oracle and one warm session for the three techniques, as tune and sweep run them.
+    ValidateOptions options;
+    options.use_cache = false;
+    const OracleRun truth = oracle_for(sc, options);
+    raster::RasterSession session(sc, *ctx_);
     auto soft_score = [&](const nlohmann::json& technique_json) {
-        const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
-        const raster::RasterResult drawn = raster::run_raster(sc, technique, *ctx_);
-        metrics::ScoringOptions opt;
-        opt.soft = true;
-        opt.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
-        const metrics::FrameScore s = metrics::score_frames(truth.frame, drawn.frame, std::span(&opt, 1));
-        EXPECT_TRUE(s.lights[0].soft.has_value());
-        return *s.lights[0].soft;
+        const ValidateResult r = run(sc, technique_json, &session, &truth);
+        EXPECT_TRUE(r.score.lights[0].soft.has_value()) << "an area light is scored as soft (scoring_options)";
+        return *r.score.lights[0].soft;
     };
     const auto hard = soft_score({{"resolution", 1024}, {"bias", {{"slope", 1.5}, {"constant", 2}}}});
     const auto pcss = soft_score({{"preset", "pcss"}, {"resolution", 1024}});
