@@ -1,0 +1,18 @@
+// penumbra as a library: everything a program needs to validate a shadow technique against
+// the ray-traced truth in-process (docs/library.md). Link the CMake target penumbra::penumbra.
+//
+//   penumbra::Scenario sc = penumbra::load_scenario("scenario.json");
+//   auto technique = penumbra::raster::parse_technique(sc.technique, "technique", sc.lights);
+//   auto gate = penumbra::metrics::parse_gate(sc.gate, "gate", sc.lights.size());
+//   penumbra::ValidateResult r = penumbra::validate(sc, technique, gate, {});
+//   r.score.lights[0].rate(penumbra::metrics::PixelClass::acne);
+#pragma once
+
+#include "common/errors.h"
+#include "common/scenario.h"
+#include "common/version.h"
+#include "metrics/classification.h"
+#include "metrics/gate.h"
+#include "pipeline/validate.h"
+#include "raster/raster.h"
+#include "raster/technique.h"
