@@ -190,6 +190,154 @@ TEST(Classification, ReportObjectHasDesignKeys) {
     EXPECT_TRUE(j["peter_panning_gap"]["max"].is_number());
 }
 
+// ---- V only: the classes from the oracle's geometry
+
+TEST(VOnly, ClassesRestOnTheOraclesGeometryWithGivenScales) {
+    Frames f(6, 1);
+    f.drop_lookups();
+    // 0: darker, 0.015 m from a true boundary: aliasing (reach 2 x 0.01 m).
+    f.rl().V[0] = 0.0f;
+    f.ol().boundary_m[0] = 0.015f;
+    // 1: darker, nothing between the receiver and the light: acne.
+    f.rl().V[1] = 0.0f;
+    // 2: darker inside a true penumbra (an occluder on some rays): false shadow.
+    f.ol().V[2] = 0.5f;
+    f.ol().occluder_m[2] = 0.3f;
+    f.rl().V[2] = 0.1f;
+    // 3, 4: a lost shadow with the occluder within bias + one texel (0.04 + 0.01), and beyond.
+    f.shadow(3, 0.049f);
+    f.shadow(4, 0.2f);
+    // 5: correct.
+    ScoringOptions opt;
+    opt.filter_reach_texels = 2;
+    opt.texel_footprint_m = 0.01f;
+    opt.bias_reach_m = 0.04f;
+    FrameScore s = f.score(opt);
+    EXPECT_EQ(class_of(s, 0), PixelClass::aliasing);
+    EXPECT_EQ(class_of(s, 1), PixelClass::acne);
+    EXPECT_EQ(class_of(s, 2), PixelClass::false_shadow);
+    EXPECT_EQ(class_of(s, 3), PixelClass::peter_panning);
+    EXPECT_EQ(class_of(s, 4), PixelClass::false_lit);
+    EXPECT_EQ(class_of(s, 5), PixelClass::correct);
+    const ClassificationEvidence& ev = s.lights[0].evidence;
+    EXPECT_EQ(ev.source, Evidence::oracle_geometry);
+    EXPECT_EQ(ev.texel_footprint_source, ScaleSource::given);
+    EXPECT_FLOAT_EQ(ev.texel_footprint_m, 0.01f);
+    EXPECT_EQ(ev.bias_reach_source, ScaleSource::given);
+    EXPECT_FLOAT_EQ(ev.bias_reach_m, 0.04f);
+    EXPECT_NEAR(s.lights[0].peter_panning_gap.max, 0.049, 1e-6);
+    EXPECT_EQ(s.lights[0].acne_depth.max, 0.0) << "unknown without the lookups";
+}
+
+TEST(VOnly, WithLookupsTheLookupsDecide) {
+    Frames f(2, 1);
+    f.rl().V[0] = 0.0f;
+    f.lk().stored_prim[0] = 99;  // another triangle far in front: a false shadow, not acne
+    f.lk().stored_depth[0] = 0.1f;
+    FrameScore with = f.score();
+    EXPECT_EQ(with.lights[0].evidence.source, Evidence::depth_map_lookups);
+    EXPECT_EQ(class_of(with, 0), PixelClass::false_shadow);
+    f.drop_lookups();
+    FrameScore without = f.score();
+    EXPECT_EQ(without.lights[0].evidence.source, Evidence::oracle_geometry);
+    EXPECT_EQ(class_of(without, 0), PixelClass::acne) << "nothing lies between the receiver and the light";
+}
+
+// A 200 x 40 frame whose column x lies x millimetres from a true boundary. The technique is
+// wrong (darker) in the first `band_mm` columns on every other row, and on `far_every`-th
+// pixel elsewhere (0: nowhere).
+Frames boundary_profile(int band_mm, int far_every) {
+    Frames f(200, 40);
+    f.drop_lookups();
+    for (int y = 0; y < 40; ++y)
+        for (int x = 0; x < 200; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * 200 + x;
+            f.ol().boundary_m[i] = 0.001f * static_cast<float>(x) + 0.0005f;
+            const bool near = x < band_mm && y % 2 == 0;
+            const bool far = far_every > 0 && x >= band_mm && i % static_cast<std::size_t>(far_every) == 0;
+            if (near || far) f.rl().V[i] = 0.0f;
+        }
+    return f;
+}
+
+TEST(VOnly, EstimatesTheFootprintFromTheErrorProfileAcrossBoundaries) {
+    Frames f = boundary_profile(24, 97);  // aliasing within 24 mm, sparse acne beyond
+    ScoringOptions opt;
+    opt.filter_reach_texels = 2;
+    FrameScore s = f.score(opt);
+    const ClassificationEvidence& ev = s.lights[0].evidence;
+    EXPECT_EQ(ev.texel_footprint_source, ScaleSource::estimated);
+    EXPECT_NEAR(ev.texel_footprint_m, 0.012, 0.0005);  // the 24 mm band / reach 2
+    EXPECT_EQ(class_of(s, 3), PixelClass::aliasing);
+    EXPECT_EQ(s.lights[0].count(PixelClass::aliasing), 20u * 24u);
+    EXPECT_GT(s.lights[0].count(PixelClass::acne), 50u);
+    // The given footprint overrides the estimate.
+    opt.texel_footprint_m = 0.001f;
+    const FrameScore given = f.score(opt);
+    EXPECT_EQ(given.lights[0].evidence.texel_footprint_source, ScaleSource::given);
+    EXPECT_LT(given.lights[0].count(PixelClass::aliasing), 20u * 3u);
+}
+
+TEST(VOnly, NoFootprintIsEstimatedWhenErrorsAreNotNearBoundaries) {
+    Frames f = boundary_profile(0, 3);  // acne everywhere, at one rate
+    FrameScore s = f.score();
+    EXPECT_EQ(s.lights[0].evidence.texel_footprint_source, ScaleSource::not_found);
+    EXPECT_EQ(s.lights[0].evidence.texel_footprint_m, 0.0f);
+    EXPECT_EQ(s.lights[0].count(PixelClass::aliasing), 0u);
+    EXPECT_EQ(s.lights[0].count(PixelClass::acne), s.lights[0].wrong);
+}
+
+TEST(VOnly, EstimatesTheBiasReachFromLostShadows) {
+    // Every pixel truly shadowed; column x's occluder is x centimetres away. The technique
+    // loses 3 of 4 shadows within 12 cm of their occluder, 1 in 50 beyond.
+    Frames f(100, 20);
+    f.drop_lookups();
+    for (std::size_t i = 0; i < f.rl().V.size(); ++i) {
+        const int x = static_cast<int>(i % 100);
+        f.shadow(i, 0.01f * static_cast<float>(x) + 0.005f);
+        const bool lost = x < 12 ? i % 4 != 0 : i % 50 == 0;
+        f.rl().V[i] = lost ? 1.0f : 0.0f;
+    }
+    ScoringOptions opt;
+    opt.texel_footprint_m = 0.0f;  // no aliasing band
+    FrameScore s = f.score(opt);
+    const ClassificationEvidence& ev = s.lights[0].evidence;
+    EXPECT_EQ(ev.bias_reach_source, ScaleSource::estimated);
+    EXPECT_NEAR(ev.bias_reach_m, 0.115, 0.011);
+    EXPECT_EQ(class_of(s, 1), PixelClass::peter_panning);
+    EXPECT_EQ(class_of(s, 50), PixelClass::false_lit);
+    EXPECT_NEAR(s.lights[0].peter_panning_gap.max, 0.115, 0.011);
+}
+
+TEST(VOnly, EstimatorsAreDeterministicAndRefuseThinEvidence) {
+    std::vector<DistanceSample> samples;
+    for (int k = 0; k < 1000; ++k) samples.push_back({0.001f * static_cast<float>(k % 100), k % 100 < 10});
+    const auto band = estimate_aliasing_band_m(samples);
+    ASSERT_TRUE(band);
+    EXPECT_FLOAT_EQ(*band, 0.009f);
+    std::reverse(samples.begin(), samples.end());
+    EXPECT_EQ(estimate_aliasing_band_m(samples), band);
+    EXPECT_EQ(estimate_bias_reach_m(samples), band);
+    EXPECT_FALSE(estimate_aliasing_band_m({}));
+    EXPECT_FALSE(estimate_bias_reach_m({}));
+    // Fewer than kMinBandFlagged flagged samples: no band.
+    std::vector<DistanceSample> thin;
+    for (int k = 0; k < 1000; ++k) thin.push_back({0.001f * static_cast<float>(k), k < 10});
+    EXPECT_FALSE(estimate_aliasing_band_m(thin));
+    EXPECT_FALSE(estimate_bias_reach_m(thin));
+}
+
+TEST(VOnly, RefusesGivenScalesThatAreNotLengths) {
+    Frames f(2, 1);
+    f.drop_lookups();
+    ScoringOptions opt;
+    opt.texel_footprint_m = -1.0f;
+    EXPECT_THROW(f.score(opt), std::invalid_argument);
+    opt.texel_footprint_m.reset();
+    opt.bias_reach_m = std::nanf("");
+    EXPECT_THROW(f.score(opt), std::invalid_argument);
+}
+
 // ---- perceptual error
 
 std::vector<float> disc(int w, int h, float radius, float inside, float outside) {
