@@ -228,7 +228,9 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     raster::Technique technique = resolve_technique(scenario, t);
     const nlohmann::json gate_json = v.gate_file.empty() ? scenario.gate : read_json_file(v.gate_file);
     const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
-    const metrics::Gate gate = metrics::parse_gate(gate_json, gate_label, scenario.lights.size());
+    const metrics::Gate gate =
+        metrics::parse_gate(gate_json, gate_label, scenario.lights,
+                            v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
     raster::RasterTimings raster_timings;
     raster_timings.load_s = seconds_since(t0);
 
@@ -272,9 +274,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
                    {"camera", raster.stats.camera_ms + raster.stats.lookup_ms},
                    {"lookup", raster.stats.lookup_ms}}},
                  {"metrics_s", metrics_s}};
-    std::vector<nlohmann::json> light_objects;
-    for (const auto& l : score.lights) light_objects.push_back(metrics::to_json(l));
-    const metrics::GateResult gate_result = metrics::evaluate_gate(gate, light_objects);
+    const metrics::GateResult gate_result = metrics::evaluate_gate(gate, score.lights);
     if (!gate.checks.empty()) in.gate = &gate_result;
     const nlohmann::json report = report::report_json(in, score);
 
@@ -291,7 +291,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     if (!v.junit_file.empty()) {
         std::filesystem::path dir = v.junit_file.parent_path();
         OutputTransaction junit(dir.empty() ? std::filesystem::path(".") : dir);
-        junit.write_text(v.junit_file.filename().string(), report::junit_xml(report));
+        junit.write_text(v.junit_file.filename().string(), report::junit_xml(in));
         junit.commit();
     }
 

@@ -448,41 +448,4 @@ FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, st
     return out;
 }
 
-nlohmann::json to_json(const LightScore& s) {
-    nlohmann::json counts = nlohmann::json::object(), rates = nlohmann::json::object();
-    for (std::size_t k = 0; k < kErrorClasses.size(); ++k) {
-        const std::string name(to_string(kErrorClasses[k]));
-        counts[name] = s.counts[k];
-        rates[name] = s.rate(kErrorClasses[k]);
-    }
-    nlohmann::json j = {{"pixels",
-                         {{"surface", s.pixels.surface},
-                          {"scored", s.pixels.scored},
-                          {"back_facing", s.pixels.back_facing},
-                          {"uncertain", s.pixels.uncertain},
-                          {"coverage_mismatch", s.pixels.coverage_mismatch}}},
-                        {"counts", counts},
-                        {"rates", rates},
-                        {"wrong", s.wrong},
-                        {"mae", s.mae},
-                        {"rmse", s.rmse},
-                        {"wrong_fraction", s.wrong_fraction},
-                        {"bias", s.bias},
-                        {"peter_panning_gap", {{"mean", s.peter_panning_gap.mean}, {"max", s.peter_panning_gap.max}}},
-                        {"acne_depth", {{"mean", s.acne_depth.mean}, {"max", s.acne_depth.max}}},
-                        {"perceptual", {{"mean", s.perceptual.mean}, {"max", s.perceptual.max}}}};
-    if (s.soft) {
-        const SoftScore& soft = *s.soft;
-        j["soft"] = {
-            {"pixels", {{"umbra", soft.umbra_pixels}, {"penumbra", soft.penumbra_pixels}, {"lit", soft.lit_pixels}}},
-            {"penumbra_mae", soft.penumbra_mae},
-            {"penumbra_mae_beyond_E", soft.penumbra_mae_beyond_e},
-            {"umbra_mae", soft.umbra_mae},
-            {"lit_mae", soft.lit_mae},
-            {"penumbra_width_error", soft.penumbra_width_error},
-            {"width_band_pixels", {{"oracle", soft.width_pixels_oracle}, {"raster", soft.width_pixels_raster}}}};
-    }
-    return j;
-}
-
 }  // namespace penumbra::metrics

@@ -5,7 +5,6 @@
 
 #include <array>
 #include <cstdint>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <span>
 #include <string_view>
@@ -157,8 +156,5 @@ std::optional<float> estimate_aliasing_band_m(std::vector<DistanceSample> sample
 // whose two rates explain the samples best, accepted also only when its log-likelihood ratio
 // against one rate is at least kMinBandLogLikelihoodRatio.
 std::optional<float> estimate_bias_reach_m(std::vector<DistanceSample> samples);
-
-// The light's numbers as report.json writes them (design.md), less "index" and "type".
-nlohmann::json to_json(const LightScore& s);
 
 }  // namespace penumbra::metrics

@@ -1,13 +1,17 @@
 // metrics on synthetic frames: every rule of design.md's error classes, the exclusions, the
 // summary numbers, the perceptual error and the gates. No Embree, no Vulkan.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <set>
 
 #include "common/errors.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
+#include "metrics/metric_table.h"
 #include "metrics/perceptual.h"
 #include "tests/metrics/synthetic_frames.h"
 
@@ -387,21 +391,35 @@ TEST(Perceptual, SmallShiftOfAnEdgeCostsLessThanAMissingShadow) {
 
 // ---- gates
 
-nlohmann::json light_with(double acne_rate, double gap_max) {
-    nlohmann::json j = to_json(LightScore{});
-    j["rates"]["acne"] = acne_rate;
-    j["peter_panning_gap"]["max"] = gap_max;
-    return j;
+LightScore light_with(std::uint64_t acne_per_10000, double gap_max) {
+    LightScore s;
+    s.pixels.scored = 10000;
+    s.counts[error_class_index(PixelClass::acne)] = acne_per_10000;
+    s.peter_panning_gap.max = gap_max;
+    return s;
+}
+
+std::vector<Light> lights_of(std::initializer_list<LightType> types) {
+    std::vector<Light> lights;
+    for (LightType t : types) lights.emplace_back().type = t;
+    return lights;
+}
+
+const std::vector<Light> kTwoSuns = lights_of({LightType::directional, LightType::directional});
+
+Gate gate_file(const char* text, const std::vector<Light>& lights = kTwoSuns) {
+    return parse_gate(nlohmann::json::parse(text), "gate.json", lights, GateOrigin::file);
 }
 
 TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
-    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
-        {"metric": "peter_panning_gap.max", "max": 0.05, "light": 1}]})"),
-                        "gate.json", 2);
-    GateResult ok = evaluate_gate(g, {light_with(0.0005, 1.0), light_with(0.0, 0.01)});
+    Gate g = gate_file(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
+        {"metric": "peter_panning_gap.max", "max": 0.05, "light": 1}]})");
+    const std::vector<LightScore> good = {light_with(5, 1.0), light_with(0, 0.01)};
+    GateResult ok = evaluate_gate(g, good);
     EXPECT_TRUE(ok.passed);
     EXPECT_EQ(ok.outcomes.size(), 3u);  // acne on both lights, gap on light 1
-    GateResult bad = evaluate_gate(g, {light_with(0.0123, 1.0), light_with(0.0, 0.07)});
+    const std::vector<LightScore> worse = {light_with(123, 1.0), light_with(0, 0.07)};
+    GateResult bad = evaluate_gate(g, worse);
     EXPECT_FALSE(bad.passed);
     ASSERT_EQ(bad.outcomes.size(), 3u);
     EXPECT_EQ(bad.outcomes[0].failure(), "light 0: rates.acne = 0.0123 > 0.001");
@@ -410,19 +428,34 @@ TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
     EXPECT_EQ(bad.outcomes[0].name(), "rates.acne <= 0.001");
 }
 
-TEST(Gate, MinimumBoundsAndEmptyGates) {
-    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "pixels.scored", "min": 100}]})"), "g", 1);
-    nlohmann::json l = to_json(LightScore{});
-    l["pixels"]["scored"] = 50;
-    GateResult r = evaluate_gate(g, {l});
+TEST(Gate, MinimumBounds) {
+    Gate g = gate_file(R"({"checks": [{"metric": "pixels.scored", "min": 100}]})", lights_of({LightType::spot}));
+    LightScore l;
+    l.pixels.scored = 50;
+    GateResult r = evaluate_gate(g, std::span(&l, 1));
     EXPECT_FALSE(r.passed);
     EXPECT_EQ(r.outcomes[0].failure(), "light 0: pixels.scored = 50 < 100");
-    EXPECT_TRUE(evaluate_gate(parse_gate(nlohmann::json::object(), "g", 1), {l}).passed);
 }
 
-void expect_gate_error(const char* text, const std::string& fragment, std::size_t lights = 2) {
+TEST(Gate, EveryMetricOfTheTableCanBeChecked) {
+    Frames f = test::Frames(4, 2);
+    ScoringOptions opt;
+    opt.soft = true;
+    const LightScore area = f.score(opt).lights[0];
+    for (const Metric& m : metric_table()) {
+        const std::string text = fmt::format(R"({{"checks": [{{"metric": "{}", "max": 1e9}}]}})", m.path);
+        const Gate g = gate_file(text.c_str(), lights_of({LightType::rect}));
+        const GateResult r = evaluate_gate(g, std::span(&area, 1));
+        ASSERT_EQ(r.outcomes.size(), 1u) << m.path;
+        EXPECT_TRUE(r.passed) << m.path;
+        EXPECT_EQ(r.outcomes[0].value, *value_of(m, area)) << m.path;
+    }
+}
+
+void expect_gate_error(const char* text, const std::string& fragment, const std::vector<Light>& lights = kTwoSuns,
+                       GateOrigin origin = GateOrigin::file) {
     try {
-        parse_gate(nlohmann::json::parse(text), "gate.json", lights);
+        parse_gate(nlohmann::json::parse(text), "gate.json", lights, origin);
         ADD_FAILURE() << "accepted: " << text;
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
@@ -431,7 +464,7 @@ void expect_gate_error(const char* text, const std::string& fragment, std::size_
 
 TEST(Gate, BadGatesNameThePathAndWhatWasExpected) {
     expect_gate_error(R"({"checks": [{"metric": "rates.acn", "max": 1}]})",
-                      "checks[0].metric: unknown metric \"rates.acn\"");
+                      "gate.json: checks[0].metric: unknown metric \"rates.acn\"");
     expect_gate_error(R"({"checks": [{"metric": "rates", "max": 1}]})", "checks[0].metric");
     expect_gate_error(R"({"checks": [{"metric": "mae"}]})", "checks[0]: a check needs \"max\" or \"min\"");
     expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "light": 2}]})", "checks[0].light");
@@ -439,6 +472,119 @@ TEST(Gate, BadGatesNameThePathAndWhatWasExpected) {
     expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "limit": 2}]})", "checks[0].limit");
     expect_gate_error(R"({"checks": {"metric": "mae"}})", "checks");
     expect_gate_error(R"({"check": []})", "check");
+    expect_gate_error(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1, "light": 1}]})",
+                      "checks[0].light: soft.penumbra_mae applies to area lights only, and light 1 is a directional "
+                      "light");
+}
+
+TEST(Gate, AnUnknownMetricListsTheTable) {
+    try {
+        gate_file(R"({"checks": [{"metric": "acne", "max": 1}]})");
+        FAIL() << "accepted an unknown metric";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        for (const Metric& m : metric_table()) {
+            EXPECT_NE(what.find(std::string(m.path) + " ("), std::string::npos) << m.path;
+            EXPECT_NE(what.find(std::string(m.meaning)), std::string::npos) << m.meaning;
+        }
+    }
+}
+
+TEST(Gate, AGateGivenExplicitlyMustCheckSomething) {
+    // No "gate" in the scenario reads as {}: no gate, nothing to check, fine.
+    EXPECT_TRUE(parse_gate(nlohmann::json::object(), "s.json: gate", kTwoSuns, GateOrigin::scenario).checks.empty());
+    // The same {} from a --gate file was given on purpose, and checks nothing.
+    expect_gate_error("{}", "gate.json: the gate checks nothing: it has no \"checks\"");
+    expect_gate_error(R"({"checks": []})", "gate.json: the gate checks nothing: its \"checks\" are empty", kTwoSuns,
+                      GateOrigin::scenario);
+    expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1}]})",
+                      "gate.json: the gate checks nothing: the scenario has no lights", {});
+    expect_gate_error(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1}]})",
+                      "gate.json: the gate checks nothing: its checks apply to area lights only, and the scenario "
+                      "has none");
+    // One area light among punctual ones: the soft check has a light to check.
+    EXPECT_EQ(gate_file(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1}]})",
+                        lights_of({LightType::spot, LightType::disk}))
+                  .checks.size(),
+              1u);
+}
+
+TEST(Gate, AMetricTheLightDoesNotMeasureFailsTheCheck) {
+    Frames f(2, 1);
+    f.drop_lookups();
+    const LightScore v_only = f.score().lights[0];
+    const Gate g =
+        gate_file(R"({"checks": [{"metric": "acne_depth.max", "max": 0.01}]})", lights_of({LightType::spot}));
+    const GateResult r = evaluate_gate(g, std::span(&v_only, 1));
+    ASSERT_EQ(r.outcomes.size(), 1u);
+    EXPECT_FALSE(r.passed);
+    EXPECT_EQ(r.outcomes[0].failure(), "light 0: acne_depth.max is not measured for this light (needs <= 0.01)");
+}
+
+// ---- the metrics table
+
+TEST(MetricTable, EveryPathIsUniqueAndResolvesInTheReportObject) {
+    Frames f(4, 2);
+    ScoringOptions opt;
+    opt.soft = true;
+    const LightScore area = f.score(opt).lights[0];
+    const nlohmann::json j = to_json(area);
+    std::set<std::string_view> paths;
+    for (const Metric& m : metric_table()) {
+        EXPECT_TRUE(paths.insert(m.path).second) << "twice: " << m.path;
+        EXPECT_EQ(find_metric(m.path), &m);
+        EXPECT_NE(to_string(m.unit), "?") << m.path;
+        EXPECT_FALSE(m.meaning.empty()) << m.path;
+        std::string pointer(1, '/');
+        for (char c : m.path) pointer.push_back(c == '.' ? '/' : c);
+        const nlohmann::json& v = j.at(nlohmann::json::json_pointer(pointer));
+        ASSERT_TRUE(v.is_number()) << m.path;
+        EXPECT_EQ(v.is_number_integer(), m.unit == Unit::pixels) << m.path;
+        EXPECT_EQ(v.get<double>(), *value_of(m, area)) << m.path;
+    }
+    EXPECT_EQ(find_metric("rates"), nullptr);
+    EXPECT_EQ(find_metric("nope"), nullptr);
+}
+
+TEST(MetricTable, ScopesDecideWhatALightReports) {
+    Frames f(2, 1);
+    const LightScore punctual = f.score().lights[0];
+    const nlohmann::json j = to_json(punctual);
+    EXPECT_FALSE(j.contains("soft"));
+    EXPECT_TRUE(j.contains("acne_depth"));
+    EXPECT_EQ(j["evidence"], nlohmann::json({{"source", "depth_map_lookups"}}));
+    EXPECT_FALSE(value_of(*find_metric("soft.penumbra_mae"), punctual));
+    f.drop_lookups();
+    ScoringOptions opt;
+    opt.texel_footprint_m = 0.02f;
+    const nlohmann::json v_only = to_json(f.score(opt).lights[0]);
+    EXPECT_FALSE(v_only.contains("acne_depth")) << "not measured without the lookups";
+    EXPECT_EQ(v_only["evidence"]["source"], "oracle_geometry");
+    EXPECT_EQ(v_only["evidence"]["texel_footprint"], "given");
+    EXPECT_FLOAT_EQ(v_only["evidence"]["texel_footprint_m"].get<float>(), 0.02f);
+    EXPECT_EQ(v_only["evidence"]["bias_reach"], "not_found");
+}
+
+TEST(MetricTable, DocsListEveryMetric) {
+    std::ifstream file(std::string(PENUMBRA_SOURCE_DIR) + "/docs/metrics.md");
+    ASSERT_TRUE(file) << "docs/metrics.md";
+    const std::string docs((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    for (const Metric& m : metric_table())
+        EXPECT_NE(docs.find(metric_doc_row(m)), std::string::npos) << "docs/metrics.md lacks the row\n"
+                                                                   << metric_doc_row(m);
+}
+
+TEST(MetricTable, SummaryLineReadsTheTable) {
+    Frames f(4, 1);
+    f.rl().V[0] = 0.0f;  // one acne pixel of 4
+    EXPECT_EQ(summary_line(f.score().lights[0]),
+              "wrong 25.000% of 4 scored px: acne 25.000%  peter_panning 0.000%  aliasing 0.000%  false_shadow "
+              "0.000%  false_lit 0.000%  ");
+    f.drop_lookups();
+    ScoringOptions opt;
+    opt.texel_footprint_m = 0.01f;
+    EXPECT_NE(summary_line(f.score(opt).lights[0]).find("(V only: footprint 0.01 m given, bias reach 0 m not_found)"),
+              std::string::npos);
 }
 
 // Soft lights: a horizontal ramp from umbra through penumbra to full light, 100 px wide.
@@ -488,18 +634,17 @@ TEST(SoftScore, WidthErrorTellsHardFromWideShadows) {
 }
 
 TEST(SoftScore, GatesNameSoftNumbersAndSkipPunctualLights) {
-    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "soft.penumbra_mae_beyond_E", "max": 0.05}]})"),
-                        "g", 2);
+    Gate g = gate_file(R"({"checks": [{"metric": "soft.penumbra_mae_beyond_E", "max": 0.05}]})",
+                       lights_of({LightType::rect, LightType::point}));
     Frames f = soft_ramp();
     ScoringOptions opt;
     opt.soft = true;
-    const nlohmann::json area = to_json(f.score(opt).lights[0]), punctual = to_json(f.score().lights[0]);
-    GateResult r = evaluate_gate(g, {area, punctual});
+    std::vector<LightScore> lights = {f.score(opt).lights[0], f.score().lights[0]};
+    GateResult r = evaluate_gate(g, lights);
     ASSERT_EQ(r.outcomes.size(), 1u) << "the punctual light has no soft numbers to check";
     EXPECT_TRUE(r.passed);
-    nlohmann::json worse = area;
-    worse["soft"]["penumbra_mae_beyond_E"] = 0.2;
-    EXPECT_FALSE(evaluate_gate(g, {worse}).passed);
+    lights[0].soft->penumbra_mae_beyond_e = 0.2;
+    EXPECT_FALSE(evaluate_gate(g, lights).passed);
 }
 
 }  // namespace
