@@ -191,7 +191,9 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     raster::Technique technique = resolve_technique(scenario, t);
     const nlohmann::json gate_json = v.gate_file.empty() ? scenario.gate : read_json_file(v.gate_file);
     const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
-    const metrics::Gate gate = metrics::parse_gate(gate_json, gate_label, scenario.lights.size());
+    const metrics::Gate gate =
+        metrics::parse_gate(gate_json, gate_label, scenario.lights,
+                            v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
 
     ValidateOptions options;
     options.oracle = oracle_settings(c, v.sampling);
@@ -210,7 +212,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     if (!v.junit_file.empty()) {
         std::filesystem::path dir = v.junit_file.parent_path();
         OutputTransaction junit(dir.empty() ? std::filesystem::path(".") : dir);
-        junit.write_text(v.junit_file.filename().string(), report::junit_xml(r.report));
+        junit.write_text(v.junit_file.filename().string(), validate_junit(scenario, r));
         junit.commit();
     }
 
@@ -221,15 +223,9 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
             "{:.3f} s, writing {:.3f} s\n",
             scenario.width, scenario.height, scenario.lights.size(), r.oracle.cached ? "from cache" : "traced",
             r.oracle.seconds, r.raster_timings.device_s, r.raster_s, r.metrics_s, write_s);
-        for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
-            const auto& s = r.score.lights[li];
-            std::string classes;
-            for (std::size_t k = 0; k < metrics::kErrorClasses.size(); ++k)
-                classes += fmt::format("{} {:.3f}%  ", metrics::to_string(metrics::kErrorClasses[k]),
-                                       100.0 * s.rate(metrics::kErrorClasses[k]));
-            fmt::print("  light {} ({}): wrong {:.3f}% of {} scored px: {}\n", li, to_string(scenario.lights[li].type),
-                       100.0 * s.wrong_fraction, s.pixels.scored, classes);
-        }
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li)
+            fmt::print("  light {} ({}): {}\n", li, to_string(scenario.lights[li].type),
+                       metrics::summary_line(r.score.lights[li]));
         fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
     }
     if (r.gate) {

@@ -5,7 +5,6 @@
 
 #include <array>
 #include <cstdint>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <span>
 #include <string_view>
@@ -41,13 +40,41 @@ constexpr std::size_t error_class_index(PixelClass c) {
     return k;
 }
 
-// How one light is judged; the caller derives the last two from the technique.
+// How one light is judged; the caller derives filter_reach_texels and depth_quantum from the
+// technique. The last two matter only for a light without depth-map lookups (docs/metrics.md,
+// "V only"); each is estimated from the frames when not given.
 struct ScoringOptions {
-    float tolerance = 1.0f / 255.0f;   // tau: a pixel is wrong when |error| > tolerance + oracle E
-    float filter_reach_texels = 1.0f;  // aliasing band: this many texel footprints around a true boundary
-    float depth_quantum = 0.0f;        // the depth format's resolution r (depth units), 0 for float
-    double pixels_per_degree = 67.0;   // viewing condition of the perceptual error (FLIP's default)
-    bool soft = false;                 // an area light: also score the penumbra (SoftScore)
+    float tolerance = 1.0f / 255.0f;         // tau: a pixel is wrong when |error| > tolerance + oracle E
+    float filter_reach_texels = 1.0f;        // aliasing band: this many texel footprints around a true boundary
+    float depth_quantum = 0.0f;              // the depth format's resolution r (depth units), 0 for float
+    double pixels_per_degree = 67.0;         // viewing condition of the perceptual error (FLIP's default)
+    bool soft = false;                       // an area light: also score the penumbra (SoftScore)
+    std::optional<float> texel_footprint_m;  // V only: shadow-map texel size at the receivers, metres
+    std::optional<float> bias_reach_m;       // V only: every bias together, metres along the light ray
+};
+
+// What the classes of a light rest on (docs/metrics.md, "What each class rests on").
+enum class Evidence : std::uint8_t {
+    depth_map_lookups,  // the raster's lookup layer: stored depth and triangle, footprint and bias per pixel
+    oracle_geometry,    // V only: the oracle's boundary and occluder distances, one footprint and bias reach
+};
+std::string_view to_string(Evidence e);
+
+// Where a V-only scale came from.
+enum class ScaleSource : std::uint8_t {
+    given,      // ScoringOptions
+    estimated,  // from the frames (estimate_aliasing_band_m, estimate_bias_reach_m)
+    not_found,  // estimation found nothing to go on: the scale is 0 and its class does not fire
+};
+std::string_view to_string(ScaleSource s);
+
+struct ClassificationEvidence {
+    Evidence source = Evidence::depth_map_lookups;
+    // oracle_geometry only: the scales the classes used.
+    float texel_footprint_m = 0;  // aliasing band = filter_reach_texels x this
+    ScaleSource texel_footprint_source = ScaleSource::given;
+    float bias_reach_m = 0;  // peter-panning reach = this + one footprint
+    ScaleSource bias_reach_source = ScaleSource::given;
 };
 
 struct PixelCounts {
@@ -80,8 +107,10 @@ struct LightScore {
     double bias = 0;                          // mean signed error (raster - oracle) over scored pixels
     MeanMax peter_panning_gap;                // metres along the shadow ray to the true occluder, peter-panning pixels
     MeanMax acne_depth;                       // metres the receiver lies behind its own stored surface, acne pixels
+                                              // (measured from the lookups: 0, and not reported, with V only)
     MeanMax perceptual;                       // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
     std::optional<SoftScore> soft;            // area lights only
+    ClassificationEvidence evidence;          // what the classes rest on
     std::uint64_t count(PixelClass c) const;  // 0 for classes that are not errors
     double rate(PixelClass c) const;          // count / scored
 };
@@ -98,10 +127,34 @@ struct FrameScore {
 };
 
 // Scores every light of the two frames. `options` has one entry per light (or a single entry
-// used for all). Throws std::invalid_argument when the frames do not describe the same image.
+// used for all). A light whose RasterLightImage has lookups is classified from them; one without
+// from the oracle's geometry (docs/metrics.md). Throws std::invalid_argument when the frames do
+// not describe the same image.
 FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, std::span<const ScoringOptions> options);
 
-// The light's numbers as report.json writes them (docs/design.md, "report.json"), less "index" and "type".
-nlohmann::json to_json(const LightScore& s);
+// V only: the scales, from bands of flagged samples near distance 0 (docs/metrics.md,
+// "Estimating the scales"). Both sort their samples first, so they are deterministic and do not
+// depend on the samples' order. Both accept a band [0, D] only when it holds at least
+// kMinBandFlagged flagged samples at no less than twice the flagged rate beyond it, and return
+// D or nullopt.
+struct DistanceSample {
+    float distance_m;  // finite
+    bool flagged;
+};
+inline constexpr std::uint64_t kMinBandFlagged = 16;
+inline constexpr double kMinBandLogLikelihoodRatio = 12;  // a chance split of one rate: p ~ 1e-6
+
+// The aliasing band, from (boundary_m, wrong) samples of scored pixels: D where the wrong rate
+// has fallen to half its mean inside [0, D] (D maximises wrong - rate x pixels within D, rate
+// half the band's own: a fixed point, iterated from the mean rate). The texel footprint is D /
+// the filter's reach.
+std::optional<float> estimate_aliasing_band_m(std::vector<DistanceSample> samples);
+
+// The bias reach, from (occluder_m, lost) samples of scored pixels whose shadow ray meets a true
+// occluder, outside the aliasing band; lost: the raster is wrongly brighter. D is the maximum-
+// likelihood change point of the lost rate: the split into [0, D] (the higher rate) and beyond
+// whose two rates explain the samples best, accepted also only when its log-likelihood ratio
+// against one rate is at least kMinBandLogLikelihoodRatio.
+std::optional<float> estimate_bias_reach_m(std::vector<DistanceSample> samples);
 
 }  // namespace penumbra::metrics

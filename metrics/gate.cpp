@@ -4,83 +4,62 @@
 
 #include <cmath>
 
+#include "common/errors.h"
 #include "common/json_reader.h"
-#include "metrics/classification.h"
 
 namespace penumbra::metrics {
 
 namespace {
 
-void collect_paths(const nlohmann::json& j, const std::string& prefix, std::vector<std::string>& out) {
-    for (const auto& [key, value] : j.items()) {
-        std::string path = prefix.empty() ? key : prefix + "." + key;
-        if (value.is_object()) {
-            collect_paths(value, path, out);
-        } else if (value.is_number()) {
-            out.push_back(path);
-        }
-    }
-}
-
-const nlohmann::json* find_path(const nlohmann::json& j, const std::string& dotted) {
-    const nlohmann::json* at = &j;
-    std::size_t start = 0;
-    while (start <= dotted.size()) {
-        std::size_t dot = dotted.find('.', start);
-        std::string key = dotted.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-        if (!at->is_object() || !at->contains(key)) return nullptr;
-        at = &(*at)[key];
-        if (dot == std::string::npos) break;
-        start = dot + 1;
-    }
-    return at;
-}
-
-// Every number a light's object can hold: an area light's carries "soft" as well.
-nlohmann::json template_light() {
-    LightScore s;
-    s.soft.emplace();
-    return to_json(s);
+// Whether a check of metric `m` applies to `light` at all (evaluate_gate skips it otherwise).
+bool applies(const Metric& m, const Light& light) {
+    return m.scope != MetricScope::area_lights || is_area_light(light.type);
 }
 
 }  // namespace
 
-std::vector<std::string> gate_metrics() {
-    std::vector<std::string> paths;
-    collect_paths(template_light(), "", paths);
-    return paths;
-}
-
-Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::size_t light_count) {
+Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<const Light> lights,
+                GateOrigin origin) {
     Gate g;
     JsonObject top(gate, label, "");
+    if (origin == GateOrigin::scenario && gate.empty()) return g;  // no "gate" in the scenario
     if (!top.has("checks")) {
         top.finish();
-        return g;
+        throw InputError(fmt::format("{}: the gate checks nothing: it has no \"checks\"", label));
     }
     const nlohmann::json& checks = top.get("checks");
     if (!checks.is_array()) top.fail("checks", "expected an array of checks");
     top.finish();
-    const nlohmann::json every_number = template_light();
+    std::size_t outcomes = 0;
     for (std::size_t k = 0; k < checks.size(); ++k) {
         JsonObject c(checks[k], label, fmt::format("checks[{}]", k));
         GateCheck check;
-        check.metric = c.string("metric");
-        const nlohmann::json* known = find_path(every_number, check.metric);
-        if (!known || !known->is_number()) {
-            std::string list;
-            for (const auto& p : gate_metrics()) list += (list.empty() ? "" : ", ") + p;
-            c.fail("metric", fmt::format("unknown metric \"{}\" (a light's numbers: {})", check.metric, list));
-        }
+        const std::string metric = c.string("metric");
+        check.metric = find_metric(metric);
+        if (!check.metric)
+            c.fail("metric",
+                   fmt::format("unknown metric \"{}\"; a light's metrics are:\n{}", metric, metric_table_text()));
         if (c.has("max")) check.max = c.number("max");
         if (c.has("min")) check.min = c.number("min");
         if (!check.max && !check.min) c.fail_here("a check needs \"max\" or \"min\"");
         if (c.has("light")) {
-            if (light_count == 0) c.fail("light", "the scenario has no lights");
-            check.light = static_cast<std::size_t>(c.integer("light", 0, static_cast<long long>(light_count) - 1));
+            if (lights.empty()) c.fail("light", "the scenario has no lights");
+            check.light = static_cast<std::size_t>(c.integer("light", 0, static_cast<long long>(lights.size()) - 1));
+            const Light& light = lights[*check.light];
+            if (!applies(*check.metric, light))
+                c.fail("light", fmt::format("{} applies to {} only, and light {} is a {} light", metric,
+                                            to_string(check.metric->scope), *check.light, to_string(light.type)));
         }
         c.finish();
-        g.checks.push_back(std::move(check));
+        for (std::size_t li = 0; li < lights.size(); ++li)
+            outcomes += (!check.light || *check.light == li) && applies(*check.metric, lights[li]);
+        g.checks.push_back(check);
+    }
+    if (outcomes == 0) {
+        const char* why = g.checks.empty() ? "its \"checks\" are empty"
+                          : lights.empty() ? "the scenario has no lights"
+                                           : "its checks apply to area lights only, and the scenario has none";
+        throw InputError(fmt::format("{}: the gate checks nothing: {}", label, why));
     }
     return g;
 }
@@ -90,20 +69,22 @@ std::string CheckOutcome::name() const {
 }
 
 std::string CheckOutcome::failure() const {
+    if (!std::isfinite(value))
+        return fmt::format("light {}: {} is not measured for this light (needs {} {})", light, metric,
+                           bound == "max" ? "<=" : ">=", limit);
     return fmt::format("light {}: {} = {} {} {}", light, metric, value, bound == "max" ? ">" : "<", limit);
 }
 
-GateResult evaluate_gate(const Gate& gate, const std::vector<nlohmann::json>& lights) {
+GateResult evaluate_gate(const Gate& gate, std::span<const LightScore> lights) {
     GateResult r;
     for (const GateCheck& check : gate.checks) {
         for (std::size_t li = 0; li < lights.size(); ++li) {
             if (check.light && *check.light != li) continue;
-            const nlohmann::json* v = find_path(lights[li], check.metric);
-            // "soft.*" numbers exist for area lights only; elsewhere the check does not apply.
-            if (!v && check.metric.starts_with("soft.") && !lights[li].contains("soft")) continue;
-            const double value = v && v->is_number() ? v->get<double>() : std::nan("");
+            // soft.* numbers exist for area lights only; elsewhere the check does not apply.
+            if (check.metric->scope == MetricScope::area_lights && !lights[li].soft) continue;
+            const double value = value_of(*check.metric, lights[li]).value_or(std::nan(""));
             auto add = [&](const char* bound, double limit, bool ok) {
-                CheckOutcome o{li, check.metric, bound, value, limit, ok && std::isfinite(value)};
+                CheckOutcome o{li, std::string(check.metric->path), bound, value, limit, ok && std::isfinite(value)};
                 r.passed = r.passed && o.passed;
                 r.outcomes.push_back(std::move(o));
             };

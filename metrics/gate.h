@@ -1,16 +1,20 @@
-// CI gates (docs/design.md, "Gate"): thresholds on a light's report.json numbers. A gate that
+// CI gates (docs/design.md, "Gate"): thresholds on a light's metrics (metric_table.h). A gate that
 // fails makes validate exit 1; each failure is one line a person reads in a CI log.
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
+
+#include "common/scene.h"
+#include "metrics/metric_table.h"
 
 namespace penumbra::metrics {
 
 struct GateCheck {
-    std::string metric;                // dotted path into a light's report object, e.g. "rates.acne"
+    const Metric* metric = nullptr;    // a row of metric_table()
     std::optional<double> max;         // passes when value <= max
     std::optional<double> min;         // passes when value >= min
     std::optional<std::size_t> light;  // one light, or every light when empty
@@ -20,16 +24,24 @@ struct Gate {
     std::vector<GateCheck> checks;
 };
 
-// Validates the gate object; errors (InputError) name `label` and the JSON path: unknown keys,
-// a metric that is not a number of the report, a check without max or min, a light that does
-// not exist.
-Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::size_t light_count);
+// Where the gate came from. A scenario without "gate" reads as an empty object, which is no
+// gate; a --gate file, or a scenario gate with any key, is given explicitly.
+enum class GateOrigin { scenario, file };
+
+// Validates the gate object against the metrics table and the scenario's lights; errors
+// (InputError) name `label` and the JSON path: unknown keys, a metric not in the table (the
+// message lists the table), a check without max or min, a light that does not exist, a check
+// naming a light its metric does not apply to (soft.* and a punctual light). A gate given
+// explicitly must check something: one that would evaluate no (light x check) outcome (no
+// checks, no lights, or soft.* checks only and no area light) is an InputError naming `label`.
+Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<const Light> lights, GateOrigin origin);
 
 struct CheckOutcome {
     std::size_t light = 0;
     std::string metric;
     std::string bound;  // "max" or "min"
-    double value = 0, limit = 0;
+    double value = 0;   // NaN where the light does not measure the metric (acne_depth with V only)
+    double limit = 0;
     bool passed = true;
     std::string name() const;     // "rates.acne <= 0.001"
     std::string failure() const;  // "light 0: rates.acne = 0.0123 > 0.001"
@@ -40,10 +52,8 @@ struct GateResult {
     std::vector<CheckOutcome> outcomes;  // per check, per light, per bound: in gate order
 };
 
-// `lights` holds each light's report object (to_json(LightScore) or report.json's entries).
-GateResult evaluate_gate(const Gate& gate, const std::vector<nlohmann::json>& lights);
-
-// Every number a check may name, as dotted paths (for error messages and docs).
-std::vector<std::string> gate_metrics();
+// Evaluates every check on every light it names, reading the values from the table. A soft.*
+// check skips punctual lights; a metric a light does not measure fails the check.
+GateResult evaluate_gate(const Gate& gate, std::span<const LightScore> lights);
 
 }  // namespace penumbra::metrics

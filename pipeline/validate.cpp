@@ -117,11 +117,13 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                   {"camera", r.raster.stats.camera_ms + r.raster.stats.lookup_ms},
                   {"lookup", r.raster.stats.lookup_ms}}},
                 {"metrics_s", r.metrics_s}};
-    std::vector<nlohmann::json> light_objects;
-    for (const auto& l : r.score.lights) light_objects.push_back(metrics::to_json(l));
-    if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, light_objects);
+    if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, r.score.lights);
     r.report = report::report_json(report_inputs(scenario, r, r.oracle.info), r.score);
     return r;
+}
+
+std::string validate_junit(const Scenario& scenario, const ValidateResult& result) {
+    return report::junit_xml(report_inputs(scenario, result, result.oracle.info));
 }
 
 void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {

@@ -82,4 +82,7 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
 void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& result,
                             bool frames);
 
+// The gate's checks as JUnit XML: one testcase per light x check.
+std::string validate_junit(const Scenario& scenario, const ValidateResult& result);
+
 }  // namespace penumbra

@@ -154,14 +154,14 @@ std::string number(double v) {
 }
 
 // A horizontal bar per error class: rates on one shared scale, so lights compare at a glance.
-std::string rate_chart(const nlohmann::json& light) {
+std::string rate_chart(const metrics::LightScore& light) {
     double top = 1e-6;
-    for (auto c : metrics::kErrorClasses) top = std::max(top, light["rates"][std::string(to_string(c))].get<double>());
+    for (auto c : metrics::kErrorClasses) top = std::max(top, light.rate(c));
     std::string svg = R"(<svg xmlns="http://www.w3.org/2000/svg" width="420" height="130" role="img">)";
     int y = 4;
     for (auto c : metrics::kErrorClasses) {
         const std::string name(to_string(c));
-        const double rate = light["rates"][name].get<double>();
+        const double rate = light.rate(c);
         const int w = static_cast<int>(std::lround(220.0 * rate / top));
         svg += fmt::format(R"(<text x="0" y="{}" font-size="12" fill="#ddd">{}</text>)", y + 13, name);
         svg += fmt::format(R"(<rect x="105" y="{}" width="{}" height="16" fill="{}"/>)", y + 2, std::max(w, 1),
@@ -173,7 +173,29 @@ std::string rate_chart(const nlohmann::json& light) {
     return svg + "</svg>";
 }
 
-std::string html_page(const ReportInputs& in, const nlohmann::json& report, const OutputTransaction& out) {
+// The metrics of one light that the class table does not show, from the table: every other
+// metric appears here without an edit.
+std::string metric_rows(const metrics::LightScore& l) {
+    std::string rows;
+    for (const metrics::Metric& m : metrics::metric_table()) {
+        if (m.path.starts_with("counts.") || m.path.starts_with("rates.") || m.path.starts_with("pixels.")) continue;
+        const std::optional<double> v = metrics::value_of(m, l);
+        if (!v && m.scope == metrics::MetricScope::area_lights) continue;
+        rows += fmt::format("<tr><td title=\"{}\">{}</td><td>{}</td><td>{}</td></tr>\n", escape_markup(m.meaning),
+                            escape_markup(m.path), v ? number(*v) : "not measured", to_string(m.unit));
+    }
+    return rows;
+}
+
+std::string evidence_text(const metrics::ClassificationEvidence& e) {
+    if (e.source == metrics::Evidence::depth_map_lookups) return "the technique's depth-map lookups";
+    return fmt::format("the oracle's geometry (V only): texel footprint {} m ({}), bias reach {} m ({})",
+                       number(e.texel_footprint_m), to_string(e.texel_footprint_source), number(e.bias_reach_m),
+                       to_string(e.bias_reach_source));
+}
+
+std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, const nlohmann::json& report,
+                      const OutputTransaction& out) {
     auto img = [&](const std::string& file, const std::string& alt) {
         return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(out.written_bytes(file)),
                            escape_markup(alt));
@@ -194,44 +216,36 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
     if (in.raster.contains("device"))
         h += fmt::format("Raster device: {}. ", escape_markup(in.raster["device"].value("name", "?")));
     h += fmt::format("penumbra {}.</p>\n", escape_markup(report.value("version", "")));
-    if (report.contains("gate")) {
-        const auto& g = report["gate"];
-        const bool passed = g["passed"].get<bool>();
+    if (in.gate) {
+        const bool passed = in.gate->passed;
         h += fmt::format(
             "<h2>Gate: <span class=\"{}\" "
             "id=\"gate\">{}</span></h2>\n<table><tr><th>light</th><th>check</th><th>value</th><th>result</th></tr>\n",
             passed ? "pass" : "fail", passed ? "passed" : "FAILED");
-        for (const auto& c : g["checks"])
-            h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n",
-                             c["light"].get<int>(), escape_markup(c["name"].get<std::string>()),
-                             number(c["value"].get<double>()), c["passed"].get<bool>() ? "pass" : "fail",
-                             c["passed"].get<bool>() ? "pass" : "fail");
+        for (const auto& c : in.gate->outcomes)
+            h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n", c.light,
+                             escape_markup(c.name()), std::isfinite(c.value) ? number(c.value) : "not measured",
+                             c.passed ? "pass" : "fail", c.passed ? "pass" : "fail");
         h += "</table>\n";
     }
-    for (const auto& l : report["lights"]) {
-        const std::size_t li = l["index"].get<std::size_t>();
-        h += fmt::format("<h2>Light {} ({})</h2>\n", li, escape_markup(l["type"].get<std::string>()));
+    for (std::size_t li = 0; li < score.lights.size(); ++li) {
+        const metrics::LightScore& l = score.lights[li];
+        h += fmt::format("<h2>Light {} ({})</h2>\n", li, escape_markup(to_string(sc.lights[li].type)));
+        h += fmt::format("<p>Classes from {}.</p>\n", escape_markup(evidence_text(l.evidence)));
         h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th></tr>\n";
         for (auto c : metrics::kErrorClasses) {
-            const std::string name(to_string(c));
             h += fmt::format(
                 "<tr><td><span class=\"swatch\" "
                 "style=\"background:{}\"></span>{}</td><td>{}</td><td>{:.4f}%</td></tr>\n",
-                css_colour(class_colour(c)), name, l["counts"][name].get<std::uint64_t>(),
-                100.0 * l["rates"][name].get<double>());
+                css_colour(class_colour(c)), to_string(c), l.count(c), 100.0 * l.rate(c));
         }
         h += "</table><table>\n";
-        for (const char* k : {"surface", "scored", "back_facing", "uncertain", "coverage_mismatch"})
-            h += fmt::format("<tr><td>{} pixels</td><td>{}</td></tr>\n", k, l["pixels"][k].get<std::uint64_t>());
-        h += fmt::format(
-            "<tr><td>MAE / RMSE</td><td>{} / {}</td></tr>\n<tr><td>wrong fraction</td><td>{}</td></tr>\n"
-            "<tr><td>peter-panning gap mean / max (m)</td><td>{} / {}</td></tr>\n"
-            "<tr><td>acne depth mean / max (m)</td><td>{} / {}</td></tr>\n"
-            "<tr><td>perceptual error mean / max</td><td>{} / {}</td></tr>\n</table></div>\n",
-            number(l["mae"].get<double>()), number(l["rmse"].get<double>()), number(l["wrong_fraction"].get<double>()),
-            number(l["peter_panning_gap"]["mean"].get<double>()), number(l["peter_panning_gap"]["max"].get<double>()),
-            number(l["acne_depth"]["mean"].get<double>()), number(l["acne_depth"]["max"].get<double>()),
-            number(l["perceptual"]["mean"].get<double>()), number(l["perceptual"]["max"].get<double>()));
+        for (const metrics::Metric& m : metrics::metric_table())
+            if (m.path.starts_with("pixels."))
+                h += fmt::format("<tr><td title=\"{}\">{} pixels</td><td>{}</td></tr>\n", escape_markup(m.meaning),
+                                 m.path.substr(7), number(m.read(l)));
+        h += "</table><table><tr><th>metric</th><th>value</th><th>unit</th></tr>\n" + metric_rows(l) +
+             "</table></div>\n";
         h += "<div>" + rate_chart(l) + "</div></div>\n";
         h += "<h3>Classes</h3>" + img(light_file(li, "classes"), fmt::format("class map, light {}", li));
         h += "<h3>Signed error (red: raster darker, blue: raster brighter)</h3>" +
@@ -273,11 +287,14 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
         l.update(metrics::to_json(score.lights[li]));
         lights.push_back(std::move(l));
         const auto& o = in.scoring.size() == 1 ? in.scoring[0] : in.scoring.at(li);
-        scoring.push_back({{"light", li},
-                           {"tolerance", o.tolerance},
-                           {"filter_reach_texels", o.filter_reach_texels},
-                           {"depth_quantum", o.depth_quantum},
-                           {"pixels_per_degree", o.pixels_per_degree}});
+        nlohmann::json so = {{"light", li},
+                             {"tolerance", o.tolerance},
+                             {"filter_reach_texels", o.filter_reach_texels},
+                             {"depth_quantum", o.depth_quantum},
+                             {"pixels_per_degree", o.pixels_per_degree}};
+        if (o.texel_footprint_m) so["texel_footprint_m"] = *o.texel_footprint_m;
+        if (o.bias_reach_m) so["bias_reach_m"] = *o.bias_reach_m;
+        scoring.push_back(std::move(so));
     }
     nlohmann::json r = {{"version", in.version},
                         {"scenario", in.scenario_file.string()},
@@ -319,12 +336,10 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
 
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
-        const auto& lj = report["lights"][li];
+        const metrics::LightScore& l = score.lights[li];
         std::vector<LegendEntry> legend;
         for (auto c : metrics::kErrorClasses)
-            legend.push_back(
-                {class_colour(c), fmt::format("{} {:.2f}%", to_string(c),
-                                              100.0 * lj["rates"][std::string(to_string(c))].get<double>())});
+            legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
         legend.push_back({class_colour(PixelClass::correct), "correct"});
         for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
             legend.push_back({class_colour(c), std::string(to_string(c))});
@@ -342,23 +357,22 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
                       compare_image(oracle.A, oracle.lights[li].V, raster.lights[li].V, W, H));
     }
     out.write_json("report.json", report);
-    out.write_text("report.html", html_page(in, report, out));
+    out.write_text("report.html", html_page(in, score, report, out));
 }
 
-std::string junit_xml(const nlohmann::json& report) {
-    const std::string suite = "penumbra." + std::filesystem::path(report.value("scenario", "scenario")).stem().string();
+std::string junit_xml(const ReportInputs& in) {
+    const std::string suite =
+        "penumbra." + (in.scenario_file.empty() ? std::string("scenario") : in.scenario_file.stem().string());
     std::string cases;
     int tests = 0, failures = 0;
-    if (report.contains("gate"))
-        for (const auto& c : report["gate"]["checks"]) {
+    if (in.gate)
+        for (const auto& c : in.gate->outcomes) {
             ++tests;
-            const std::string name = c["name"].get<std::string>();
-            const int light = c["light"].get<int>();
             cases += fmt::format("    <testcase classname=\"{}.light{}\" name=\"{}\" time=\"0\">\n",
-                                 escape_markup(suite), light, escape_markup(name));
-            if (!c["passed"].get<bool>()) {
+                                 escape_markup(suite), c.light, escape_markup(c.name()));
+            if (!c.passed) {
                 ++failures;
-                const std::string msg = c["message"].get<std::string>();
+                const std::string msg = c.failure();
                 cases += fmt::format("      <failure message=\"{}\" type=\"gate\">{}</failure>\n", escape_markup(msg),
                                      escape_markup(msg));
             }
@@ -368,7 +382,7 @@ std::string junit_xml(const nlohmann::json& report) {
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"penumbra\" tests=\"{0}\" failures=\"{1}\" "
         "errors=\"0\">\n  <testsuite name=\"{2}\" tests=\"{0}\" failures=\"{1}\" errors=\"0\" skipped=\"0\" "
         "time=\"{3}\">\n{4}  </testsuite>\n</testsuites>\n",
-        tests, failures, escape_markup(suite), report["timing"].value("metrics_s", 0.0), cases);
+        tests, failures, escape_markup(suite), in.timing.value("metrics_s", 0.0), cases);
 }
 
 }  // namespace penumbra::report

@@ -12,6 +12,7 @@
 #include "common/scenario.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
+#include "metrics/metric_table.h"
 
 namespace penumbra::report {
 
@@ -27,15 +28,18 @@ struct ReportInputs {
     const metrics::GateResult* gate = nullptr;     // null: no gate given
 };
 
-// report.json (docs/design.md's keys; docs/outputs.md).
+// report.json (docs/design.md's keys, and more): each light's object is metrics::to_json, built from
+// the metrics table.
 nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& score);
 
 // errors.exr, light<i>.classes.png, light<i>.error.png, light<i>.compare.png, report.json and
-// report.html (images embedded), added to the transaction.
+// report.html (images embedded), added to the transaction. The page's numbers come from `score`
+// and in.gate; `report` is written as report.json and gives the page its timing.
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report);
 
-// JUnit XML of the gate in report.json: one testsuite, one testcase per light x check.
-std::string junit_xml(const nlohmann::json& report);
+// JUnit XML of in.gate's outcomes: one testsuite (named after in.scenario_file), one testcase per
+// light x check; no testcase without a gate.
+std::string junit_xml(const ReportInputs& in);
 
 }  // namespace penumbra::report

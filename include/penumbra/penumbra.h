@@ -3,7 +3,7 @@
 //
 //   penumbra::Scenario sc = penumbra::load_scenario("scenario.json");
 //   auto technique = penumbra::raster::parse_technique(sc.technique, "technique", sc.lights);
-//   auto gate = penumbra::metrics::parse_gate(sc.gate, "gate", sc.lights.size());
+//   auto gate = penumbra::metrics::parse_gate(sc.gate, "gate", sc.lights, penumbra::metrics::GateOrigin::scenario);
 //   penumbra::ValidateResult r = penumbra::validate(sc, technique, gate, {});
 //   r.score.lights[0].rate(penumbra::metrics::PixelClass::acne);
 #pragma once
@@ -13,6 +13,7 @@
 #include "common/version.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
+#include "metrics/metric_table.h"
 #include "pipeline/validate.h"
 #include "raster/raster.h"
 #include "raster/technique.h"

@@ -1,13 +1,17 @@
 // metrics on synthetic frames: every rule of docs/metrics.md's error classes, the exclusions, the
 // summary numbers, the perceptual error and the gates. No Embree, no Vulkan.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <set>
 
 #include "common/errors.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
+#include "metrics/metric_table.h"
 #include "metrics/perceptual.h"
 #include "tests/metrics/synthetic_frames.h"
 
@@ -190,6 +194,154 @@ TEST(Classification, ReportObjectHasDesignKeys) {
     EXPECT_TRUE(j["peter_panning_gap"]["max"].is_number());
 }
 
+// ---- V only: the classes from the oracle's geometry
+
+TEST(VOnly, ClassesRestOnTheOraclesGeometryWithGivenScales) {
+    Frames f(6, 1);
+    f.drop_lookups();
+    // 0: darker, 0.015 m from a true boundary: aliasing (reach 2 x 0.01 m).
+    f.rl().V[0] = 0.0f;
+    f.ol().boundary_m[0] = 0.015f;
+    // 1: darker, nothing between the receiver and the light: acne.
+    f.rl().V[1] = 0.0f;
+    // 2: darker inside a true penumbra (an occluder on some rays): false shadow.
+    f.ol().V[2] = 0.5f;
+    f.ol().occluder_m[2] = 0.3f;
+    f.rl().V[2] = 0.1f;
+    // 3, 4: a lost shadow with the occluder within bias + one texel (0.04 + 0.01), and beyond.
+    f.shadow(3, 0.049f);
+    f.shadow(4, 0.2f);
+    // 5: correct.
+    ScoringOptions opt;
+    opt.filter_reach_texels = 2;
+    opt.texel_footprint_m = 0.01f;
+    opt.bias_reach_m = 0.04f;
+    FrameScore s = f.score(opt);
+    EXPECT_EQ(class_of(s, 0), PixelClass::aliasing);
+    EXPECT_EQ(class_of(s, 1), PixelClass::acne);
+    EXPECT_EQ(class_of(s, 2), PixelClass::false_shadow);
+    EXPECT_EQ(class_of(s, 3), PixelClass::peter_panning);
+    EXPECT_EQ(class_of(s, 4), PixelClass::false_lit);
+    EXPECT_EQ(class_of(s, 5), PixelClass::correct);
+    const ClassificationEvidence& ev = s.lights[0].evidence;
+    EXPECT_EQ(ev.source, Evidence::oracle_geometry);
+    EXPECT_EQ(ev.texel_footprint_source, ScaleSource::given);
+    EXPECT_FLOAT_EQ(ev.texel_footprint_m, 0.01f);
+    EXPECT_EQ(ev.bias_reach_source, ScaleSource::given);
+    EXPECT_FLOAT_EQ(ev.bias_reach_m, 0.04f);
+    EXPECT_NEAR(s.lights[0].peter_panning_gap.max, 0.049, 1e-6);
+    EXPECT_EQ(s.lights[0].acne_depth.max, 0.0) << "unknown without the lookups";
+}
+
+TEST(VOnly, WithLookupsTheLookupsDecide) {
+    Frames f(2, 1);
+    f.rl().V[0] = 0.0f;
+    f.lk().stored_prim[0] = 99;  // another triangle far in front: a false shadow, not acne
+    f.lk().stored_depth[0] = 0.1f;
+    FrameScore with = f.score();
+    EXPECT_EQ(with.lights[0].evidence.source, Evidence::depth_map_lookups);
+    EXPECT_EQ(class_of(with, 0), PixelClass::false_shadow);
+    f.drop_lookups();
+    FrameScore without = f.score();
+    EXPECT_EQ(without.lights[0].evidence.source, Evidence::oracle_geometry);
+    EXPECT_EQ(class_of(without, 0), PixelClass::acne) << "nothing lies between the receiver and the light";
+}
+
+// A 200 x 40 frame whose column x lies x millimetres from a true boundary. The technique is
+// wrong (darker) in the first `band_mm` columns on every other row, and on `far_every`-th
+// pixel elsewhere (0: nowhere).
+Frames boundary_profile(int band_mm, int far_every) {
+    Frames f(200, 40);
+    f.drop_lookups();
+    for (int y = 0; y < 40; ++y)
+        for (int x = 0; x < 200; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * 200 + x;
+            f.ol().boundary_m[i] = 0.001f * static_cast<float>(x) + 0.0005f;
+            const bool near = x < band_mm && y % 2 == 0;
+            const bool far = far_every > 0 && x >= band_mm && i % static_cast<std::size_t>(far_every) == 0;
+            if (near || far) f.rl().V[i] = 0.0f;
+        }
+    return f;
+}
+
+TEST(VOnly, EstimatesTheFootprintFromTheErrorProfileAcrossBoundaries) {
+    Frames f = boundary_profile(24, 97);  // aliasing within 24 mm, sparse acne beyond
+    ScoringOptions opt;
+    opt.filter_reach_texels = 2;
+    FrameScore s = f.score(opt);
+    const ClassificationEvidence& ev = s.lights[0].evidence;
+    EXPECT_EQ(ev.texel_footprint_source, ScaleSource::estimated);
+    EXPECT_NEAR(ev.texel_footprint_m, 0.012, 0.0005);  // the 24 mm band / reach 2
+    EXPECT_EQ(class_of(s, 3), PixelClass::aliasing);
+    EXPECT_EQ(s.lights[0].count(PixelClass::aliasing), 20u * 24u);
+    EXPECT_GT(s.lights[0].count(PixelClass::acne), 50u);
+    // The given footprint overrides the estimate.
+    opt.texel_footprint_m = 0.001f;
+    const FrameScore given = f.score(opt);
+    EXPECT_EQ(given.lights[0].evidence.texel_footprint_source, ScaleSource::given);
+    EXPECT_LT(given.lights[0].count(PixelClass::aliasing), 20u * 3u);
+}
+
+TEST(VOnly, NoFootprintIsEstimatedWhenErrorsAreNotNearBoundaries) {
+    Frames f = boundary_profile(0, 3);  // acne everywhere, at one rate
+    FrameScore s = f.score();
+    EXPECT_EQ(s.lights[0].evidence.texel_footprint_source, ScaleSource::not_found);
+    EXPECT_EQ(s.lights[0].evidence.texel_footprint_m, 0.0f);
+    EXPECT_EQ(s.lights[0].count(PixelClass::aliasing), 0u);
+    EXPECT_EQ(s.lights[0].count(PixelClass::acne), s.lights[0].wrong);
+}
+
+TEST(VOnly, EstimatesTheBiasReachFromLostShadows) {
+    // Every pixel truly shadowed; column x's occluder is x centimetres away. The technique
+    // loses 3 of 4 shadows within 12 cm of their occluder, 1 in 50 beyond.
+    Frames f(100, 20);
+    f.drop_lookups();
+    for (std::size_t i = 0; i < f.rl().V.size(); ++i) {
+        const int x = static_cast<int>(i % 100);
+        f.shadow(i, 0.01f * static_cast<float>(x) + 0.005f);
+        const bool lost = x < 12 ? i % 4 != 0 : i % 50 == 0;
+        f.rl().V[i] = lost ? 1.0f : 0.0f;
+    }
+    ScoringOptions opt;
+    opt.texel_footprint_m = 0.0f;  // no aliasing band
+    FrameScore s = f.score(opt);
+    const ClassificationEvidence& ev = s.lights[0].evidence;
+    EXPECT_EQ(ev.bias_reach_source, ScaleSource::estimated);
+    EXPECT_NEAR(ev.bias_reach_m, 0.115, 0.011);
+    EXPECT_EQ(class_of(s, 1), PixelClass::peter_panning);
+    EXPECT_EQ(class_of(s, 50), PixelClass::false_lit);
+    EXPECT_NEAR(s.lights[0].peter_panning_gap.max, 0.115, 0.011);
+}
+
+TEST(VOnly, EstimatorsAreDeterministicAndRefuseThinEvidence) {
+    std::vector<DistanceSample> samples;
+    for (int k = 0; k < 1000; ++k) samples.push_back({0.001f * static_cast<float>(k % 100), k % 100 < 10});
+    const auto band = estimate_aliasing_band_m(samples);
+    ASSERT_TRUE(band);
+    EXPECT_FLOAT_EQ(*band, 0.009f);
+    std::reverse(samples.begin(), samples.end());
+    EXPECT_EQ(estimate_aliasing_band_m(samples), band);
+    EXPECT_EQ(estimate_bias_reach_m(samples), band);
+    EXPECT_FALSE(estimate_aliasing_band_m({}));
+    EXPECT_FALSE(estimate_bias_reach_m({}));
+    // Fewer than kMinBandFlagged flagged samples: no band.
+    std::vector<DistanceSample> thin;
+    for (int k = 0; k < 1000; ++k) thin.push_back({0.001f * static_cast<float>(k), k < 10});
+    EXPECT_FALSE(estimate_aliasing_band_m(thin));
+    EXPECT_FALSE(estimate_bias_reach_m(thin));
+}
+
+TEST(VOnly, RefusesGivenScalesThatAreNotLengths) {
+    Frames f(2, 1);
+    f.drop_lookups();
+    ScoringOptions opt;
+    opt.texel_footprint_m = -1.0f;
+    EXPECT_THROW(f.score(opt), std::invalid_argument);
+    opt.texel_footprint_m.reset();
+    opt.bias_reach_m = std::nanf("");
+    EXPECT_THROW(f.score(opt), std::invalid_argument);
+}
+
 // ---- perceptual error
 
 std::vector<float> disc(int w, int h, float radius, float inside, float outside) {
@@ -239,21 +391,35 @@ TEST(Perceptual, SmallShiftOfAnEdgeCostsLessThanAMissingShadow) {
 
 // ---- gates
 
-nlohmann::json light_with(double acne_rate, double gap_max) {
-    nlohmann::json j = to_json(LightScore{});
-    j["rates"]["acne"] = acne_rate;
-    j["peter_panning_gap"]["max"] = gap_max;
-    return j;
+LightScore light_with(std::uint64_t acne_per_10000, double gap_max) {
+    LightScore s;
+    s.pixels.scored = 10000;
+    s.counts[error_class_index(PixelClass::acne)] = acne_per_10000;
+    s.peter_panning_gap.max = gap_max;
+    return s;
+}
+
+std::vector<Light> lights_of(std::initializer_list<LightType> types) {
+    std::vector<Light> lights;
+    for (LightType t : types) lights.emplace_back().type = t;
+    return lights;
+}
+
+const std::vector<Light> kTwoSuns = lights_of({LightType::directional, LightType::directional});
+
+Gate gate_file(const char* text, const std::vector<Light>& lights = kTwoSuns) {
+    return parse_gate(nlohmann::json::parse(text), "gate.json", lights, GateOrigin::file);
 }
 
 TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
-    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
-        {"metric": "peter_panning_gap.max", "max": 0.05, "light": 1}]})"),
-                        "gate.json", 2);
-    GateResult ok = evaluate_gate(g, {light_with(0.0005, 1.0), light_with(0.0, 0.01)});
+    Gate g = gate_file(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
+        {"metric": "peter_panning_gap.max", "max": 0.05, "light": 1}]})");
+    const std::vector<LightScore> good = {light_with(5, 1.0), light_with(0, 0.01)};
+    GateResult ok = evaluate_gate(g, good);
     EXPECT_TRUE(ok.passed);
     EXPECT_EQ(ok.outcomes.size(), 3u);  // acne on both lights, gap on light 1
-    GateResult bad = evaluate_gate(g, {light_with(0.0123, 1.0), light_with(0.0, 0.07)});
+    const std::vector<LightScore> worse = {light_with(123, 1.0), light_with(0, 0.07)};
+    GateResult bad = evaluate_gate(g, worse);
     EXPECT_FALSE(bad.passed);
     ASSERT_EQ(bad.outcomes.size(), 3u);
     EXPECT_EQ(bad.outcomes[0].failure(), "light 0: rates.acne = 0.0123 > 0.001");
@@ -262,19 +428,34 @@ TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
     EXPECT_EQ(bad.outcomes[0].name(), "rates.acne <= 0.001");
 }
 
-TEST(Gate, MinimumBoundsAndEmptyGates) {
-    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "pixels.scored", "min": 100}]})"), "g", 1);
-    nlohmann::json l = to_json(LightScore{});
-    l["pixels"]["scored"] = 50;
-    GateResult r = evaluate_gate(g, {l});
+TEST(Gate, MinimumBounds) {
+    Gate g = gate_file(R"({"checks": [{"metric": "pixels.scored", "min": 100}]})", lights_of({LightType::spot}));
+    LightScore l;
+    l.pixels.scored = 50;
+    GateResult r = evaluate_gate(g, std::span(&l, 1));
     EXPECT_FALSE(r.passed);
     EXPECT_EQ(r.outcomes[0].failure(), "light 0: pixels.scored = 50 < 100");
-    EXPECT_TRUE(evaluate_gate(parse_gate(nlohmann::json::object(), "g", 1), {l}).passed);
 }
 
-void expect_gate_error(const char* text, const std::string& fragment, std::size_t lights = 2) {
+TEST(Gate, EveryMetricOfTheTableCanBeChecked) {
+    Frames f = test::Frames(4, 2);
+    ScoringOptions opt;
+    opt.soft = true;
+    const LightScore area = f.score(opt).lights[0];
+    for (const Metric& m : metric_table()) {
+        const std::string text = fmt::format(R"({{"checks": [{{"metric": "{}", "max": 1e9}}]}})", m.path);
+        const Gate g = gate_file(text.c_str(), lights_of({LightType::rect}));
+        const GateResult r = evaluate_gate(g, std::span(&area, 1));
+        ASSERT_EQ(r.outcomes.size(), 1u) << m.path;
+        EXPECT_TRUE(r.passed) << m.path;
+        EXPECT_EQ(r.outcomes[0].value, *value_of(m, area)) << m.path;
+    }
+}
+
+void expect_gate_error(const char* text, const std::string& fragment, const std::vector<Light>& lights = kTwoSuns,
+                       GateOrigin origin = GateOrigin::file) {
     try {
-        parse_gate(nlohmann::json::parse(text), "gate.json", lights);
+        parse_gate(nlohmann::json::parse(text), "gate.json", lights, origin);
         ADD_FAILURE() << "accepted: " << text;
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
@@ -283,7 +464,7 @@ void expect_gate_error(const char* text, const std::string& fragment, std::size_
 
 TEST(Gate, BadGatesNameThePathAndWhatWasExpected) {
     expect_gate_error(R"({"checks": [{"metric": "rates.acn", "max": 1}]})",
-                      "checks[0].metric: unknown metric \"rates.acn\"");
+                      "gate.json: checks[0].metric: unknown metric \"rates.acn\"");
     expect_gate_error(R"({"checks": [{"metric": "rates", "max": 1}]})", "checks[0].metric");
     expect_gate_error(R"({"checks": [{"metric": "mae"}]})", "checks[0]: a check needs \"max\" or \"min\"");
     expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "light": 2}]})", "checks[0].light");
@@ -291,6 +472,119 @@ TEST(Gate, BadGatesNameThePathAndWhatWasExpected) {
     expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1, "limit": 2}]})", "checks[0].limit");
     expect_gate_error(R"({"checks": {"metric": "mae"}})", "checks");
     expect_gate_error(R"({"check": []})", "check");
+    expect_gate_error(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1, "light": 1}]})",
+                      "checks[0].light: soft.penumbra_mae applies to area lights only, and light 1 is a directional "
+                      "light");
+}
+
+TEST(Gate, AnUnknownMetricListsTheTable) {
+    try {
+        gate_file(R"({"checks": [{"metric": "acne", "max": 1}]})");
+        FAIL() << "accepted an unknown metric";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        for (const Metric& m : metric_table()) {
+            EXPECT_NE(what.find(std::string(m.path) + " ("), std::string::npos) << m.path;
+            EXPECT_NE(what.find(std::string(m.meaning)), std::string::npos) << m.meaning;
+        }
+    }
+}
+
+TEST(Gate, AGateGivenExplicitlyMustCheckSomething) {
+    // No "gate" in the scenario reads as {}: no gate, nothing to check, fine.
+    EXPECT_TRUE(parse_gate(nlohmann::json::object(), "s.json: gate", kTwoSuns, GateOrigin::scenario).checks.empty());
+    // The same {} from a --gate file was given on purpose, and checks nothing.
+    expect_gate_error("{}", "gate.json: the gate checks nothing: it has no \"checks\"");
+    expect_gate_error(R"({"checks": []})", "gate.json: the gate checks nothing: its \"checks\" are empty", kTwoSuns,
+                      GateOrigin::scenario);
+    expect_gate_error(R"({"checks": [{"metric": "mae", "max": 1}]})",
+                      "gate.json: the gate checks nothing: the scenario has no lights", {});
+    expect_gate_error(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1}]})",
+                      "gate.json: the gate checks nothing: its checks apply to area lights only, and the scenario "
+                      "has none");
+    // One area light among punctual ones: the soft check has a light to check.
+    EXPECT_EQ(gate_file(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1}]})",
+                        lights_of({LightType::spot, LightType::disk}))
+                  .checks.size(),
+              1u);
+}
+
+TEST(Gate, AMetricTheLightDoesNotMeasureFailsTheCheck) {
+    Frames f(2, 1);
+    f.drop_lookups();
+    const LightScore v_only = f.score().lights[0];
+    const Gate g =
+        gate_file(R"({"checks": [{"metric": "acne_depth.max", "max": 0.01}]})", lights_of({LightType::spot}));
+    const GateResult r = evaluate_gate(g, std::span(&v_only, 1));
+    ASSERT_EQ(r.outcomes.size(), 1u);
+    EXPECT_FALSE(r.passed);
+    EXPECT_EQ(r.outcomes[0].failure(), "light 0: acne_depth.max is not measured for this light (needs <= 0.01)");
+}
+
+// ---- the metrics table
+
+TEST(MetricTable, EveryPathIsUniqueAndResolvesInTheReportObject) {
+    Frames f(4, 2);
+    ScoringOptions opt;
+    opt.soft = true;
+    const LightScore area = f.score(opt).lights[0];
+    const nlohmann::json j = to_json(area);
+    std::set<std::string_view> paths;
+    for (const Metric& m : metric_table()) {
+        EXPECT_TRUE(paths.insert(m.path).second) << "twice: " << m.path;
+        EXPECT_EQ(find_metric(m.path), &m);
+        EXPECT_NE(to_string(m.unit), "?") << m.path;
+        EXPECT_FALSE(m.meaning.empty()) << m.path;
+        std::string pointer(1, '/');
+        for (char c : m.path) pointer.push_back(c == '.' ? '/' : c);
+        const nlohmann::json& v = j.at(nlohmann::json::json_pointer(pointer));
+        ASSERT_TRUE(v.is_number()) << m.path;
+        EXPECT_EQ(v.is_number_integer(), m.unit == Unit::pixels) << m.path;
+        EXPECT_EQ(v.get<double>(), *value_of(m, area)) << m.path;
+    }
+    EXPECT_EQ(find_metric("rates"), nullptr);
+    EXPECT_EQ(find_metric("nope"), nullptr);
+}
+
+TEST(MetricTable, ScopesDecideWhatALightReports) {
+    Frames f(2, 1);
+    const LightScore punctual = f.score().lights[0];
+    const nlohmann::json j = to_json(punctual);
+    EXPECT_FALSE(j.contains("soft"));
+    EXPECT_TRUE(j.contains("acne_depth"));
+    EXPECT_EQ(j["evidence"], nlohmann::json({{"source", "depth_map_lookups"}}));
+    EXPECT_FALSE(value_of(*find_metric("soft.penumbra_mae"), punctual));
+    f.drop_lookups();
+    ScoringOptions opt;
+    opt.texel_footprint_m = 0.02f;
+    const nlohmann::json v_only = to_json(f.score(opt).lights[0]);
+    EXPECT_FALSE(v_only.contains("acne_depth")) << "not measured without the lookups";
+    EXPECT_EQ(v_only["evidence"]["source"], "oracle_geometry");
+    EXPECT_EQ(v_only["evidence"]["texel_footprint"], "given");
+    EXPECT_FLOAT_EQ(v_only["evidence"]["texel_footprint_m"].get<float>(), 0.02f);
+    EXPECT_EQ(v_only["evidence"]["bias_reach"], "not_found");
+}
+
+TEST(MetricTable, DocsListEveryMetric) {
+    std::ifstream file(std::string(PENUMBRA_SOURCE_DIR) + "/docs/metrics.md");
+    ASSERT_TRUE(file) << "docs/metrics.md";
+    const std::string docs((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    for (const Metric& m : metric_table())
+        EXPECT_NE(docs.find(metric_doc_row(m)), std::string::npos) << "docs/metrics.md lacks the row\n"
+                                                                   << metric_doc_row(m);
+}
+
+TEST(MetricTable, SummaryLineReadsTheTable) {
+    Frames f(4, 1);
+    f.rl().V[0] = 0.0f;  // one acne pixel of 4
+    EXPECT_EQ(summary_line(f.score().lights[0]),
+              "wrong 25.000% of 4 scored px: acne 25.000%  peter_panning 0.000%  aliasing 0.000%  false_shadow "
+              "0.000%  false_lit 0.000%  ");
+    f.drop_lookups();
+    ScoringOptions opt;
+    opt.texel_footprint_m = 0.01f;
+    EXPECT_NE(summary_line(f.score(opt).lights[0]).find("(V only: footprint 0.01 m given, bias reach 0 m not_found)"),
+              std::string::npos);
 }
 
 // Soft lights: a horizontal ramp from umbra through penumbra to full light, 100 px wide.
@@ -340,18 +634,17 @@ TEST(SoftScore, WidthErrorTellsHardFromWideShadows) {
 }
 
 TEST(SoftScore, GatesNameSoftNumbersAndSkipPunctualLights) {
-    Gate g = parse_gate(nlohmann::json::parse(R"({"checks": [{"metric": "soft.penumbra_mae_beyond_E", "max": 0.05}]})"),
-                        "g", 2);
+    Gate g = gate_file(R"({"checks": [{"metric": "soft.penumbra_mae_beyond_E", "max": 0.05}]})",
+                       lights_of({LightType::rect, LightType::point}));
     Frames f = soft_ramp();
     ScoringOptions opt;
     opt.soft = true;
-    const nlohmann::json area = to_json(f.score(opt).lights[0]), punctual = to_json(f.score().lights[0]);
-    GateResult r = evaluate_gate(g, {area, punctual});
+    std::vector<LightScore> lights = {f.score(opt).lights[0], f.score().lights[0]};
+    GateResult r = evaluate_gate(g, lights);
     ASSERT_EQ(r.outcomes.size(), 1u) << "the punctual light has no soft numbers to check";
     EXPECT_TRUE(r.passed);
-    nlohmann::json worse = area;
-    worse["soft"]["penumbra_mae_beyond_E"] = 0.2;
-    EXPECT_FALSE(evaluate_gate(g, {worse}).passed);
+    lights[0].soft->penumbra_mae_beyond_e = 0.2;
+    EXPECT_FALSE(evaluate_gate(g, lights).passed);
 }
 
 }  // namespace

@@ -45,6 +45,8 @@ struct Frames {
     OracleLightImage& ol() { return o.lights[0]; }
     RasterLightImage& rl() { return r.lights[0]; }
     DepthMapLookups& lk() { return *r.lights[0].lookups; }
+    // An engine's frame: V only, no depth-map lookups.
+    void drop_lookups() { r.lights[0].lookups.reset(); }
     // The true shadow at pixel i: occluder `d` metres away along the ray, boundary far away.
     void shadow(std::size_t i, float occluder_m) {
         ol().V[i] = 0.0f;

@@ -27,15 +27,18 @@ struct Fixture {
         scenario.lights.push_back(test::directional({0, -1, 0}));
         frames.shadow(5, 0.01f);  // one lost contact shadow: peter-panning (bias 0, footprint 0.01)
         score = frames.score();
-        gate = metrics::parse_gate(nlohmann::json::parse(gate_text), "gate.json", 1);
-        gate_result = metrics::evaluate_gate(gate, {metrics::to_json(score.lights[0])});
+        if (gate_text) {
+            gate = metrics::parse_gate(nlohmann::json::parse(gate_text), "gate.json", scenario.lights,
+                                       metrics::GateOrigin::file);
+            gate_result = metrics::evaluate_gate(gate, score.lights);
+        }
         in.version = "test";
         in.scenario = &scenario;
         in.scenario_file = "scenes/contact.json";
         in.technique = {{"resolution", 1024}};
         in.scoring = {metrics::ScoringOptions{}};
         in.timing = {{"oracle_s", 0.1}, {"raster_s", 0.2}, {"metrics_s", 0.01}, {"raster_ms", {{"shadow", 1.0}}}};
-        in.gate = &gate_result;
+        in.gate = gate_text ? &gate_result : nullptr;
     }
 };
 
@@ -52,8 +55,7 @@ TEST(Report, JsonHasDesignKeysAndTheGate) {
 }
 
 TEST(Report, WritesEveryFileWithLegendsAndEmbeddedImages) {
-    Fixture f(R"({})");
-    f.in.gate = nullptr;
+    Fixture f(nullptr);
     nlohmann::json r = report_json(f.in, f.score);
     test::TempDir dir;
     {
@@ -82,9 +84,44 @@ TEST(Report, WritesEveryFileWithLegendsAndEmbeddedImages) {
     EXPECT_EQ(text.find("Gate"), std::string::npos);  // no gate given, none shown
 }
 
+std::string read_text(const std::filesystem::path& file) {
+    std::ifstream in(file);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+TEST(Report, TheLightObjectsAndThePageReadTheTypedScore) {
+    Fixture f(R"({"checks": [{"metric": "acne_depth.max", "max": 0.01}]})");
+    f.frames.drop_lookups();  // an engine's frame: V only
+    metrics::ScoringOptions opt;
+    opt.texel_footprint_m = 0.01f;
+    f.in.scoring = {opt};
+    f.score = f.frames.score(opt);
+    f.gate_result = metrics::evaluate_gate(f.gate, f.score.lights);
+    nlohmann::json r = report_json(f.in, f.score);
+    nlohmann::json expected = metrics::to_json(f.score.lights[0]);
+    expected["index"] = 0;
+    expected["type"] = "directional";
+    EXPECT_EQ(r["lights"][0], expected);
+    EXPECT_EQ(r["lights"][0]["evidence"]["source"], "oracle_geometry");
+    EXPECT_EQ(r["scoring"][0]["texel_footprint_m"], 0.01f);
+    EXPECT_TRUE(r["gate"]["checks"][0]["value"].is_null());
+    test::TempDir dir;
+    {
+        OutputTransaction out(dir.path());
+        write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
+        out.commit();
+    }
+    const std::string html = read_text(dir / "report.html");
+    EXPECT_NE(html.find("the oracle&#39;s geometry (V only): texel footprint 0.01 m (given)"), std::string::npos);
+    EXPECT_NE(html.find(">acne_depth.max</td><td>not measured</td>"), std::string::npos) << "a table row";
+    EXPECT_NE(html.find(">peter_panning_gap.max</td><td>0.01</td><td>metres</td>"), std::string::npos);
+    EXPECT_NE(html.find("id=\"gate\">FAILED"), std::string::npos);
+    EXPECT_NE(junit_xml(f.in).find("acne_depth.max is not measured for this light"), std::string::npos);
+}
+
 TEST(Report, JunitHasOneTestcasePerLightAndCheck) {
     Fixture f(R"({"checks": [{"metric": "rates.peter_panning", "max": 0.5}, {"metric": "mae", "max": 0.0}]})");
-    const std::string xml = junit_xml(report_json(f.in, f.score));
+    const std::string xml = junit_xml(f.in);
     std::size_t cases = 0;
     for (std::size_t at = 0; (at = xml.find("<testcase ", at)) != std::string::npos; ++at) ++cases;
     EXPECT_EQ(cases, 2u);
