@@ -1,0 +1,30 @@
+// Validates a scenario in-process through the installed penumbra package and prints each
+// light's verdict numbers as JSON (what report.json's "lights" holds), for the package test to
+// compare with the command line's.
+#include <penumbra/penumbra.h>
+
+#include <cstdio>
+#include <iostream>
+
+int main(int argc, char** argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: consumer SCENARIO\n");
+        return 2;
+    }
+    try {
+        const penumbra::Scenario sc = penumbra::load_scenario(argv[1]);
+        const auto technique = penumbra::raster::parse_technique(sc.technique, "technique", sc.lights);
+        const auto gate =
+            penumbra::metrics::parse_gate(sc.gate, "gate", sc.lights, penumbra::metrics::GateOrigin::scenario);
+        penumbra::ValidateOptions options;
+        options.use_cache = false;
+        const penumbra::ValidateResult r = penumbra::validate(sc, technique, gate, options);
+        nlohmann::json lights = nlohmann::json::array();
+        for (const auto& l : r.score.lights) lights.push_back(penumbra::metrics::to_json(l));
+        std::cout << nlohmann::json{{"version", penumbra::version_string()}, {"lights", lights}}.dump() << "\n";
+        return r.passed() ? 0 : 1;
+    } catch (const penumbra::InputError& e) {
+        std::fprintf(stderr, "error: %s\n", e.what());
+        return 2;
+    }
+}

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# The CMake package end to end: install the build into a temporary prefix, configure and build
+# a project outside the tree against it (tests/package/consumer), run its in-process validate on
+# data/default, and require the same verdict numbers as `penumbra validate` on the same scenario.
+# Usage: package_test.sh BUILD_DIR SOURCE_DIR PENUMBRA_EXE
+set -euo pipefail
+build=$1 src=$2 exe=$3
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+cmake --install "$build" --prefix "$tmp/prefix" >/dev/null
+[[ -f $tmp/prefix/include/penumbra/penumbra.h ]] || fail "no umbrella header installed"
+[[ -f $tmp/prefix/lib/cmake/penumbra/penumbraConfig.cmake ]] || fail "no penumbraConfig.cmake installed"
+cmake -S "$src/tests/package/consumer" -B "$tmp/consumer" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$tmp/prefix" >/dev/null || fail "the consumer does not configure against the package"
+cmake --build "$tmp/consumer" >/dev/null || fail "the consumer does not build against the package"
+# The consumer sees only the installed files: nothing of the source tree is on its include path.
+grep -q -- "-I$src\b\|isystem $src\b" "$tmp/consumer/build.ninja" && fail "the consumer's include path names the source tree"
+
+scenario=$src/data/default/scenario.json
+export PENUMBRA_CACHE_DIR=$tmp/cache
+"$tmp/consumer/consumer" "$scenario" >"$tmp/inprocess.json" || fail "the consumer's validate failed"
+"$exe" validate "$scenario" --out "$tmp/cli" --no-cache -q || fail "penumbra validate failed"
+python3 - "$tmp/inprocess.json" "$tmp/cli/report.json" "$("$exe" --version)" <<'PY'
+import json, sys
+inproc = json.load(open(sys.argv[1]))
+report = json.load(open(sys.argv[2]))
+assert sys.argv[3] == "penumbra " + inproc["version"], f"version {inproc['version']} != {sys.argv[3]}"
+cli = [{k: v for k, v in l.items() if k not in ("index", "type")} for l in report["lights"]]
+assert len(inproc["lights"]) == 3, "data/default has three lights"
+for i, (a, b) in enumerate(zip(inproc["lights"], cli)):
+    assert a == b, f"light {i}: in-process {a} != CLI {b}"
+    assert a["pixels"]["scored"] > 10000, f"light {i}: too few scored pixels"
+    assert sum(a["counts"].values()) > 0, f"light {i}: the default technique should leave some wrong pixels"
+print("package: in-process verdicts equal the CLI's on", len(cli), "lights")
+PY
