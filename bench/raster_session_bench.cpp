@@ -9,7 +9,9 @@
 //   slope     bias.slope changes: shadow pass + lookup (the map must be drawn again)
 //   world     bias.world changes: lookup only (the map is still in place)
 //   filter    filter.type changes: a lookup pipeline per filter (cached after the first)
-// Wall clock of render() per call, including the read-back of V and the lookups.
+// Wall clock of render() per call, including the read-back: with every lookup (what validate
+// reads) and with V alone (RenderOptions::lookups = false, what tune's and sweep's objectives
+// read).
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -38,9 +40,8 @@ raster::Technique technique(const nlohmann::json& change) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    int repeat = 5;
+    int repeat = 7;
     std::string device;
-    bool lookups = true;
     std::filesystem::path scenario_file = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json";
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
@@ -50,11 +51,8 @@ int main(int argc, char** argv) {
             device = argv[++i];
         else if (a == "--scenario" && i + 1 < argc)
             scenario_file = argv[++i];
-        else if (a == "--v-only")
-            lookups = false;
         else {
-            std::fprintf(stderr,
-                         "usage: raster_session_bench [--repeat N] [--device D] [--scenario FILE] [--v-only]\n");
+            std::fprintf(stderr, "usage: raster_session_bench [--repeat N] [--device D] [--scenario FILE]\n");
             return 2;
         }
     }
@@ -64,38 +62,42 @@ int main(int argc, char** argv) {
         raster::ContextOptions co;
         co.device = device;
         raster::VulkanContext ctx(co);
-        std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light, 2048^2 map, %s\n",
+        std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light, 2048^2 map; median of %d\n",
                     ctx.info().name.c_str(), ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height,
-                    lookups ? "V + lookups read back" : "V only read back");
-        raster::RenderOptions options;
-        options.lookups = lookups;
-
-        std::vector<double> cold;
-        for (int r = 0; r < repeat; ++r) {
-            auto t0 = SteadyClock::now();
-            raster::RasterSession session(sc, ctx);
-            session.render(technique(nlohmann::json::object()), options);
-            cold.push_back(seconds_since(t0));
-        }
-        const double cold_s = median(cold);
-        std::printf("%-8s %10s %10s %8s\n", "change", "median ms", "min ms", "warm/cold");
-        std::printf("%-8s %10.1f %10.1f %8s\n", "cold", cold_s * 1e3, *std::min_element(cold.begin(), cold.end()) * 1e3,
-                    "1.00");
-        const std::vector<std::pair<std::string, std::vector<nlohmann::json>>> changes = {
-            {"slope", {{{"bias", {{"slope", 1.0}}}}, {{"bias", {{"slope", 2.0}}}}}},
-            {"world", {{{"bias", {{"world", 0.01}}}}, {{"bias", {{"world", 0.02}}}}}},
-            {"filter", {{{"filter", {{"type", "pcf"}}}}, {{"filter", {{"type", "poisson"}}}}}}};
-        for (const auto& [name, variants] : changes) {
-            raster::RasterSession session(sc, ctx);
-            for (const auto& v : variants) session.render(technique(v), options);  // first use builds
-            std::vector<double> warm;
+                    repeat);
+        std::printf("ratios against the cold run with lookups (what validate and run_raster pay)\n");
+        std::printf("%-8s %-8s %10s %10s %8s\n", "change", "output", "median ms", "min ms", "/cold");
+        double cold_s = 0;
+        for (bool lookups : {true, false}) {
+            raster::RenderOptions options;
+            options.lookups = lookups;
+            const char* output = lookups ? "lookups" : "V only";
+            std::vector<double> cold;
             for (int r = 0; r < repeat; ++r) {
                 auto t0 = SteadyClock::now();
-                session.render(technique(variants[static_cast<std::size_t>(r) % variants.size()]), options);
-                warm.push_back(seconds_since(t0));
+                raster::RasterSession session(sc, ctx);
+                session.render(technique(nlohmann::json::object()), options);
+                cold.push_back(seconds_since(t0));
             }
-            std::printf("%-8s %10.1f %10.1f %8.2f\n", name.c_str(), median(warm) * 1e3,
-                        *std::min_element(warm.begin(), warm.end()) * 1e3, median(warm) / cold_s);
+            if (lookups) cold_s = median(cold);
+            std::printf("%-8s %-8s %10.1f %10.1f %8.2f\n", "cold", output, median(cold) * 1e3,
+                        *std::min_element(cold.begin(), cold.end()) * 1e3, median(cold) / cold_s);
+            const std::vector<std::pair<std::string, std::vector<nlohmann::json>>> changes = {
+                {"slope", {{{"bias", {{"slope", 1.0}}}}, {{"bias", {{"slope", 2.0}}}}}},
+                {"world", {{{"bias", {{"world", 0.01}}}}, {{"bias", {{"world", 0.02}}}}}},
+                {"filter", {{{"filter", {{"type", "pcf"}}}}, {{"filter", {{"type", "poisson"}}}}}}};
+            for (const auto& [name, variants] : changes) {
+                raster::RasterSession session(sc, ctx);
+                for (const auto& v : variants) session.render(technique(v), options);  // first use builds
+                std::vector<double> warm;
+                for (int r = 0; r < repeat; ++r) {
+                    auto t0 = SteadyClock::now();
+                    session.render(technique(variants[static_cast<std::size_t>(r) % variants.size()]), options);
+                    warm.push_back(seconds_since(t0));
+                }
+                std::printf("%-8s %-8s %10.1f %10.1f %8.2f\n", name.c_str(), output, median(warm) * 1e3,
+                            *std::min_element(warm.begin(), warm.end()) * 1e3, median(warm) / cold_s);
+            }
         }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "raster_session_bench: %s\n", e.what());

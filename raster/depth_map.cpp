@@ -110,7 +110,7 @@ UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout l
 }
 
 // The lookup set, declared once: the layout, the pool and the writes come from this table.
-constexpr std::array<BindingDecl, 9> kLookupBindings = {{
+constexpr std::array<BindingDecl, 10> kLookupBindings = {{
     {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
     {gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingIndices, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
@@ -120,6 +120,7 @@ constexpr std::array<BindingDecl, 9> kLookupBindings = {{
     {gpu::kBindingLookupParams, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER},
     {gpu::kBindingLookupOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingFaceMask, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingVisibilityOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
 }};
 
 // Everything a shadow pass's map depends on: equal keys draw equal maps.
@@ -140,9 +141,11 @@ class DepthMapFamily final : public TechniqueFamily {
                 RasterStats& stats) override;
 
   private:
-    // Per light: its uniform parameters, its lookup output, the cube-face mask.
+    // Per light: its uniform parameters, the cube-face mask, and its output: every lookup
+    // (36 bytes a pixel) or V alone (4 bytes), each with a host copy on GPUs.
     struct Slot {
-        GpuBuffer params, output, readback, mask;
+        GpuBuffer params, mask;
+        GpuBuffer lookups, lookups_host, visibility, visibility_host;
     };
 
     void check_supported(const Technique& t, RasterStats& stats);
@@ -157,6 +160,7 @@ class DepthMapFamily final : public TechniqueFamily {
     void record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li, RasterLightStats& ls,
                       const RenderOptions& options);
     RasterLightImage read_back(std::size_t li, bool lookups) const;
+    const GpuBuffer& host_copy(const Slot& slot, bool lookups) const;
 
     const SceneOnGpu& s_;
     const VulkanContext& ctx_;
@@ -264,16 +268,19 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::uint32_t layers) {
 }
 
 void DepthMapFamily::ensure_slots(std::size_t n) {
-    const VkDeviceSize bytes = s_.pixels * sizeof(gpu::LookupTexel);
+    // A GPU writes its output into its own memory and copies it back once; a CPU device
+    // writes it where it is read.
+    auto output = [&](GpuBuffer& device, GpuBuffer& host, VkDeviceSize bytes) {
+        device = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                               direct_readback_);
+        if (!direct_readback_) host = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    };
     while (slots_.size() < n) {
         Slot slot;
         slot.params = create_buffer(ctx_, sizeof(gpu::LookupParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, true);
-        // A GPU writes the lookups into its own memory and copies them back once; a CPU
-        // device writes them where they are read.
-        slot.output = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                    direct_readback_);
-        if (!direct_readback_) slot.readback = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
         slot.mask = create_buffer(ctx_, 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+        output(slot.lookups, slot.lookups_host, s_.pixels * sizeof(gpu::LookupTexel));
+        output(slot.visibility, slot.visibility_host, s_.pixels * sizeof(float));
         slots_.push_back(std::move(slot));
     }
     sets_.reserve(n);
@@ -396,8 +403,9 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
         map_content_ = content;
     }
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                      lookup_pipeline(t, light_kind(light.type), gpu::kModeLookup));
+    vkCmdBindPipeline(
+        cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+        lookup_pipeline(t, light_kind(light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
     VkDescriptorSet set = sets_[li];
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
@@ -410,21 +418,29 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     }
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    VkBufferCopy region{0, 0, s_.pixels * sizeof(gpu::LookupTexel)};
-    vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.readback.buffer.get(), 1, &region);
+    const GpuBuffer& written = options.lookups ? slot.lookups : slot.visibility;
+    VkBufferCopy region{0, 0, written.size};
+    vkCmdCopyBuffer(cmd, written.buffer.get(), host_copy(slot, options.lookups).buffer.get(), 1, &region);
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                    VK_ACCESS_2_HOST_READ_BIT);
 }
 
+const GpuBuffer& DepthMapFamily::host_copy(const Slot& slot, bool lookups) const {
+    if (lookups) return direct_readback_ ? slot.lookups : slot.lookups_host;
+    return direct_readback_ ? slot.visibility : slot.visibility_host;
+}
+
 RasterLightImage DepthMapFamily::read_back(std::size_t li, bool lookups) const {
-    const Slot& slot = slots_[li];
-    const auto* texels =
-        static_cast<const gpu::LookupTexel*>(direct_readback_ ? slot.output.mapped : slot.readback.mapped);
     const std::size_t n = s_.pixels;
     RasterLightImage img;
+    if (!lookups) {
+        const auto* v = static_cast<const float*>(host_copy(slots_[li], false).mapped);
+        img.V.assign(v, v + n);
+        return img;
+    }
+    const auto* texels = static_cast<const gpu::LookupTexel*>(host_copy(slots_[li], true).mapped);
     img.V.resize(n);
     for (std::size_t i = 0; i < n; ++i) img.V[i] = texels[i].V;
-    if (!lookups) return img;
     DepthMapLookups& lk = img.lookups.emplace();
     lk.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -488,8 +504,9 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         r[4].image = {nearest_.get(), shadow_prim_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         r[5].image = {compare, shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         r[6].buffer = {slot.params.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[7].buffer = {slot.output.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[7].buffer = {slot.lookups.buffer.get(), 0, VK_WHOLE_SIZE};
         r[8].buffer = {slot.mask.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[9].buffer = {slot.visibility.buffer.get(), 0, VK_WHOLE_SIZE};
         sets_.write(li, r);
     }
     stats.setup_s += seconds_since(t0);

@@ -28,6 +28,13 @@ layout(binding = kBindingShadowCompare) uniform sampler2DArrayShadow shadow_comp
 layout(std140, binding = kBindingLookupParams) uniform Params { LookupParams p; };
 layout(std430, binding = kBindingLookupOut) writeonly buffer Out { LookupTexel texels[]; };
 layout(std430, binding = kBindingFaceMask) buffer FaceMask { uint face_mask; };
+layout(std430, binding = kBindingVisibilityOut) writeonly buffer VisibilityOut { float visibility[]; };
+
+// The verdict of pixel `i`: with every lookup behind it, or V alone.
+void store(uint i, LookupTexel o) {
+    if (kMode == kModeLookup) texels[i] = o;
+    if (kMode == kModeVisibility) visibility[i] = o.V;
+}
 
 vec3 vertex(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
 
@@ -191,7 +198,7 @@ void main() {
 
     uint id = imageLoad(gbuffer_prim, ivec2(pix)).r;
     if (id == kNoPrim) {
-        if (kMode == kModeLookup) texels[out_index] = o;
+        store(out_index, o);
         return;
     }
     o.flags = kFlagSurface;
@@ -211,12 +218,12 @@ void main() {
     vec3 to_light = kLightKind == kLightDirectional ? -p.light_dir.xyz : normalize(p.light_pos.xyz - P);
     if (dot(n, to_light) <= 0.0) {
         o.flags |= kFlagBackFacing;
-        if (kMode == kModeLookup) texels[out_index] = o;
+        store(out_index, o);
         return;
     }
     if (kLightKind == kLightSpot && dot(-to_light, p.light_dir.xyz) < p.light_dir.w) {
         o.flags |= kFlagOutsideCone;
-        if (kMode == kModeLookup) texels[out_index] = o;
+        store(out_index, o);
         return;
     }
 
@@ -234,15 +241,25 @@ void main() {
     }
 
     vec3 m = to_map(Pb, layer);
-    // Depth gradient of the receiver plane in texel units, from two tangent steps of one footprint.
-    vec3 t1 = normalize(abs(n.x) > 0.9 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
-    vec3 t2 = cross(n, t1);
     float h = max(footprint, 1e-30);
-    vec3 m1 = to_map(Pb + t1 * h, layer), m2 = to_map(Pb + t2 * h, layer);
-    mat2 J = mat2(m1.xy - m.xy, m2.xy - m.xy);
-    float det = determinant(J);
-    vec2 dz = abs(det) > 1e-20 ? vec2(m1.z - m.z, m2.z - m.z) * inverse(J) : vec2(0.0);
+    // Depth gradient of the receiver plane in texel units, from two tangent steps of one
+    // footprint: the receiver-plane bias needs it, and so do the diagnostics.
+    vec2 dz = vec2(0.0);
+    if (kReceiverPlane != 0u || kMode == kModeLookup) {
+        vec3 t1 = normalize(abs(n.x) > 0.9 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
+        vec3 t2 = cross(n, t1);
+        vec3 m1 = to_map(Pb + t1 * h, layer), m2 = to_map(Pb + t2 * h, layer);
+        mat2 J = mat2(m1.xy - m.xy, m2.xy - m.xy);
+        float det = determinant(J);
+        dz = abs(det) > 1e-20 ? vec2(m1.z - m.z, m2.z - m.z) * inverse(J) : vec2(0.0);
+    }
     m.z -= p.bias.z;  // shader-side constant bias, depth units
+    float z_receiver = kLightKind == kLightDirectional ? 0.0 : dot(Pb - p.light_pos.xyz, p.light_axis[layer].xyz);
+    if (kMode == kModeVisibility) {
+        o.V = filter_visibility(pix, layer, m, dz, z_receiver);
+        store(out_index, o);
+        return;
+    }
 
     // Everything expressed as metres along the light ray, for the peter-panning rule.
     float z_toward = to_map(Pb + to_light * h, layer).z - p.bias.z;
@@ -269,7 +286,6 @@ void main() {
         o.stored_depth = 1.0 / 0.0;
         o.flags |= kFlagOutsideMap;
     }
-    float z_receiver = kLightKind == kLightDirectional ? 0.0 : dot(Pb - p.light_pos.xyz, p.light_axis[layer].xyz);
     o.V = filter_visibility(pix, layer, m, dz, z_receiver);
-    texels[out_index] = o;
+    store(out_index, o);
 }

@@ -33,6 +33,7 @@ PENUMBRA_CONST uint kBindingShadowCompare = 5;  // sampler2DArrayShadow, linear 
 PENUMBRA_CONST uint kBindingLookupParams = 6;   // uniform LookupParams
 PENUMBRA_CONST uint kBindingLookupOut = 7;      // LookupTexel[pixels]
 PENUMBRA_CONST uint kBindingFaceMask = 8;       // uint: bit f = cube face f is sampled
+PENUMBRA_CONST uint kBindingVisibilityOut = 9;  // float[pixels]: V alone (kModeVisibility)
 
 // Specialization constants of the lookup shader.
 PENUMBRA_CONST uint kSpecLightKind = 0;        // kLight*
@@ -56,6 +57,7 @@ PENUMBRA_CONST uint kFilterPcss = 4;
 
 PENUMBRA_CONST uint kModeLookup = 0;    // write LookupTexel per pixel
 PENUMBRA_CONST uint kModeFaceMask = 1;  // only mark the cube faces receivers would sample
+PENUMBRA_CONST uint kModeVisibility = 2;  // write V alone, skipping the diagnostics
 
 PENUMBRA_CONST uint kMaxPoissonTaps = 64;
 

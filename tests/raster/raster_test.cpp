@@ -461,6 +461,10 @@ TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
     const raster::RasterResult v = single.render(b, v_only);
     EXPECT_FALSE(v.frame.lights[0].lookups.has_value());
     EXPECT_EQ(v.frame.lights[0].V, reused.frame.lights[0].V);
+    const raster::Technique plane = raster::parse_technique(
+        {{"bias", {{"receiver_plane", true}, {"slope", 1}}}, {"filter", {{"type", "pcf"}, {"size", 3}}}}, "plane");
+    EXPECT_EQ(single.render(plane, v_only).frame.lights[0].V, single.render(plane).frame.lights[0].V)
+        << "V alone is the V of the full lookup (receiver plane, PCF)";
 }
 
 }  // namespace
