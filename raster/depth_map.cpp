@@ -477,8 +477,6 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     ensure_slots(n);
     ensure_queries(static_cast<std::uint32_t>(2 + 3 * n));
     if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
-    // Point lights clamp inside a face; 2D maps read a lit border.
-    const VkSampler compare = compare_sampler(hardware_compare_, !any_point);
 
     const Scenario& sc = s_.scenario;
     stats.lights.resize(n);
@@ -502,6 +500,10 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         r[2].buffer = {s_.indices.buffer.get(), 0, VK_WHOLE_SIZE};
         r[3].image = {nearest_.get(), shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         r[4].image = {nearest_.get(), shadow_prim_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        // Each light its own compare sampler: a cube face clamps to its edge, a 2D map reads a
+        // lit border (one sampler for all lights made a sun's lookup outside its map read the
+        // edge texel wherever a point light was drawn too, on devices that filter depth).
+        const VkSampler compare = compare_sampler(hardware_compare_, light.type != LightType::point);
         r[5].image = {compare, shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         r[6].buffer = {slot.params.buffer.get(), 0, VK_WHOLE_SIZE};
         r[7].buffer = {slot.lookups.buffer.get(), 0, VK_WHOLE_SIZE};

@@ -467,5 +467,43 @@ TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
         << "V alone is the V of the full lookup (receiver plane, PCF)";
 }
 
+// A sun whose map covers only the near view, drawn with a point light beside it: every lookup
+// outside the sun's map reads as lit, with the 2x2 compare filter too. With one compare sampler
+// for every light, clamped to the edge for the point light's sake, a device that filters depth
+// read the map's edge texel there instead (never lavapipe, which emulates the filter): the
+// light travels away from the camera, so receivers beyond the map lie deeper than its far edge
+// and an edge read shadows them.
+TEST_F(Raster, ALookupOutsideADirectionalMapIsLitBesideAPointLight) {
+    test::SceneBuilder b;
+    b.quad({-4, 0, -40}, {-4, 0, 4}, {4, 0, 4}, {4, 0, -40});
+    for (int k = 0; k < 6; ++k) b.box({-1, 0, -6.0 * k - 1}, {1, 1.5, -6.0 * k + 1});
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 3, 6}, {0, 0, -20}, 50),
+                                      {test::directional({0.3, -1, -0.4}), test::point({0, 4, 2})}, 240, 160);
+    raster::RasterResult r =
+        render(sc, {{"fit", "camera_frustum"}, {"shadow_distance", 7.0}, {"filter", {{"type", "hw2x2"}}}});
+    const RasterLightImage& sun = r.frame.lights[0];
+    const int W = sc.width, H = sc.height;
+    auto in_map = [&](int x, int y) {
+        const std::uint32_t f = sun.lookups->flags[static_cast<std::size_t>(y) * W + x];
+        return (f & kRasterSurface) && !(f & kRasterOutsideMap);
+    };
+    // Pixels a few pixels away from the map's edge: a 2x2 filter at the edge legitimately
+    // reaches one texel into the map.
+    std::size_t outside = 0, dark = 0;
+    for (int y = 3; y < H - 3; ++y)
+        for (int x = 3; x < W - 3; ++x) {
+            const std::uint32_t f = sun.lookups->flags[static_cast<std::size_t>(y) * W + x];
+            if (!(f & kRasterOutsideMap) || (f & kRasterBackFacing)) continue;
+            bool near_edge = false;
+            for (int dy = -3; dy <= 3 && !near_edge; ++dy)
+                for (int dx = -3; dx <= 3 && !near_edge; ++dx) near_edge = in_map(x + dx, y + dy);
+            if (near_edge) continue;
+            ++outside;
+            dark += sun.V[static_cast<std::size_t>(y) * W + x] < 1.0f;
+        }
+    EXPECT_GT(outside, 300u) << "the view reaches beyond the sun's map";
+    EXPECT_EQ(dark, 0u) << "lookups outside the sun's map must read the lit border (hw2x2 " << r.stats.hw2x2 << ")";
+}
+
 }  // namespace
 }  // namespace penumbra
