@@ -288,6 +288,12 @@ void VulkanContext::release() {
     instance_ = VK_NULL_HANDLE;
 }
 
+bool VulkanContext::has_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags wanted) const {
+    for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i)
+        if ((type_bits & (1u << i)) && (memory_.memoryTypes[i].propertyFlags & wanted) == wanted) return true;
+    return false;
+}
+
 std::uint32_t VulkanContext::memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags wanted) const {
     for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i)
         if ((type_bits & (1u << i)) && (memory_.memoryTypes[i].propertyFlags & wanted) == wanted) return i;
@@ -373,9 +379,14 @@ GpuBuffer create_buffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsa
     b.buffer = UniqueBuffer(ctx.device(), buf);
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(ctx.device(), buf, &req);
-    VkMemoryPropertyFlags flags = host_visible
-                                      ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
-                                      : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    VkMemoryPropertyFlags flags = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    if (host_visible) {
+        // Host-visible buffers are read back (lookups, the camera pass): cached memory where the
+        // device has it, since reading uncached, write-combined memory is many times slower.
+        flags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+        if (ctx.has_memory_type(req.memoryTypeBits, flags | VK_MEMORY_PROPERTY_HOST_CACHED_BIT))
+            flags |= VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+    }
     b.memory = allocate(ctx, req, flags);
     VK_CHECK(vkBindBufferMemory(ctx.device(), buf, b.memory.get(), 0));
     if (host_visible) VK_CHECK(vkMapMemory(ctx.device(), b.memory.get(), 0, VK_WHOLE_SIZE, 0, &b.mapped));

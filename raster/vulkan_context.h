@@ -51,6 +51,7 @@ class VulkanContext {
     const std::vector<std::string>& validation_messages() const { return messages_; }
 
     std::uint32_t memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags wanted) const;
+    bool has_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags wanted) const;
     bool supports_linear_depth_compare(VkFormat format) const;
     bool supports_depth_attachment(VkFormat format) const;
 

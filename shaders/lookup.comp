@@ -86,13 +86,17 @@ float tap_at(vec2 uv, uint layer, vec3 m, vec2 dz) {
 
 // Bilinearly weighted 2x2 compare around uv, as a linear comparison sampler does.
 float tap_bilinear(vec2 uv, uint layer, vec3 m, vec2 dz) {
-    if (kHardwareCompare != 0u) {
+    vec2 st = uv - 0.5;
+    vec2 base = floor(st);
+    // The linear comparison sampler where its four texels lie in the map. Across a 2D map's edge
+    // the shader's own weights run instead: they read every texel outside as lit, while a border
+    // texel compares as depth 1.0 and shadows a float reference beyond the map's far plane.
+    bool in_map = all(greaterThanEqual(base, vec2(0.0))) && all(lessThan(base + 1.0, vec2(p.map.x)));
+    if (kHardwareCompare != 0u && (in_map || kLightKind == kLightPoint)) {
         float ref = m.z + (kReceiverPlane != 0u ? dot(dz, uv - m.xy) : 0.0);
         return textureGrad(shadow_compare, vec4(uv * p.map.y, float(layer), depth_units_ref(ref)), vec2(0.0),
                            vec2(0.0));
     }
-    vec2 st = uv - 0.5;
-    vec2 base = floor(st);
     vec2 f = st - base;
     ivec2 t = ivec2(base);
     float s00 = tap_point(t, layer, ref_at(t, m, dz));
