@@ -128,7 +128,7 @@ RawFacts prevalidate(const Context& ctx, const std::string& bytes, bool binary) 
     std::string_view json_text;
     if (binary) {
         std::uint32_t header[5] = {};  // magic, version, length, chunk 0 length, chunk 0 type
-        if (bytes.size() >= 20) std::memcpy(header, bytes.data(), sizeof header);
+        std::memcpy(header, bytes.data(), std::min(bytes.size(), sizeof header));
         if (bytes.size() >= 8 && header[1] != 2)
             fail(ctx, "GLB header", fmt::format("version {} is not supported (penumbra reads glTF 2.0)", header[1]));
         if (bytes.size() < 20 || header[4] != 0x4E4F534Au || std::uint64_t(header[3]) + 20 > bytes.size())

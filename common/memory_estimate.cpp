@@ -18,15 +18,18 @@ namespace {
 
 constexpr std::uint64_t kUnlimited = std::numeric_limits<std::uint64_t>::max();
 
-// Peak bytes per pixel, measured with /usr/bin/time on validate, oracle and raster runs at
-// 1024^2 and 2048^2 with 1 and 3 lights (docs/testing.md), rounded up.
-constexpr std::uint64_t kOraclePerPixel = 64;         // A, prim, depth, P, N and the tracer's tiles
-constexpr std::uint64_t kOraclePerPixelLight = 40;    // V, E, U, lightable, distances
-constexpr std::uint64_t kOracleAreaPerPixel = 96;     // surface points kept for area sampling
-constexpr std::uint64_t kRasterPerPixel = 64;         // camera pass targets and their read-back
-constexpr std::uint64_t kRasterPerPixelLight = 112;   // lookup targets, read-back, RasterLightImage
-constexpr std::uint64_t kMetricsPerPixel = 64;        // class maps, previews
-constexpr std::uint64_t kMetricsPerPixelLight = 160;  // errors.exr channels, PNG maps, scores
+// Peak bytes per pixel, fit to /usr/bin/time peaks of each command at 1024^2 and 2048^2 with 1
+// and 3 lights on data/default (docs/testing.md, "Memory estimate"), plus 15%. The commands
+// alone write their frames (EXR interleave buffers, previews), which validate does not.
+struct PerPixel {
+    std::uint64_t base, per_light;
+};
+constexpr PerPixel kOracleAlone{128, 84};      // measured 110 + 73 per light
+constexpr PerPixel kRasterAlone{28, 124};      // measured 24 + 107 per light drawn
+constexpr PerPixel kOracleInValidate{56, 40};  // validate measured 104 + 80 per light in all:
+constexpr PerPixel kRasterInValidate{16, 40};  // these three sum to 120 + 92 per light
+constexpr PerPixel kMetrics{48, 12};
+constexpr std::uint64_t kOracleAreaPerPixel = 96;  // surface points kept for area sampling
 
 // Saturating arithmetic: absurd inputs must give a huge estimate, not a wrapped small one.
 std::uint64_t mul(std::uint64_t a, std::uint64_t b) {
@@ -66,22 +69,24 @@ MemoryEstimate estimate_memory(const MemoryInputs& in) {
     const std::string image = fmt::format("{}x{} px", in.width, in.height);
     e.terms.push_back({fmt::format("scene ({} triangles, {} vertices)", in.triangles, in.vertices),
                        add(mul(in.triangles, kBytesPerTriangle), mul(in.vertices, kBytesPerVertex))});
+    const bool validate = in.oracle && in.raster;
+    auto per_pixel = [&](PerPixel c, std::uint64_t lights) { return mul(px, add(c.base, mul(lights, c.per_light))); };
     if (in.oracle) {
-        std::uint64_t per_px = add(kOraclePerPixel, mul(in.lights, kOraclePerPixelLight));
-        if (in.area_lights) per_px = add(per_px, kOracleAreaPerPixel);
-        e.terms.push_back({fmt::format("oracle frame ({}, {} lights)", image, in.lights), mul(px, per_px)});
+        std::uint64_t bytes = per_pixel(validate ? kOracleInValidate : kOracleAlone, in.lights);
+        if (in.area_lights) bytes = add(bytes, mul(px, kOracleAreaPerPixel));
+        e.terms.push_back({fmt::format("oracle frame ({}, {} lights)", image, in.lights), bytes});
     }
     if (in.raster) {
         e.terms.push_back({fmt::format("raster frame ({}, {} lights drawn)", image, in.raster_lights),
-                           mul(px, add(kRasterPerPixel, mul(in.raster_lights, kRasterPerPixelLight)))});
+                           per_pixel(validate ? kRasterInValidate : kRasterAlone, in.raster_lights)});
         const std::uint64_t texels = mul(mul(in.shadow_resolution, in.shadow_resolution), in.shadow_layers);
         e.terms.push_back({fmt::format("shadow map ({}^2 x {} layers x {} bytes)", in.shadow_resolution,
                                        in.shadow_layers, in.shadow_texel_bytes),
                            mul(texels, in.shadow_texel_bytes)});
     }
     if (in.metrics)
-        e.terms.push_back({fmt::format("metrics and report ({}, {} lights)", image, in.lights),
-                           mul(px, add(kMetricsPerPixel, mul(in.lights, kMetricsPerPixelLight)))});
+        e.terms.push_back(
+            {fmt::format("metrics and report ({}, {} lights)", image, in.lights), per_pixel(kMetrics, in.lights)});
     return e;
 }
 

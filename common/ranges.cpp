@@ -89,8 +89,7 @@ std::optional<RangeProblem> light_problem(const Light& l) {
         case LightType::rect: {
             if (auto p = position_problem(l.position, "center")) return p;
             if (auto p = extent_problem(safe_length(l.u), "u", "edge length")) return p;
-            if (auto p = extent_problem(safe_length(l.v), "v", "edge length")) return p;
-            return unit_problem(l.normal, "v");
+            return extent_problem(safe_length(l.v), "v", "edge length");
         }
         case LightType::disk:
             if (auto p = position_problem(l.position, "center")) return p;
