@@ -137,7 +137,7 @@ void add_technique(CLI::App* cmd, TechniqueArgs& t) {
     cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")");
     cmd->add_option("--preset", t.preset, "Start from a named preset (see below)")->check(utf8_problem);
     cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)")
-        ->check(utf8_problem);
+        ->check(set_assignment_problem);
     cmd->add_option("--device", t.device,
                     "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
     std::string text = "Presets:\n";

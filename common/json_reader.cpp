@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -76,6 +77,16 @@ std::string utf8_problem(const std::string& text) {
     return is_valid_utf8(text)
                ? std::string()
                : fmt::format("\"{}\" is not valid UTF-8 (names and keys must be)", escape_non_utf8(text));
+}
+
+std::string set_assignment_problem(const std::string& text) {
+    if (std::string problem = utf8_problem(text); !problem.empty()) return problem;
+    const std::string key = text.substr(0, text.find('='));
+    const auto segments = static_cast<std::size_t>(std::count(key.begin(), key.end(), '.')) + 1;
+    if (segments > static_cast<std::size_t>(kMaxJsonDepth))
+        return fmt::format("the key path has {} segments, more than the {} levels a technique may nest", segments,
+                           kMaxJsonDepth);
+    return {};
 }
 
 std::string json_excerpt(const json& value, std::size_t max_chars) {

@@ -41,6 +41,9 @@ bool is_valid_utf8(std::string_view text);
 // is wrong. CLI::Range lets NaN through, since every comparison with NaN is false.
 std::string finite_number_problem(const std::string& text);
 std::string utf8_problem(const std::string& text);
+// --set KEY.PATH=VALUE: UTF-8, and a key path of at most kMaxJsonDepth segments (each segment
+// nests the technique one level deeper).
+std::string set_assignment_problem(const std::string& text);
 // A short, always printable rendering of a JSON value for messages (never throws).
 std::string json_excerpt(const nlohmann::json& value, std::size_t max_chars = 60);
 

@@ -146,6 +146,9 @@ refused "row 5 --technique" 'deep_technique\.json: resolution.*nested deeper tha
 run validate "$tmp/s.json" --out "$tmp/o5g" --gate "$tmp/deep_gate.json" -q
 refused "row 5 --gate" 'deep_gate\.json: checks.*nested deeper than 64' "$tmp/o5g"
 
+run raster "$tmp/s.json" --out "$tmp/o5s" --set "$(python3 -c 'print("a." * 60000 + "b=1")')" -q
+refused "row 5 --set with a 60,000-segment key" '--set.*60001 segments' "$tmp/o5s"
+
 # Row 6: names that are not UTF-8 are refused; paths that are not UTF-8 just work.
 run raster "$tmp/s.json" --out "$tmp/o6a" --set preset=$'\xff\xfe' -q
 refused "row 6 --set" '--set.*not valid UTF-8' "$tmp/o6a"
@@ -192,6 +195,14 @@ scenario "$tmp/r8c.json" "$sun"
 sed -i 's/"width": 64, "height": 64/"width": 8192, "height": 8192/' "$tmp/r8c.json"
 run validate "$tmp/r8c.json" --out "$tmp/o8c" -q --max-memory 8G
 refused "row 8 8192^2 with one light under --max-memory 8G" 'r8c\.json: needs about .* GiB.*more than the 8\.0 GiB' "$tmp/o8c"
+(
+    ulimit -v 4000000  # a memory cap: the default budget follows RLIMIT_AS
+    run validate "$tmp/r8c.json" --out "$tmp/o8e" -q
+    echo "$rc" >"$tmp/rc8e"
+    echo "$err" >"$tmp/err8e"
+)
+rc=$(cat "$tmp/rc8e") err=$(cat "$tmp/err8e")
+refused "row 8 8192^2 with one light under ulimit -v 4 GB" 'r8c\.json: needs about .* GiB.*more than the 2\.[0-9] GiB' "$tmp/o8e"
 run oracle "$tmp/s.json" --out "$tmp/o8d" -q --max-memory lots
 refused "row 8 a bad --max-memory" '--max-memory lots' "$tmp/o8d"
 

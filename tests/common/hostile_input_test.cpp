@@ -99,6 +99,17 @@ TEST(HostileInput, DeepGltfExtrasAndDeepWronglyTypedValuesAreRefusedBeforeTinygl
     EXPECT_TRUE(contains(e, "scene.gltf: nodes[0].mesh[0]")) << e;
 }
 
+TEST(HostileInput, SetAssignmentsNestingTooDeepAreRefused) {
+    // --set a.a.a...=1 builds one object level per segment; 60,000 of them crashed the copy in
+    // parse_technique (found after the issue, same class as row 5).
+    std::string deep;
+    for (int i = 0; i < 60000; ++i) deep += "a.";
+    EXPECT_TRUE(contains(set_assignment_problem(deep + "b=1"), "60001 segments")) << set_assignment_problem(deep);
+    EXPECT_EQ(set_assignment_problem("bias.slope=1.5"), "");
+    EXPECT_EQ(set_assignment_problem("filter.type=pcf.x"), "");  // dots in the value do not count
+    EXPECT_NE(set_assignment_problem("preset=\xff"), "");
+}
+
 // ---- row 6: bytes that are not UTF-8 ---------------------------------------------------------
 
 TEST(HostileInput, NonUtf8BytesAreEscapedInMessagesNotThrown) {

@@ -12,8 +12,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         try {
             j = parse_json_strict(text, "technique.json");
         } catch (const InputError&) {
-            // The command line refuses --set values that are not UTF-8 (utf8_problem) before this.
-            if (!utf8_problem(text).empty()) return;
+            // The command line refuses these --set values before this (set_assignment_problem).
+            if (!set_assignment_problem(text).empty()) return;
             j = nlohmann::json::object();
             raster::apply_override(j, text);
         }
