@@ -40,7 +40,8 @@ struct MemoryEstimate {
 };
 
 // Bytes the flattened scene and the structures built from it (Embree BVH, GPU buffers) take
-// per triangle and per vertex.
+// per triangle and per vertex; measured 162 (oracle) + 92 (raster) per triangle with its
+// vertices on a 3.2M-triangle grid (docs/testing.md).
 inline constexpr std::uint64_t kBytesPerTriangle = 256;
 inline constexpr std::uint64_t kBytesPerVertex = 72;
 
