@@ -3,9 +3,11 @@
 #include <OpenImageIO/hash.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/strutil.h>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -126,7 +128,13 @@ void check_output_file(const fs::path& file, const fs::path& out_dir, const std:
     fs::path dir = fs::absolute(file).parent_path();
     while (!dir.empty() && !fs::exists(dir, ec) && dir != dir.root_path()) dir = dir.parent_path();
     if (!fs::is_directory(dir, ec)) bad(fmt::format("{} is not a folder", dir.string()));
-    if (::access(dir.c_str(), W_OK | X_OK) != 0) bad(fmt::format("cannot write into {}", dir.string()));
+    // Create a file there and remove it: permission bits alone do not tell (root, read-only
+    // mounts, /proc).
+    const fs::path probe = dir / fmt::format(".penumbra-write-check-{}", ::getpid());
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) bad(fmt::format("cannot write into {}: {}", dir.string(), std::strerror(errno)));
+    ::close(fd);
+    fs::remove(probe, ec);
 }
 
 std::string base64_encode(std::string_view bytes) {

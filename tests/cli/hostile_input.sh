@@ -262,10 +262,12 @@ refused "row 13 --junit equal to --out" '--junit .*o13a: is the --out folder' "$
 touch "$tmp/plain"
 run validate "$tmp/s.json" --out "$tmp/o13b" --junit "$tmp/plain/j.xml" -q
 refused "row 13 --junit under a file" '--junit .*plain/j\.xml: .*plain is not a folder' "$tmp/o13b"
-if [ "$(id -u)" -ne 0 ]; then  # root writes anywhere
+run validate "$tmp/s.json" --out "$tmp/o13c" --junit /proc/j.xml -q
+refused "row 13 --junit where nothing can be created" '--junit /proc/j\.xml: cannot write into /proc' "$tmp/o13c"
+if [ "$(id -u)" -ne 0 ]; then  # root writes into read-only folders
     mkdir "$tmp/ro" && chmod a-w "$tmp/ro"
-    run validate "$tmp/s.json" --out "$tmp/o13c" --junit "$tmp/ro/j.xml" -q
-    refused "row 13 --junit in a read-only folder" '--junit .*ro/j\.xml: cannot write into' "$tmp/o13c"
+    run validate "$tmp/s.json" --out "$tmp/o13d" --junit "$tmp/ro/j.xml" -q
+    refused "row 13 --junit in a read-only folder" '--junit .*ro/j\.xml: cannot write into' "$tmp/o13d"
 fi
 
 # Row 14: messages that say what is wrong; duplicates warned about.

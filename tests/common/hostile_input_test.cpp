@@ -350,6 +350,8 @@ TEST(HostileInput, ResultFilesAreCheckedBeforeAnyWork) {
     test::write_text(dir / "plain", "x");
     EXPECT_TRUE(contains(error_of([&] { check_output_file(dir / "plain" / "j.xml", dir / "out", "--junit"); }),
                          "plain is not a folder"));
+    EXPECT_TRUE(contains(error_of([&] { check_output_file("/proc/j.xml", dir / "out", "--junit"); }),
+                         "cannot write into /proc"));
     EXPECT_NO_THROW(check_output_file(dir / "new" / "j.xml", dir / "out", "--junit"));
     EXPECT_NO_THROW(check_output_file(dir / "out" / "j.xml", dir / "out", "--junit"));
 }
