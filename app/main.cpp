@@ -12,6 +12,7 @@
 
 #include "common/errors.h"
 #include "common/json_reader.h"
+#include "common/memory_estimate.h"
 #include "common/output_files.h"
 #include "common/scenario.h"
 #include "common/stopwatch.h"
@@ -36,6 +37,7 @@ struct Common {
     bool allow_external_paths = false;
     bool quiet = false;
     int threads = 0;
+    std::string max_memory;  // empty: the default budget (common/memory_estimate.h)
 };
 
 void add_common(CLI::App* cmd, Common& c) {
@@ -44,6 +46,8 @@ void add_common(CLI::App* cmd, Common& c) {
                   "Let glTF buffer URIs point outside the scene's folder");
     cmd->add_option("--threads", c.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
     cmd->add_flag("-q,--quiet", c.quiet, "Print nothing but errors");
+    cmd->add_option("--max-memory", c.max_memory,
+                    "Refuse runs estimated to need more memory, e.g. 8G (0: no limit; default 3/4 of the machine's)");
 }
 
 // How the oracle samples area lights (docs/oracle.md, "Area lights").
@@ -56,7 +60,8 @@ struct SamplingArgs {
 void add_sampling(CLI::App* cmd, SamplingArgs& a) {
     cmd->add_option("--seed", a.seed, "Area lights: seed of the sampling pattern (default 0)");
     cmd->add_option("--area-target", a.target, "Area lights: 95% half-width E a pixel samples down to (default 1/255)")
-        ->check(CLI::Range(1e-6, 1.0));
+        ->check(CLI::Range(1e-6, 1.0))
+        ->check(finite_number_problem);
     cmd->add_option("--area-max-rays", a.max_rays, "Area lights: most rays per pixel (default 4096)")
         ->check(CLI::Range(16, 1 << 20));
 }
@@ -75,6 +80,7 @@ OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
 Scenario load_for_command(const std::filesystem::path& scenario_file, const Common& c) {
     ScenarioOptions so;
     so.allow_external_paths = c.allow_external_paths;
+    so.max_memory_bytes = memory_budget(c.max_memory);
     Scenario scenario = load_scenario(scenario_file, so);
     if (!c.quiet) {
         for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
@@ -83,9 +89,18 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
     return scenario;
 }
 
+// Refuses, before any large allocation, a run the memory budget cannot hold (exit 2).
+void check_run_memory(const Scenario& s, const Common& c, bool oracle, const raster::Technique* t, bool metrics) {
+    RasterMemory rm;
+    if (t) rm = {t->resolution, t->depth_format == raster::DepthFormat::d16 ? 2 : 4, t->area_samples};
+    check_memory(estimate_memory(memory_inputs(s, oracle, t ? &rm : nullptr, metrics)), memory_budget(c.max_memory),
+                 s.label);
+}
+
 int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c, const SamplingArgs& a) {
     auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
+    check_run_memory(scenario, c, true, nullptr, false);
     OracleTimings timings;
     timings.load_s = seconds_since(t0);
 
@@ -124,8 +139,9 @@ struct TechniqueArgs {
 
 void add_technique(CLI::App* cmd, TechniqueArgs& t) {
     cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")");
-    cmd->add_option("--preset", t.preset, "Start from a named preset (see below)");
-    cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)");
+    cmd->add_option("--preset", t.preset, "Start from a named preset (see below)")->check(utf8_problem);
+    cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)")
+        ->check(set_assignment_problem);
     cmd->add_option("--device", t.device,
                     "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
     std::string text = "Presets:\n";
@@ -150,6 +166,7 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
     auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     raster::Technique technique = resolve_technique(scenario, t);
+    check_run_memory(scenario, c, false, &technique, false);
     raster::RasterTimings timings;
     timings.load_s = seconds_since(t0);
 
@@ -186,6 +203,7 @@ struct ValidateArgs {
 
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
                          const ValidateArgs& v) {
+    if (!v.junit_file.empty()) check_output_file(v.junit_file, c.out, "--junit");
     Scenario scenario = load_for_command(scenario_file, c);
     // Everything the user wrote is checked before any work starts.
     raster::Technique technique = resolve_technique(scenario, t);
@@ -194,6 +212,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     const metrics::Gate gate =
         metrics::parse_gate(gate_json, gate_label, scenario.lights,
                             v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
+    check_run_memory(scenario, c, true, &technique, true);
 
     ValidateOptions options;
     options.oracle = oracle_settings(c, v.sampling);
@@ -280,7 +299,8 @@ int main(int argc, char** argv) {
     validate->add_flag("--no-cache", validate_args.no_cache, "Trace the oracle and keep nothing");
     validate->add_flag("--frames", validate_args.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
     validate->add_option("--tolerance", validate_args.tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0));
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
     add_sampling(validate, validate_args.sampling);
 
     CLI::App* devices = app.add_subcommand("devices", "List the Vulkan devices --device can choose");

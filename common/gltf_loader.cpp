@@ -2,16 +2,15 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
@@ -22,6 +21,8 @@
 #include "common/camera.h"
 #include "common/errors.h"
 #include "common/gltf_schema.h"
+#include "common/json_reader.h"
+#include "common/memory_estimate.h"
 
 namespace penumbra {
 namespace fs = std::filesystem;
@@ -96,20 +97,55 @@ void check_uri(const Context& ctx, const std::string& element, const std::string
                          uri));
 }
 
-// Reads the JSON part of a .gltf or .glb and vets its types and URIs before tinygltf sees it.
-void prevalidate(const Context& ctx, const std::string& bytes, bool binary) {
-    std::string json_text;
+// What the raw JSON says that tinygltf's model forgets.
+struct RawFacts {
+    std::vector<bool> perspective_zfar_given;  // per camera: tinygltf turns an absent zfar into 0
+};
+
+// glTF 1.0 files fail the 2.0 schema with baffling messages ("scene: expected a non-negative
+// integer, got "defaultScene""): name the version instead.
+void check_version(const Context& ctx, const nlohmann::json& j) {
+    auto asset = j.find("asset");
+    if (asset != j.end() && asset->is_object()) {
+        auto version = asset->find("version");
+        if (version != asset->end() && version->is_string()) {
+            const std::string& v = version->get_ref<const std::string&>();
+            if (v.rfind("2.", 0) != 0)
+                fail(ctx, "asset.version",
+                     fmt::format("glTF {} is not supported (penumbra reads glTF 2.0)", json_excerpt(*version, 20)));
+        }
+        return;
+    }
+    auto scene = j.find("scene");
+    auto meshes = j.find("meshes");
+    if ((scene != j.end() && scene->is_string()) || (meshes != j.end() && meshes->is_object()))
+        fail(ctx, "asset", "missing, and the file looks like glTF 1.0 (objects keyed by name), which is not supported");
+}
+
+// Reads the JSON part of a .gltf or .glb and vets it (nesting, NUL bytes, version, types,
+// URIs) before tinygltf sees it: tinygltf trusts its input and recurses without a limit.
+RawFacts prevalidate(const Context& ctx, const std::string& bytes, bool binary) {
+    std::string_view json_text;
     if (binary) {
-        if (bytes.size() < 20) return;  // tinygltf reports the truncation
-        std::uint32_t chunk_len = 0;
-        std::memcpy(&chunk_len, bytes.data() + 12, 4);
-        if (std::uint64_t(chunk_len) + 20 > bytes.size()) return;
-        json_text = bytes.substr(20, chunk_len);
+        std::uint32_t header[5] = {};  // magic, version, length, chunk 0 length, chunk 0 type
+        std::memcpy(header, bytes.data(), std::min(bytes.size(), sizeof header));
+        if (bytes.size() >= 8 && header[1] != 2)
+            fail(ctx, "GLB header", fmt::format("version {} is not supported (penumbra reads glTF 2.0)", header[1]));
+        if (bytes.size() < 20 || header[4] != 0x4E4F534Au || std::uint64_t(header[3]) + 20 > bytes.size())
+            fail(ctx, "GLB header", "truncated, or the first chunk is not a JSON chunk inside the file");
+        json_text = std::string_view(bytes).substr(20, header[3]);
+        // The JSON chunk is padded to 4 bytes (with spaces, though some exporters use NULs).
+        while (!json_text.empty() && json_text.back() == '\0') json_text.remove_suffix(1);
     } else {
         json_text = bytes;
     }
+    if (auto nul = json_text.find('\0'); nul != std::string::npos)
+        fail(ctx, "JSON", fmt::format("a NUL byte at byte {} of the JSON text", nul + 1));
+    check_json_nesting(json_text, ctx.label);
+    RawFacts facts;
     nlohmann::json j = nlohmann::json::parse(json_text, nullptr, /*allow_exceptions=*/false);
-    if (j.is_discarded() || !j.is_object()) return;  // tinygltf reports syntax errors
+    if (j.is_discarded() || !j.is_object()) return facts;  // tinygltf reports syntax errors
+    check_version(ctx, j);
     check_gltf_schema(j, ctx.label);
     for (const char* kind : {"buffers", "images"}) {
         auto it = j.find(kind);
@@ -120,6 +156,12 @@ void prevalidate(const Context& ctx, const std::string& bytes, bool binary) {
                 check_uri(ctx, fmt::format("{}[{}].uri", kind, i), e["uri"].get<std::string>());
         }
     }
+    if (auto cams = j.find("cameras"); cams != j.end())  // an array of objects: the schema checked it
+        for (const auto& c : *cams) {
+            auto persp = c.find("perspective");
+            facts.perspective_zfar_given.push_back(persp != c.end() && persp->contains("zfar"));
+        }
+    return facts;
 }
 
 // tinygltf file-system callbacks that enforce the same policy on every file it opens.
@@ -138,16 +180,11 @@ bool fs_read(std::vector<unsigned char>* out, std::string* err, const std::strin
         *err += fmt::format("refusing to read \"{}\": outside the scene's folder\n", path);
         return false;
     }
-    std::error_code ec;
-    auto size = fs::file_size(path, ec);
-    if (ec || size > kMaxFileBytes) {
-        *err += fmt::format("cannot read \"{}\"\n", path);
-        return false;
-    }
-    std::ifstream in(path, std::ios::binary);
-    out->resize(size);
-    if (size && !in.read(reinterpret_cast<char*>(out->data()), static_cast<std::streamsize>(size))) {
-        *err += fmt::format("cannot read \"{}\"\n", path);
+    try {
+        const std::string bytes = read_regular_file(path, kMaxFileBytes);
+        out->assign(bytes.begin(), bytes.end());
+    } catch (const InputError& e) {
+        *err += std::string(e.what()) + "\n";
         return false;
     }
     return true;
@@ -314,6 +351,8 @@ int node_light(const Context& ctx, const tinygltf::Node& n, int index, std::size
 struct Flattener {
     const Context& ctx;
     const tinygltf::Model& m;
+    const RawFacts& facts;
+    std::uint64_t max_memory_bytes;
     Scene& scene;
     std::size_t degenerate = 0, skipped_points_lines = 0;
 
@@ -406,7 +445,10 @@ struct Flattener {
             out.type = ProjectionType::perspective;
             out.yfov_rad = c.perspective.yfov;
             out.znear = c.perspective.znear;
-            out.zfar = c.perspective.zfar > 0 ? c.perspective.zfar : std::numeric_limits<double>::infinity();
+            // Absent means infinite (glTF 2.0, 5.13); a given zfar is checked like any other.
+            const bool given = static_cast<std::size_t>(cam) < facts.perspective_zfar_given.size() &&
+                               facts.perspective_zfar_given[cam];
+            out.zfar = given ? c.perspective.zfar : std::numeric_limits<double>::infinity();
         } else if (c.type == "orthographic") {
             out.type = ProjectionType::orthographic;
             out.xmag = c.orthographic.xmag;
@@ -424,7 +466,7 @@ struct Flattener {
         const tinygltf::Light& l = m.lights[li];
         std::string element = fmt::format("KHR_lights_punctual.lights[{}]", li);
         Light out;
-        out.origin = fmt::format("glTF node {} (light {})", node_index, li);
+        out.origin = fmt::format("{} (placed by nodes[{}])", element, node_index);
         out.position = glm::dvec3(world[3]);
         glm::dvec3 dir(world * glm::dvec4(0, 0, -1, 0));
         double len = glm::length(dir);
@@ -447,6 +489,37 @@ struct Flattener {
             fail(ctx, element, fmt::format("unknown light type \"{}\"", l.type));
         }
         scene.lights.push_back(out);
+    }
+
+    // Counts what flattening will make before it is made: a small file can instance one mesh
+    // into billions of triangles. Invalid indices are skipped here and reported by the real pass.
+    template <class Item>
+    void check_size(const std::vector<Item>& roots) const {
+        std::uint64_t triangles = 0, vertices = 0;
+        auto count_of = [&](int accessor) -> std::uint64_t {
+            return accessor >= 0 && static_cast<std::size_t>(accessor) < m.accessors.size()
+                       ? m.accessors[accessor].count
+                       : 0;
+        };
+        std::vector<int> todo;
+        for (const Item& r : roots) todo.push_back(r.node);
+        while (!todo.empty()) {
+            const tinygltf::Node& node = m.nodes[todo.back()];
+            todo.pop_back();
+            if (node.mesh >= 0 && static_cast<std::size_t>(node.mesh) < m.meshes.size())
+                for (const tinygltf::Primitive& p : m.meshes[node.mesh].primitives) {
+                    auto pos = p.attributes.find("POSITION");
+                    if (pos == p.attributes.end()) continue;
+                    const std::uint64_t v = count_of(pos->second), i = p.indices >= 0 ? count_of(p.indices) : v;
+                    vertices += v;
+                    triangles += p.mode < 0 || p.mode == TINYGLTF_MODE_TRIANGLES ? i / 3 : i;
+                }
+            for (int c : node.children) todo.push_back(c);  // in range: traverse() checked the forest
+        }
+        MemoryInputs in;
+        in.triangles = triangles;
+        in.vertices = vertices;
+        check_memory(estimate_memory(in), max_memory_bytes, ctx.label);
     }
 
     void traverse(const std::vector<int>& roots) {
@@ -484,6 +557,7 @@ struct Flattener {
                 fail(ctx, fmt::format("nodes[{}]", *it), "a scene root must not be another node's child");
             stack.push_back({*it, glm::dmat4(1.0)});
         }
+        check_size(stack);
         while (!stack.empty()) {  // explicit stack: deep hierarchies must not overflow ours
             Item item = stack.back();
             stack.pop_back();
@@ -510,22 +584,12 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
     Context ctx;
     ctx.label = file.filename().string();
     std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) throw InputError(fmt::format("{}: no such file", file.string()));
-    auto size = fs::file_size(file, ec);
-    if (ec || size > kMaxFileBytes)
-        throw InputError(fmt::format("{}: cannot read, or larger than {} bytes", file.string(), kMaxFileBytes));
+    if (!fs::exists(file, ec)) throw InputError(fmt::format("{}: no such file", file.string()));
     ctx.dir = fs::weakly_canonical(fs::absolute(file).parent_path());
     ctx.allow_external = options.allow_external_paths;
-
-    std::string bytes;
-    {
-        std::ifstream in(file, std::ios::binary);
-        std::ostringstream s;
-        s << in.rdbuf();
-        bytes = s.str();
-    }
+    const std::string bytes = read_regular_file(file, kMaxFileBytes);
     bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
-    prevalidate(ctx, bytes, binary);
+    const RawFacts facts = prevalidate(ctx, bytes, binary);
 
     tinygltf::TinyGLTF loader;
     tinygltf::FsCallbacks callbacks{&fs_exists, &fs_expand, &fs_read, &fs_write, &ctx};
@@ -565,7 +629,18 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
             if (!is_child[i]) roots.push_back(static_cast<int>(i));
         scene.warnings.push_back(fmt::format("{}: no scenes; using all {} root nodes", ctx.label, roots.size()));
     }
-    Flattener flat{ctx, model, scene};
+    // A root listed twice would be drawn twice, doubling its geometry: draw it once, say so.
+    std::vector<int> unique_roots;
+    for (int r : roots) {
+        if (std::find(unique_roots.begin(), unique_roots.end(), r) == unique_roots.end()) {
+            unique_roots.push_back(r);
+        } else {
+            scene.warnings.push_back(
+                fmt::format("{}: scene lists root node {} more than once; its geometry is used once", ctx.label, r));
+        }
+    }
+    roots = std::move(unique_roots);
+    Flattener flat{ctx, model, facts, options.max_memory_bytes, scene};
     flat.traverse(roots);
     if (flat.skipped_points_lines)
         scene.warnings.push_back(fmt::format("{}: {} point/line primitives skipped (they cast no shadows)", ctx.label,

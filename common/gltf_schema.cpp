@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "common/errors.h"
+#include "common/json_reader.h"
 
 namespace penumbra {
 
@@ -172,7 +173,7 @@ struct Checker {
                 for (auto it = v.begin(); ok && it != v.end(); ++it) ok = is_uint(*it);
                 break;
         }
-        if (!ok) fail(path, fmt::format("expected {}, got {}", expectation(f.kind), v.dump().substr(0, 60)));
+        if (!ok) fail(path, fmt::format("expected {}, got {}", expectation(f.kind), json_excerpt(v)));
         if (f.kind == Kind::object) object(v, *f.child, path);
         if (f.kind == Kind::object_array)
             for (std::size_t i = 0; i < v.size(); ++i) object(v[i], *f.child, fmt::format("{}[{}]", path, i));
@@ -180,14 +181,14 @@ struct Checker {
 
     void object(const json& o, const Schema& s, const std::string& path) const {
         if (o.contains("name") && !o["name"].is_string())
-            fail(path + ".name", fmt::format("expected a string, got {}", o["name"].dump().substr(0, 60)));
+            fail(path + ".name", fmt::format("expected a string, got {}", json_excerpt(o["name"])));
         if (o.contains("extensions")) {
             const json& ext = o["extensions"];
             if (!ext.is_object()) fail(path + ".extensions", "expected an object");
             for (auto it = ext.begin(); it != ext.end(); ++it)
                 if (!it->is_object())
                     fail(fmt::format("{}.extensions.{}", path, it.key()),
-                         fmt::format("expected an object, got {}", it->dump().substr(0, 60)));
+                         fmt::format("expected an object, got {}", json_excerpt(*it)));
         }
         for (const Field& f : s.fields) {
             std::string p = path.empty() ? f.name : path + "." + f.name;

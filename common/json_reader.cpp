@@ -1,10 +1,15 @@
 #include "common/json_reader.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
-#include <fstream>
-#include <sstream>
+#include <cstdlib>
+#include <cstring>
 #include <vector>
 
 #include "common/errors.h"
@@ -19,9 +24,150 @@ const char* type_name(const json& v) {
     return v.type_name();
 }
 
+// Length of the UTF-8 sequence starting at text[i], 0 when it is not a valid one (RFC 3629:
+// no overlong forms, no surrogates, nothing beyond U+10FFFF).
+std::size_t utf8_sequence(std::string_view text, std::size_t i) {
+    auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
+    const unsigned char c = byte(i);
+    if (c < 0x80) return 1;
+    std::size_t n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    if (n == 0 || i + n > text.size()) return 0;
+    for (std::size_t k = 1; k < n; ++k)
+        if ((byte(i + k) & 0xC0) != 0x80) return 0;
+    const unsigned char c1 = byte(i + 1);
+    if ((c == 0xE0 && c1 < 0xA0) || (c == 0xED && c1 > 0x9F) || (c == 0xF0 && c1 < 0x90) || (c == 0xF4 && c1 > 0x8F))
+        return 0;
+    return n;
+}
+
 }  // namespace
 
+bool is_valid_utf8(std::string_view text) {
+    for (std::size_t i = 0; i < text.size();) {
+        std::size_t n = utf8_sequence(text, i);
+        if (n == 0) return false;
+        i += n;
+    }
+    return true;
+}
+
+std::string escape_non_utf8(std::string_view text) {
+    std::string out;
+    out.reserve(text.size());
+    for (std::size_t i = 0; i < text.size();) {
+        std::size_t n = utf8_sequence(text, i);
+        if (n == 0) {
+            out += fmt::format("\\x{:02X}", static_cast<unsigned char>(text[i]));
+            ++i;
+        } else {
+            out.append(text.substr(i, n));
+            i += n;
+        }
+    }
+    return out;
+}
+
+std::string finite_number_problem(const std::string& text) {
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    return end != text.c_str() && !std::isfinite(v) ? fmt::format("{} is not a finite number", text) : std::string();
+}
+
+std::string utf8_problem(const std::string& text) {
+    return is_valid_utf8(text)
+               ? std::string()
+               : fmt::format("\"{}\" is not valid UTF-8 (names and keys must be)", escape_non_utf8(text));
+}
+
+std::string set_assignment_problem(const std::string& text) {
+    if (std::string problem = utf8_problem(text); !problem.empty()) return problem;
+    const std::string key = text.substr(0, text.find('='));
+    const auto segments = static_cast<std::size_t>(std::count(key.begin(), key.end(), '.')) + 1;
+    if (segments > static_cast<std::size_t>(kMaxJsonDepth))
+        return fmt::format("the key path has {} segments, more than the {} levels a technique may nest", segments,
+                           kMaxJsonDepth);
+    return {};
+}
+
+std::string json_excerpt(const json& value, std::size_t max_chars) {
+    // Values from parsed files are valid UTF-8 and nested at most kMaxJsonDepth levels, but
+    // values built from options or paths may not be: replace, never throw.
+    std::string text = value.dump(-1, ' ', false, json::error_handler_t::replace);
+    if (text.size() > max_chars) text = text.substr(0, max_chars) + "...";
+    return text;
+}
+
+void check_json_nesting(std::string_view text, const std::string& file_label) {
+    // One frame per open array or object: its last key (objects) or element index (arrays).
+    struct Frame {
+        bool object;
+        std::string key;
+        std::size_t index = 0;
+    };
+    std::vector<Frame> open;
+    std::string last_string;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (c == '"') {  // skip the string, remembering it in case it is a key
+            std::size_t start = ++i;
+            while (i < text.size() && text[i] != '"') i += text[i] == '\\' ? 2 : 1;
+            last_string.assign(text.substr(start, std::min(i, text.size()) - start));
+        } else if (c == ':') {
+            if (!open.empty() && open.back().object) open.back().key = last_string;
+        } else if (c == ',') {
+            if (!open.empty() && !open.back().object) ++open.back().index;
+        } else if (c == '[' || c == '{') {
+            if (open.size() == static_cast<std::size_t>(kMaxJsonDepth)) {
+                std::string path;
+                for (const Frame& f : open) {
+                    if (path.size() > 80) {
+                        path += "...";
+                        break;
+                    }
+                    path += f.object ? (path.empty() ? "" : ".") + escape_non_utf8(f.key.substr(0, 40))
+                                     : fmt::format("[{}]", f.index);
+                }
+                throw InputError(fmt::format("{}: {}: nested deeper than {} levels of arrays and objects (at byte {})",
+                                             file_label, path.empty() ? "(top level)" : path, kMaxJsonDepth, i));
+            }
+            open.push_back({c == '{', {}, 0});
+        } else if (c == ']' || c == '}') {
+            if (!open.empty()) open.pop_back();  // mismatches are the parser's to report
+        }
+    }
+}
+
+std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes) {
+    // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
+    const int fd = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) throw InputError(fmt::format("{}: cannot open file: {}", file.string(), std::strerror(errno)));
+    struct Closer {
+        int fd;
+        ~Closer() { ::close(fd); }
+    } closer{fd};
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+        throw InputError(fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", file.string()));
+    if (static_cast<std::uint64_t>(st.st_size) > max_bytes)
+        throw InputError(fmt::format("{}: {} bytes exceeds the {} byte limit", file.string(), st.st_size, max_bytes));
+    std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
+    std::size_t done = 0;
+    while (done < bytes.size()) {
+        ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) throw InputError(fmt::format("{}: cannot read: {}", file.string(), std::strerror(errno)));
+        if (n == 0) break;  // the file shrank while read: parse what is there
+        done += static_cast<std::size_t>(n);
+    }
+    bytes.resize(done);
+    return bytes;
+}
+
 json parse_json_strict(const std::string& text, const std::string& file_label) {
+    // nlohmann stops at a NUL byte as if the text ended there; JSON text never contains one.
+    if (auto nul = text.find('\0'); nul != std::string::npos)
+        throw InputError(fmt::format("{}: invalid JSON at byte {}: a NUL byte", file_label, nul + 1));
+    check_json_nesting(text, file_label);
     // Duplicate keys are silently merged by nlohmann; a strict reader refuses them, since
     // which of two "bias" objects the user meant cannot be guessed.
     std::vector<std::set<std::string>> open_objects;
@@ -56,11 +202,7 @@ json parse_json_strict(const std::string& text, const std::string& file_label) {
 }
 
 json read_json_file(const std::filesystem::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    if (!in) throw InputError(fmt::format("{}: cannot open file", file.string()));
-    std::ostringstream text;
-    text << in.rdbuf();
-    return parse_json_strict(text.str(), file.filename().string());
+    return parse_json_strict(read_regular_file(file, kMaxJsonFileBytes), file.filename().string());
 }
 
 JsonObject::JsonObject(const json& value, std::string file_label, std::string path)
@@ -120,7 +262,7 @@ long long JsonObject::integer(const std::string& key, long long lo, long long hi
     if (!v.is_number_integer()) fail(key, fmt::format("expected an integer, got {}", type_name(v)));
     // Unsigned values beyond int64 come back as number_unsigned; compare in that domain.
     if (v.is_number_unsigned() && v.get<unsigned long long>() > static_cast<unsigned long long>(hi))
-        fail(key, fmt::format("expected an integer in [{}, {}] (got {})", lo, hi, v.dump()));
+        fail(key, fmt::format("expected an integer in [{}, {}] (got {})", lo, hi, json_excerpt(v)));
     long long i = v.get<long long>();
     if (i < lo || i > hi) fail(key, fmt::format("expected an integer in [{}, {}] (got {})", lo, hi, i));
     return i;
@@ -142,6 +284,8 @@ bool JsonObject::boolean(const std::string& key, bool fallback) {
 std::string JsonObject::string(const std::string& key) {
     const json& v = get(key);
     if (!v.is_string()) fail(key, fmt::format("expected a string, got {}", type_name(v)));
+    // A path would end at the NUL ("scene.glb\u0000.txt" opens scene.glb); no name needs one.
+    if (v.get_ref<const std::string&>().find('\0') != std::string::npos) fail(key, "contains a NUL character");
     return v.get<std::string>();
 }
 
@@ -164,9 +308,11 @@ glm::dvec3 JsonObject::vec3(const std::string& key) {
 
 glm::dvec3 JsonObject::nonzero_vec3(const std::string& key) {
     glm::dvec3 v = vec3(key);
-    // A direction must survive normalisation in double without underflow.
+    // A direction must survive normalisation in double without underflow or overflow.
     double len2 = v.x * v.x + v.y * v.y + v.z * v.z;
-    if (!(len2 > 1e-280) || !std::isfinite(len2)) fail(key, "zero vector");
+    if (!std::isfinite(len2))
+        fail(key, fmt::format("length overflows a double ([{:g}, {:g}, {:g}]); scale the vector down", v.x, v.y, v.z));
+    if (!(len2 > 1e-280)) fail(key, "zero vector");
     return v;
 }
 

@@ -2,19 +2,50 @@
 // known, and every error names the file and the JSON path of the offending value.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <glm/vec3.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 
 namespace penumbra {
 
-// Parses strict JSON: syntax errors, duplicate keys and non-finite numbers are InputErrors
-// naming `file_label`.
+// Deepest nesting of arrays and objects any JSON the program reads may have (scenario,
+// technique, gate, glTF). nlohmann's dump() and copies and tinygltf's parser recurse once per
+// level, so a deeper file would overflow the stack; no real file comes near this.
+inline constexpr int kMaxJsonDepth = 64;
+// Largest scenario, technique or gate file read (glTF files have their own limit).
+inline constexpr std::uint64_t kMaxJsonFileBytes = 64ull << 20;
+
+// Refuses JSON text nested deeper than kMaxJsonDepth, naming the JSON path where it goes too
+// deep. Runs on the raw text, before any parser recurses.
+void check_json_nesting(std::string_view text, const std::string& file_label);
+
+// Reads a whole regular file of at most `max_bytes`; devices, FIFOs and folders are refused
+// (they may never end). Throws InputError naming `file`.
+std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes);
+
+// Parses strict JSON: syntax errors, NUL bytes, nesting beyond kMaxJsonDepth, duplicate keys
+// and non-finite numbers are InputErrors naming `file_label`.
 nlohmann::json parse_json_strict(const std::string& text, const std::string& file_label);
 nlohmann::json read_json_file(const std::filesystem::path& file);
+
+// `text` with every byte that is not part of valid UTF-8 written as \xNN: safe in messages
+// and in JSON, whatever a path or option held.
+std::string escape_non_utf8(std::string_view text);
+bool is_valid_utf8(std::string_view text);
+// Command-line option checks (CLI11 ->check): an empty string when `text` is fine, else what
+// is wrong. CLI::Range lets NaN through, since every comparison with NaN is false.
+std::string finite_number_problem(const std::string& text);
+std::string utf8_problem(const std::string& text);
+// --set KEY.PATH=VALUE: UTF-8, and a key path of at most kMaxJsonDepth segments (each segment
+// nests the technique one level deeper).
+std::string set_assignment_problem(const std::string& text);
+// A short, always printable rendering of a JSON value for messages (never throws).
+std::string json_excerpt(const nlohmann::json& value, std::size_t max_chars = 60);
 
 // A view of one JSON object at a known path. Reading a key marks it as known; finish()
 // rejects the keys that nothing read.

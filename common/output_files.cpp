@@ -3,9 +3,11 @@
 #include <OpenImageIO/hash.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/strutil.h>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -87,7 +89,9 @@ void OutputTransaction::write_png(const std::string& name, int width, int height
 }
 
 void OutputTransaction::write_json(const std::string& name, const nlohmann::json& value) {
-    write_text(name, value.dump(2) + "\n");
+    // Paths and names from the command line may hold bytes that are not UTF-8 (a Latin-1
+    // folder name): written as U+FFFD rather than failing the whole run.
+    write_text(name, value.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 void OutputTransaction::write_text(const std::string& name, const std::string& text) {
@@ -107,6 +111,30 @@ std::string OutputTransaction::written_bytes(const std::string& name) const {
         return bytes;
     }
     throw EnvironmentError(fmt::format("{}: cannot read back {}", dir_.string(), name));
+}
+
+void check_output_file(const fs::path& file, const fs::path& out_dir, const std::string& option) {
+    auto bad = [&](const std::string& what) {
+        throw InputError(fmt::format("{} {}: {}", option, file.string(), what));
+    };
+    if (!file.has_filename()) bad("names a folder, not a file");
+    std::error_code ec;
+    const fs::path target = fs::weakly_canonical(fs::absolute(file), ec);
+    if (!ec && target == fs::weakly_canonical(fs::absolute(out_dir), ec)) bad("is the --out folder");
+    if (fs::is_directory(file, ec)) bad("is a folder");
+    if (fs::exists(file, ec) && !fs::is_regular_file(file, ec)) bad("exists and is not a regular file");
+    // The nearest folder that exists must be writable: the file, and the folders missing on the
+    // way to it, are made there.
+    fs::path dir = fs::absolute(file).parent_path();
+    while (!dir.empty() && !fs::exists(dir, ec) && dir != dir.root_path()) dir = dir.parent_path();
+    if (!fs::is_directory(dir, ec)) bad(fmt::format("{} is not a folder", dir.string()));
+    // Create a file there and remove it: permission bits alone do not tell (root, read-only
+    // mounts, /proc).
+    const fs::path probe = dir / fmt::format(".penumbra-write-check-{}", ::getpid());
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+    if (fd < 0) bad(fmt::format("cannot write into {}: {}", dir.string(), std::strerror(errno)));
+    ::close(fd);
+    fs::remove(probe, ec);
 }
 
 std::string base64_encode(std::string_view bytes) {

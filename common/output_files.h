@@ -45,6 +45,12 @@ class OutputTransaction {
     std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // temp, final
 };
 
+// Checks, before any work starts, that a result file such as --junit can be written once the
+// --out folder was: it is neither that folder nor a folder, and the folder it goes into exists
+// and is writable (or can be created). Throws InputError naming `option`.
+void check_output_file(const std::filesystem::path& file, const std::filesystem::path& out_dir,
+                       const std::string& option);
+
 // Standard base64 (RFC 4648), for data: URIs.
 std::string base64_encode(std::string_view bytes);
 

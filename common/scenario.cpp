@@ -27,7 +27,7 @@ glm::dvec3 position(JsonObject& o, const std::string& key) {
     return p;
 }
 
-Camera read_camera(JsonObject cam, const Scene& scene) {
+Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_label) {
     Camera c;
     if (cam.has("gltf_camera")) {
         long long index = cam.integer("gltf_camera", 0, 1 << 30);
@@ -37,7 +37,8 @@ Camera read_camera(JsonObject cam, const Scene& scene) {
         if (!scene.camera_placed[index])
             cam.fail("gltf_camera", fmt::format("camera {} is not used by any node of the scene", index));
         c = scene.cameras[index];
-        validate_camera(c, fmt::format("{}: gltf camera {}", cam.path_of("gltf_camera"), index));
+        validate_camera(
+            c, fmt::format("{}: cameras[{}] (the scenario's {})", scene_label, index, cam.path_of("gltf_camera")));
         return c;
     }
     std::string type = cam.string("type");
@@ -48,19 +49,22 @@ Camera read_camera(JsonObject cam, const Scene& scene) {
     if (!look_at_basis(eye, target, up, c)) cam.fail("up", "parallel to the view direction");
     if (type == "perspective") {
         c.type = ProjectionType::perspective;
-        c.yfov_rad = cam.number_in("yfov_deg", 1e-3, 179.0, "expected a field of view in [0.001, 179] degrees") * kDeg;
-        c.znear = cam.number_in("znear", 0.1, 1e-12, 1e15, "expected znear > 0");
+        c.yfov_rad =
+            cam.number_in("yfov_deg", kMinFovDeg, kMaxFovDeg, "expected a field of view in [0.001, 179] degrees") *
+            kDeg;
+        c.znear = cam.number_in("znear", 0.1, kMinExtent, kMaxExtent, "expected znear in [1e-12, 1e15] m");
         c.zfar = cam.number_in("zfar", kInf, 0, kInf, "expected zfar > znear");
     } else if (type == "orthographic") {
         c.type = ProjectionType::orthographic;
-        c.xmag = cam.number_in("xmag", 1e-12, 1e15, "expected a half-width > 0");
-        c.ymag = cam.number_in("ymag", 1e-12, 1e15, "expected a half-height > 0");
-        c.znear = cam.number_in("znear", 0.0, 0, 1e15, "expected znear >= 0");
+        c.xmag = cam.number_in("xmag", kMinExtent, kMaxExtent, "expected a half-width in [1e-12, 1e15] m");
+        c.ymag = cam.number_in("ymag", kMinExtent, kMaxExtent, "expected a half-height in [1e-12, 1e15] m");
+        c.znear = cam.number_in("znear", 0.0, 0, kMaxExtent, "expected znear in [0, 1e15] m");
         c.zfar = cam.number_in("zfar", kInf, 0, kInf, "expected zfar > znear");
     } else {
         cam.fail("type", fmt::format("expected \"perspective\" or \"orthographic\", got \"{}\"", type));
     }
     if (!(c.zfar > c.znear)) cam.fail("zfar", fmt::format("must exceed znear ({} <= {})", c.zfar, c.znear));
+    if (auto p = camera_problem(c)) cam.fail(p->key, p->what);  // the checks glTF cameras get
     cam.finish();
     return c;
 }
@@ -87,6 +91,9 @@ Light read_light(JsonObject o) {
     } else if (type == "rect") {
         l.type = LightType::rect;
         l.position = position(o, "center");
+        for (const char* key : {"u", "v"})  // before nonzero_vec3, which would call 1e200 an overflow
+            if (double len = safe_length(o.vec3(key)); len > kMaxExtent)
+                o.fail(key, fmt::format("edge length {:g} m exceeds the {:g} m limit", len, kMaxExtent));
         l.u = o.nonzero_vec3("u");
         l.v = o.nonzero_vec3("v");
         glm::dvec3 n = glm::cross(l.u, l.v);
@@ -97,39 +104,20 @@ Light read_light(JsonObject o) {
         l.type = LightType::disk;
         l.position = position(o, "center");
         l.normal = glm::normalize(o.nonzero_vec3("normal"));
-        l.radius = o.number_in("radius", 1e-12, 1e15, "expected a radius > 0");
+        l.radius = o.number_in("radius", kMinExtent, kMaxExtent, "expected a radius in [1e-12, 1e15] m");
     } else if (type == "sphere") {
         l.type = LightType::sphere;
         l.position = position(o, "center");
-        l.radius = o.number_in("radius", 1e-12, 1e15, "expected a radius > 0");
+        l.radius = o.number_in("radius", kMinExtent, kMaxExtent, "expected a radius in [1e-12, 1e15] m");
     } else {
         o.fail("type", fmt::format("expected one of directional, spot, point, rect, disk, sphere; got \"{}\"", type));
     }
+    if (auto p = light_problem(l)) o.fail(p->key, p->what);  // the checks glTF lights get
     o.finish();
     return l;
 }
 
 }  // namespace
-
-void validate_camera(const Camera& c, const std::string& where) {
-    auto bad = [&](const std::string& what) { throw InputError(fmt::format("{}: {}", where, what)); };
-    if (c.type == ProjectionType::perspective) {
-        if (!(c.yfov_rad > 1e-5 && c.yfov_rad < M_PI * 179.0 / 180.0))
-            bad(fmt::format("yfov {} rad is outside (0, 179 degrees)", c.yfov_rad));
-        if (!(c.znear > 0)) bad(fmt::format("znear {} must be > 0", c.znear));
-    } else {
-        if (!(c.xmag > 0 && c.ymag > 0 && std::isfinite(c.xmag) && std::isfinite(c.ymag)))
-            bad(fmt::format("xmag {} and ymag {} must be finite and > 0", c.xmag, c.ymag));
-        if (!(c.znear >= 0)) bad(fmt::format("znear {} must be >= 0", c.znear));
-    }
-    if (!(c.zfar > c.znear)) bad(fmt::format("zfar {} must exceed znear {}", c.zfar, c.znear));
-}
-
-void validate_light(const Light& l, const std::string& where) {
-    auto finite3 = [](const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
-    if (!finite3(l.position) || !finite3(l.direction))
-        throw InputError(fmt::format("{}: light position or direction is not finite", where));
-}
 
 Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     Scenario s;
@@ -142,8 +130,10 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     if (scene_rel.empty()) top.fail("scene", "empty path");
     s.scene_file = fs::absolute(file).parent_path() / scene_rel;
     std::error_code ec;
+    if (!fs::exists(s.scene_file, ec)) top.fail("scene", fmt::format("no such file: {}", s.scene_file.string()));
     if (!fs::is_regular_file(s.scene_file, ec))
-        top.fail("scene", fmt::format("no such file: {}", s.scene_file.string()));
+        top.fail("scene",
+                 fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", s.scene_file.string()));
 
     JsonObject image = top.object("image");
     s.width = static_cast<int>(image.integer("width", 1, kMaxImageSide));
@@ -177,14 +167,16 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
 
     GltfLoadOptions gltf_options;
     gltf_options.allow_external_paths = options.allow_external_paths;
+    gltf_options.max_memory_bytes = options.max_memory_bytes;
     s.scene = load_gltf(s.scene_file, gltf_options);
 
-    s.camera = read_camera(top.object("camera"), s.scene);
+    const std::string scene_label = s.scene_file.filename().string();
+    s.camera = read_camera(top.object("camera"), s.scene, scene_label);
     if (lights.is_array()) {
         s.lights = std::move(listed);
     } else {
         s.lights = s.scene.lights;
-        for (const Light& l : s.lights) validate_light(l, fmt::format("{}: {}", s.label, l.origin));
+        for (const Light& l : s.lights) validate_light(l, fmt::format("{}: {}", scene_label, l.origin));
     }
     return s;
 }

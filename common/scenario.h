@@ -1,11 +1,13 @@
 // The scenario file of docs/scenario.md: scene, image, camera, lights, optional technique and gate.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "common/ranges.h"
 #include "common/scene.h"
 
 namespace penumbra {
@@ -15,6 +17,7 @@ inline constexpr long long kMaxImagePixels = 8192LL * 8192LL;
 
 struct ScenarioOptions {
     bool allow_external_paths = false;
+    std::uint64_t max_memory_bytes = UINT64_MAX;  // for the scene's triangles (GltfLoadOptions)
 };
 
 struct Scenario {
@@ -31,9 +34,5 @@ struct Scenario {
 
 // Reads and validates everything; throws InputError naming the file and JSON path.
 Scenario load_scenario(const std::filesystem::path& file, const ScenarioOptions& options = {});
-
-// Checks shared with glTF-sourced cameras and lights; `where` prefixes each message.
-void validate_camera(const Camera& camera, const std::string& where);
-void validate_light(const Light& light, const std::string& where);
 
 }  // namespace penumbra

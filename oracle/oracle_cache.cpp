@@ -160,7 +160,8 @@ std::optional<std::string> OracleCache::store(const std::string& key, const Orac
             auto write = [&](const void* src, std::size_t n) { return std::fwrite(src, 1, n, f.get()) == n; };
             const std::int32_t size[2] = {frame.width, frame.height};
             const auto lights = static_cast<std::uint32_t>(frame.lights.size());
-            const std::string text = info.dump();
+            // Paths in `info` may hold bytes that are not UTF-8 (a Latin-1 folder): replaced, not thrown.
+            const std::string text = info.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
             const std::uint64_t info_len = text.size();
             ok = write(kMagic, 8) && write(key.data(), 32) && write(size, sizeof size) && write(&lights, 4) &&
                  write(&frame.frame_origin, sizeof frame.frame_origin) && write(&info_len, 8) &&

@@ -13,6 +13,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers vulkan-tools
   python3 assimp-testmodels
   chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
+  clang libclang-rt-14-dev  # tests: the libFuzzer targets (tests/fuzz, docs/testing.md)
 )
 
 missing=()
