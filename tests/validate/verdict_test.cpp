@@ -173,8 +173,12 @@ TEST_F(Verdict, SoftShadowMetricsRankHardPcssAndAveragedMaps) {
         return *r.score.lights[0].soft;
     };
     const auto hard = soft_score({{"resolution", 1024}, {"bias", {{"slope", 1.5}, {"constant", 2}}}});
-    const auto pcss = soft_score({{"preset", "pcss"}, {"resolution", 1024}});
-    const auto averaged = soft_score({{"preset", "averaged-hard-shadows"}, {"resolution", 1024}});
+    // 8 r of constant bias rather than the presets' 2: an H100 interpolates depth less exactly than
+    // lavapipe, and at 2 r its lit region has acne (docs/raster.md, "Receiver-plane bias per
+    // device"); from 8 r both devices give these numbers to the last digit.
+    const nlohmann::json bias = {{"constant", 8}};
+    const auto pcss = soft_score({{"preset", "pcss"}, {"resolution", 1024}, {"bias", bias}});
+    const auto averaged = soft_score({{"preset", "averaged-hard-shadows"}, {"resolution", 1024}, {"bias", bias}});
     EXPECT_GT(hard.penumbra_pixels, 500u);
     EXPECT_LT(hard.penumbra_width_error, -0.7) << "a hard shadow has next to no penumbra";
     EXPECT_GT(pcss.penumbra_width_error, hard.penumbra_width_error + 0.3);
