@@ -240,8 +240,8 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
         fmt::print(
             "validate: {}x{} px, {} lights; oracle {} ({:.3f} s), Vulkan device {:.3f} s, raster {:.3f} s, metrics "
             "{:.3f} s, writing {:.3f} s\n",
-            scenario.width, scenario.height, scenario.lights.size(), r.oracle.cached ? "from cache" : "traced",
-            r.oracle.seconds, r.raster_timings.device_s, r.raster_s, r.metrics_s, write_s);
+            scenario.width, scenario.height, scenario.lights.size(), r.oracle->cached ? "from cache" : "traced",
+            r.oracle->seconds, r.raster_timings.device_s, r.raster_s, r.metrics_s, write_s);
         for (std::size_t li = 0; li < r.score.lights.size(); ++li)
             fmt::print("  light {} ({}): {}\n", li, to_string(scenario.lights[li].type),
                        metrics::summary_line(r.score.lights[li]));

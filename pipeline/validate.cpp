@@ -80,11 +80,12 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
 }
 
 ValidateResult validate(const Scenario& scenario, const raster::Technique& technique, const metrics::Gate& gate,
-                        const ValidateOptions& options, raster::RasterSession* session, const OracleRun* oracle) {
+                        const ValidateOptions& options, raster::RasterSession* session,
+                        std::shared_ptr<const OracleRun> oracle) {
     ValidateResult r;
     r.technique = technique;
-    r.oracle = oracle ? *oracle : oracle_for(scenario, options);
-    if (r.oracle.warning) r.warnings.push_back(*r.oracle.warning);
+    r.oracle = oracle ? std::move(oracle) : std::make_shared<const OracleRun>(oracle_for(scenario, options));
+    if (r.oracle->warning) r.warnings.push_back(*r.oracle->warning);
 
     std::unique_ptr<raster::VulkanContext> ctx;
     std::unique_ptr<raster::RasterSession> own;
@@ -104,12 +105,12 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
 
     auto t3 = SteadyClock::now();
     r.scoring = scoring_options(scenario, technique, options.tolerance);
-    r.score = metrics::score_frames(r.oracle.frame, r.raster.frame, r.scoring);
+    r.score = metrics::score_frames(r.oracle->frame, r.raster.frame, r.scoring);
     r.metrics_s = seconds_since(t3);
 
     r.raster_info = raster::raster_json(scenario, technique, r.raster, r.raster_timings);
-    r.timing = {{"oracle_s", r.oracle.seconds},
-                {"oracle_cached", r.oracle.cached},
+    r.timing = {{"oracle_s", r.oracle->seconds},
+                {"oracle_cached", r.oracle->cached},
                 {"raster_s", r.raster_s},
                 {"device_s", r.raster_timings.device_s},
                 {"raster_ms",
@@ -118,24 +119,24 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                   {"lookup", r.raster.stats.lookup_ms}}},
                 {"metrics_s", r.metrics_s}};
     if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, r.score.lights);
-    r.report = report::report_json(report_inputs(scenario, r, r.oracle.info), r.score);
+    r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
     return r;
 }
 
 std::string validate_junit(const Scenario& scenario, const ValidateResult& result) {
-    return report::junit_xml(report_inputs(scenario, result, result.oracle.info));
+    return report::junit_xml(report_inputs(scenario, result, result.oracle->info));
 }
 
 void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {
-    nlohmann::json oracle_info = r.oracle.info;
+    nlohmann::json oracle_info = r.oracle->info;
     if (frames) {
-        oracle_info["seconds"]["write"] = write_oracle_images(out, r.oracle.frame);
+        oracle_info["seconds"]["write"] = write_oracle_images(out, r.oracle->frame);
         raster::write_raster_outputs(out, scenario, r.technique, r.raster, r.raster_timings);
     } else {
         out.write_json("raster.json", r.raster_info);
     }
     out.write_json("oracle.json", oracle_info);
-    report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle.frame, r.raster.frame, r.score,
+    report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle->frame, r.raster.frame, r.score,
                          r.report);
 }
 

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -44,7 +45,7 @@ struct OracleRun {
 struct ValidateResult {
     raster::Technique technique;
     std::vector<metrics::ScoringOptions> scoring;  // per light
-    OracleRun oracle;
+    std::shared_ptr<const OracleRun> oracle;       // shared with the caller that held it: never copied
     raster::RasterResult raster;
     raster::RasterTimings raster_timings;
     double raster_s = 0, metrics_s = 0;
@@ -71,10 +72,11 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options);
 
 // Oracle + raster + metrics + gate. `session`, when given, draws the technique (it must be a
 // session of this scenario); otherwise a context on options.device and a cold session are made.
-// `oracle`, when given, is used instead of oracle_for (tune and sweep hold it).
+// `oracle`, when given, is used instead of oracle_for (tune and sweep hold it: a loop shares one
+// frame rather than copying it per evaluation).
 ValidateResult validate(const Scenario& scenario, const raster::Technique& technique, const metrics::Gate& gate,
                         const ValidateOptions& options, raster::RasterSession* session = nullptr,
-                        const OracleRun* oracle = nullptr);
+                        std::shared_ptr<const OracleRun> oracle = nullptr);
 
 // report.html, report.json, errors.exr, the PNG maps, raster.json and oracle.json into `out`;
 // with `frames`, oracle.exr/png and raster.exr/png too (the oracle frame must then hold P, N,

@@ -38,7 +38,8 @@ class Verdict : public ::testing::Test {
         double footprint_m = 0;  // the map's texel size (directional light)
     };
     static ValidateResult run(const Scenario& sc, const nlohmann::json& technique_json,
-                              raster::RasterSession* session = nullptr, const OracleRun* oracle = nullptr) {
+                              raster::RasterSession* session = nullptr,
+                              std::shared_ptr<const OracleRun> oracle = nullptr) {
         const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
         ValidateOptions options;
         options.use_cache = false;
@@ -165,10 +166,10 @@ TEST_F(Verdict, SoftShadowMetricsRankHardPcssAndAveragedMaps) {
     // One oracle and one warm session for the three techniques, as tune and sweep run them.
     ValidateOptions options;
     options.use_cache = false;
-    const OracleRun truth = oracle_for(sc, options);
+    const auto truth = std::make_shared<const OracleRun>(oracle_for(sc, options));
     raster::RasterSession session(sc, *ctx_);
     auto soft_score = [&](const nlohmann::json& technique_json) {
-        const ValidateResult r = run(sc, technique_json, &session, &truth);
+        const ValidateResult r = run(sc, technique_json, &session, truth);
         EXPECT_TRUE(r.score.lights[0].soft.has_value()) << "an area light is scored as soft (scoring_options)";
         return *r.score.lights[0].soft;
     };
