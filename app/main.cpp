@@ -23,9 +23,11 @@
 #include "oracle/oracle_cache.h"
 #include "oracle/oracle_output.h"
 #include "pipeline/validate.h"
+#include "pipeline/validate_files.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
 #include "raster/technique.h"
+#include "report/frame_files.h"
 #include "report/report.h"
 
 namespace {
@@ -107,7 +109,7 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     OracleResult result = run_oracle(scenario, oracle_settings(c, a));
 
     OutputTransaction out(c.out);
-    write_oracle_outputs(out, scenario, result, timings);
+    report::write_oracle_outputs(out, scenario, result, timings);
     out.commit();
     if (!c.quiet) {
         const auto& s = result.stats;
@@ -178,7 +180,7 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
     raster::RasterResult result = raster::run_raster(scenario, technique, ctx);
 
     OutputTransaction out(c.out);
-    raster::write_raster_outputs(out, scenario, technique, result, timings);
+    report::write_raster_outputs(out, scenario, technique, result, timings);
     out.commit();
     if (!c.quiet) {
         const auto& s = result.stats;

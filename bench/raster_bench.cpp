@@ -14,6 +14,7 @@
 
 #include "common/scenario.h"
 #include "raster/raster.h"
+#include "tests/data_dir.h"
 
 namespace {
 
@@ -52,7 +53,7 @@ int main(int argc, char** argv) {
     int repeat = 3;
     bool terrain = false;
     std::string device;
-    std::filesystem::path scenario_file = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json";
+    std::filesystem::path scenario_file = test::data_dir() / "default/scenario.json";
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--repeat" && i + 1 < argc)

@@ -21,6 +21,7 @@
 #include "common/scenario.h"
 #include "common/stopwatch.h"
 #include "raster/raster.h"
+#include "tests/data_dir.h"
 
 namespace {
 
@@ -42,7 +43,7 @@ raster::Technique technique(const nlohmann::json& change) {
 int main(int argc, char** argv) {
     int repeat = 7;
     std::string device;
-    std::filesystem::path scenario_file = std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json";
+    std::filesystem::path scenario_file = test::data_dir() / "default/scenario.json";
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         if (a == "--repeat" && i + 1 < argc)

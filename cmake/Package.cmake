@@ -1,12 +1,12 @@
 # penumbra::penumbra, the installable library: every module in one shared library whose own
-# dependencies (Embree, TBB, OpenImageIO, the Vulkan loader, fmt, tinygltf) stay private, so a
+# dependencies (Embree, TBB, OpenImageIO, xxHash, the Vulkan loader, fmt, tinygltf) stay private, so a
 # consumer needs only the headers its public types use (GLM, nlohmann-json, Vulkan's headers).
 # Warnings and sanitizer flags are private to the build. docs/library.md shows how to use it.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(penumbra_modules penumbra_common penumbra_tinygltf penumbra_oracle penumbra_raster penumbra_metrics penumbra_report
-  penumbra_pipeline)
+set(penumbra_modules penumbra_common penumbra_tinygltf penumbra_image_io penumbra_oracle penumbra_raster
+  penumbra_metrics penumbra_report penumbra_report_files penumbra_pipeline penumbra_pipeline_files)
 add_library(penumbra_library SHARED)
 foreach(module ${penumbra_modules})
   target_sources(penumbra_library PRIVATE $<TARGET_OBJECTS:${module}>)
@@ -15,7 +15,7 @@ set_target_properties(penumbra_library PROPERTIES
   OUTPUT_NAME penumbra EXPORT_NAME penumbra
   VERSION ${PROJECT_VERSION} SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
 target_link_libraries(penumbra_library
-  PRIVATE embree TBB::tbb PkgConfig::OIIO Vulkan::Vulkan fmt::fmt
+  PRIVATE embree TBB::tbb PkgConfig::OIIO PkgConfig::XXHASH Vulkan::Vulkan fmt::fmt
   PUBLIC glm::glm nlohmann_json::nlohmann_json Vulkan::Headers)
 # The public headers keep the source tree's module folders under include/penumbra/, so that
 # they include each other as they do in the tree ("common/scenario.h").
@@ -30,9 +30,10 @@ set(penumbra_public_headers
   common/version.h
   metrics/classification.h metrics/gate.h metrics/metric_table.h
   oracle/oracle.h
-  pipeline/validate.h
+  pipeline/validate.h pipeline/validate_files.h
   raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h raster/vk_check.h
-  raster/vulkan_context.h)
+  raster/vulkan_context.h
+  report/report.h)
 foreach(header ${penumbra_public_headers})
   get_filename_component(dir ${header} DIRECTORY)
   install(FILES ${PROJECT_SOURCE_DIR}/${header} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/penumbra/${dir})

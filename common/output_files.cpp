@@ -1,14 +1,12 @@
 #include "common/output_files.h"
 
-#include <OpenImageIO/hash.h>
-#include <OpenImageIO/imageio.h>
-#include <OpenImageIO/strutil.h>
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <unistd.h>
+#include <xxhash.h>
 
 #include <cerrno>
-#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 
@@ -26,7 +24,7 @@ OutputTransaction::~OutputTransaction() {
     if (created_dir_) fs::remove(dir_, ec);  // only succeeds if empty
 }
 
-fs::path OutputTransaction::temporary(const std::string& name) {
+fs::path OutputTransaction::stage(const std::string& name) {
     std::error_code ec;
     if (!fs::exists(dir_, ec)) {
         if (!fs::create_directories(dir_, ec) || ec)
@@ -40,54 +38,6 @@ fs::path OutputTransaction::temporary(const std::string& name) {
     return tmp;
 }
 
-void OutputTransaction::write_exr(const std::string& name, int width, int height,
-                                  const std::vector<ExrChannel>& channels) {
-    fs::path tmp = temporary(name);
-    OIIO::ImageSpec spec(width, height, static_cast<int>(channels.size()), OIIO::TypeDesc::FLOAT);
-    spec.channelnames.clear();
-    spec.channelformats.clear();
-    std::size_t pixel_bytes = 0;
-    for (const ExrChannel& c : channels) {
-        spec.channelnames.push_back(c.name);
-        spec.channelformats.push_back(c.u32.empty() ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT);
-        pixel_bytes += 4;
-    }
-    spec.attribute("compression", "zip");
-    // OIIO stamps the write time unless told a date; a fixed one keeps files bit-identical.
-    spec.attribute("DateTime", "1970:01:01 00:00:00");
-    // Interleave per pixel in each channel's native format (OIIO's TypeUnknown convention).
-    const std::size_t n = static_cast<std::size_t>(width) * height;
-    std::vector<unsigned char> data(n * pixel_bytes);
-    for (std::size_t i = 0; i < n; ++i) {
-        unsigned char* p = data.data() + i * pixel_bytes;
-        for (const ExrChannel& c : channels) {
-            std::memcpy(p, c.u32.empty() ? static_cast<const void*>(&c.f32[i]) : static_cast<const void*>(&c.u32[i]),
-                        4);
-            p += 4;
-        }
-    }
-    auto out = OIIO::ImageOutput::create("openexr");
-    if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeUnknown, data.data()) || !out->close())
-        throw EnvironmentError(
-            fmt::format("{}: cannot write EXR: {}", (dir_ / name).string(), out ? out->geterror() : OIIO::geterror()));
-}
-
-void OutputTransaction::write_png(const std::string& name, int width, int height, const std::vector<float>& rgb) {
-    fs::path tmp = temporary(name);
-    std::vector<unsigned char> bytes(rgb.size());
-    for (std::size_t i = 0; i < rgb.size(); ++i) {
-        float v = std::clamp(rgb[i], 0.0f, 1.0f);
-        float s = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-        bytes[i] = static_cast<unsigned char>(std::lround(s * 255.0f));
-    }
-    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-    auto out = OIIO::ImageOutput::create("png");
-    if (!out || !out->open(tmp.string(), spec) || !out->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
-        !out->close())
-        throw EnvironmentError(
-            fmt::format("{}: cannot write PNG: {}", (dir_ / name).string(), out ? out->geterror() : OIIO::geterror()));
-}
-
 void OutputTransaction::write_json(const std::string& name, const nlohmann::json& value) {
     // Paths and names from the command line may hold bytes that are not UTF-8 (a Latin-1
     // folder name): written as U+FFFD rather than failing the whole run.
@@ -95,7 +45,7 @@ void OutputTransaction::write_json(const std::string& name, const nlohmann::json
 }
 
 void OutputTransaction::write_text(const std::string& name, const std::string& text) {
-    fs::path tmp = temporary(name);
+    fs::path tmp = stage(name);
     std::ofstream out(tmp, std::ios::binary);
     out << text;
     out.close();
@@ -138,12 +88,29 @@ void check_output_file(const fs::path& file, const fs::path& out_dir, const std:
 }
 
 std::string base64_encode(std::string_view bytes) {
-    return OIIO::Strutil::base64_encode(bytes);
+    static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    out.reserve((bytes.size() + 2) / 3 * 4);
+    std::size_t i = 0;
+    for (; i + 3 <= bytes.size(); i += 3) {
+        const std::uint32_t v = std::uint32_t(std::uint8_t(bytes[i])) << 16 |
+                                std::uint32_t(std::uint8_t(bytes[i + 1])) << 8 | std::uint8_t(bytes[i + 2]);
+        for (int shift : {18, 12, 6, 0}) out += kAlphabet[v >> shift & 63];
+    }
+    if (const std::size_t rest = bytes.size() - i; rest > 0) {
+        std::uint32_t v = std::uint32_t(std::uint8_t(bytes[i])) << 16;
+        if (rest == 2) v |= std::uint32_t(std::uint8_t(bytes[i + 1])) << 8;
+        out += kAlphabet[v >> 18 & 63];
+        out += kAlphabet[v >> 12 & 63];
+        out += rest == 2 ? kAlphabet[v >> 6 & 63] : '=';
+        out += '=';
+    }
+    return out;
 }
 
 std::string content_fingerprint(std::string_view bytes) {
-    const OIIO::farmhash::uint128_t h = OIIO::farmhash::Fingerprint128(bytes.data(), bytes.size());
-    return fmt::format("{:016x}{:016x}", OIIO::farmhash::Uint128High64(h), OIIO::farmhash::Uint128Low64(h));
+    const XXH128_hash_t h = XXH3_128bits(bytes.data(), bytes.size());
+    return fmt::format("{:016x}{:016x}", h.high64, h.low64);
 }
 
 void OutputTransaction::commit() {

@@ -2,7 +2,6 @@
 // the output folder and is renamed into place only when all of them were written.
 #pragma once
 
-#include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -11,13 +10,6 @@
 
 namespace penumbra {
 
-// One named channel of an EXR image; exactly one of the two vectors is filled.
-struct ExrChannel {
-    std::string name;
-    std::vector<float> f32;
-    std::vector<std::uint32_t> u32;
-};
-
 class OutputTransaction {
   public:
     explicit OutputTransaction(std::filesystem::path dir);
@@ -25,9 +17,9 @@ class OutputTransaction {
     OutputTransaction(const OutputTransaction&) = delete;
     OutputTransaction& operator=(const OutputTransaction&) = delete;
 
-    void write_exr(const std::string& name, int width, int height, const std::vector<ExrChannel>& channels);
-    // 8-bit sRGB-encoded RGB image, linear input in [0, 1] per channel, row-major.
-    void write_png(const std::string& name, int width, int height, const std::vector<float>& rgb);
+    // A temporary path in the folder for `name`, renamed to `name` on commit: for writers
+    // elsewhere (image_io/image_io.h writes EXR and PNG files through it).
+    std::filesystem::path stage(const std::string& name);
     void write_json(const std::string& name, const nlohmann::json& value);
     void write_text(const std::string& name, const std::string& text);
     // The bytes of a file this transaction wrote (before or after commit), e.g. to embed an
@@ -38,7 +30,6 @@ class OutputTransaction {
     const std::filesystem::path& dir() const { return dir_; }
 
   private:
-    std::filesystem::path temporary(const std::string& name);
     std::filesystem::path dir_;
     bool created_dir_ = false;
     bool committed_ = false;
@@ -54,8 +45,8 @@ void check_output_file(const std::filesystem::path& file, const std::filesystem:
 // Standard base64 (RFC 4648), for data: URIs.
 std::string base64_encode(std::string_view bytes);
 
-// A 128-bit content fingerprint (farmhash Fingerprint128: stable across platforms and
-// releases) as 32 hex digits, for cache keys.
+// A 128-bit content fingerprint (XXH3-128: its output is stable across platforms and xxHash
+// releases since 0.8) as 32 hex digits, for cache keys.
 std::string content_fingerprint(std::string_view bytes);
 
 }  // namespace penumbra

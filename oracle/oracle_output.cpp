@@ -1,69 +1,6 @@
 #include "oracle/oracle_output.h"
 
-#include <fmt/format.h>
-
-#include <cmath>
-#include <glm/geometric.hpp>
-
-#include "common/preview.h"
-#include "common/stopwatch.h"
-
 namespace penumbra {
-
-namespace {
-
-std::vector<ExrChannel> exr_channels(const OracleFrame& f) {
-    const std::size_t n = f.pixel_count();
-    std::vector<ExrChannel> ch;
-    auto add = [&](std::string name, std::vector<float> data) { ch.push_back({std::move(name), std::move(data), {}}); };
-    add("A", f.A);
-    ch.push_back({"prim", {}, f.prim});
-    add("depth", f.depth);
-    for (int c = 0; c < 3; ++c) {
-        std::vector<float> p(n), nn(n);
-        for (std::size_t i = 0; i < n; ++i) {
-            p[i] = f.P[i][c];
-            nn[i] = f.N[i][c];
-        }
-        add(std::string("P.") + "XYZ"[c], std::move(p));
-        add(std::string("N.") + "XYZ"[c], std::move(nn));
-    }
-    for (std::size_t li = 0; li < f.lights.size(); ++li) {
-        const OracleLightImage& img = f.lights[li];
-        std::string prefix = fmt::format("light{}.", li);
-        add(prefix + "V", img.V);
-        add(prefix + "E", img.E);
-        add(prefix + "U", img.U);
-        add(prefix + "lightable", img.lightable);
-        add(prefix + "occluder_m", img.occluder_m);
-        add(prefix + "boundary_m", img.boundary_m);
-    }
-    return ch;
-}
-
-std::vector<float> preview(const OracleFrame& f) {
-    std::vector<float> relief(f.pixel_count());
-    for (std::size_t i = 0; i < relief.size(); ++i) relief[i] = 0.6f + 0.4f * std::abs(f.N[i].y);
-    std::vector<PreviewLight> lights;
-    for (const auto& l : f.lights) lights.push_back({&l.V, &l.U});
-    return visibility_preview(f.A, relief, lights);
-}
-
-}  // namespace
-
-double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
-    auto t0 = SteadyClock::now();
-    out.write_exr("oracle.exr", f.width, f.height, exr_channels(f));
-    out.write_png("oracle.png", f.width, f.height, preview(f));
-    return seconds_since(t0);
-}
-
-void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
-                          const OracleTimings& timings) {
-    OracleTimings t = timings;
-    t.write_s = write_oracle_images(out, result.frame);
-    out.write_json("oracle.json", oracle_json(scenario, result, t));
-}
 
 nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result, const OracleTimings& timings) {
     const OracleFrame& f = result.frame;

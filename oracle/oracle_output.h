@@ -1,7 +1,9 @@
-// The oracle's files: oracle.exr, oracle.json, oracle.png (docs/outputs.md).
+// oracle.json (docs/outputs.md). report/frame_files.h writes it with oracle.exr and oracle.png,
+// so that the oracle library does not link OpenImageIO.
 #pragma once
 
-#include "common/output_files.h"
+#include <nlohmann/json.hpp>
+
 #include "common/scenario.h"
 #include "oracle/oracle.h"
 
@@ -14,13 +16,5 @@ struct OracleTimings {
 
 // oracle.json's content.
 nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result, const OracleTimings& timings);
-
-// oracle.exr and oracle.png; returns the seconds they took.
-double write_oracle_images(OutputTransaction& out, const OracleFrame& frame);
-
-// Adds oracle.exr, oracle.png and oracle.json to the transaction (nothing is visible until it
-// commits).
-void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
-                          const OracleTimings& timings);
 
 }  // namespace penumbra

@@ -9,13 +9,9 @@
 #include "common/version.h"
 #include "oracle/oracle_cache.h"
 #include "oracle/oracle_output.h"
-#include "report/report.h"
 
 namespace penumbra {
 
-namespace {
-
-// What the report files are made from; pointers into `scenario` and `r`, valid while both are.
 report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResult& r,
                                    const nlohmann::json& oracle_info) {
     report::ReportInputs in;
@@ -30,8 +26,6 @@ report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResul
     in.gate = r.gate ? &*r.gate : nullptr;
     return in;
 }
-
-}  // namespace
 
 std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, const raster::Technique& technique,
                                                      double tolerance) {
@@ -125,19 +119,6 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
 
 std::string validate_junit(const Scenario& scenario, const ValidateResult& result) {
     return report::junit_xml(report_inputs(scenario, result, result.oracle->info));
-}
-
-void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {
-    nlohmann::json oracle_info = r.oracle->info;
-    if (frames) {
-        oracle_info["seconds"]["write"] = write_oracle_images(out, r.oracle->frame);
-        raster::write_raster_outputs(out, scenario, r.technique, r.raster, r.raster_timings);
-    } else {
-        out.write_json("raster.json", r.raster_info);
-    }
-    out.write_json("oracle.json", oracle_info);
-    report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle->frame, r.raster.frame, r.score,
-                         r.report);
 }
 
 }  // namespace penumbra

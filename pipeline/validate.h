@@ -1,7 +1,7 @@
 // The validate pipeline, the one place that composes the modules: the oracle (from the cache
 // when an earlier run traced the same thing), the raster path, the metrics and the gate. The
 // CLI's validate, tune, sweep and the tests call it; report files are written separately
-// (write_validate_outputs), so a loop can score without writing anything.
+// (validate_files.h: write_validate_outputs), so a loop can score without writing anything.
 #pragma once
 
 #include <filesystem>
@@ -20,6 +20,7 @@
 #include "raster/raster.h"
 #include "raster/raster_output.h"
 #include "raster/technique.h"
+#include "report/report.h"
 
 namespace penumbra {
 
@@ -78,11 +79,10 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                         const ValidateOptions& options, raster::RasterSession* session = nullptr,
                         std::shared_ptr<const OracleRun> oracle = nullptr);
 
-// report.html, report.json, errors.exr, the PNG maps, raster.json and oracle.json into `out`;
-// with `frames`, oracle.exr/png and raster.exr/png too (the oracle frame must then hold P, N,
-// depth: ValidateOptions::keep_oracle_frame).
-void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& result,
-                            bool frames);
+// What the report files are made from; pointers into `scenario` and `r`, valid while both are.
+// `oracle_info` is the oracle.json the report names.
+report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResult& r,
+                                   const nlohmann::json& oracle_info);
 
 // The gate's checks as JUnit XML: one testcase per light x check.
 std::string validate_junit(const Scenario& scenario, const ValidateResult& result);

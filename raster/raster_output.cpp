@@ -1,39 +1,8 @@
 #include "raster/raster_output.h"
 
-#include <fmt/format.h>
-
-#include "common/preview.h"
-#include "common/stopwatch.h"
-
 namespace penumbra::raster {
 
 namespace {
-
-std::vector<ExrChannel> exr_channels(const RasterFrame& f) {
-    std::vector<ExrChannel> ch;
-    auto add = [&](std::string name, const std::vector<float>& data) { ch.push_back({std::move(name), data, {}}); };
-    auto add_u = [&](std::string name, const std::vector<std::uint32_t>& data) {
-        ch.push_back({std::move(name), {}, data});
-    };
-    add("A", f.A);
-    add_u("prim", f.prim);
-    for (std::size_t li = 0; li < f.lights.size(); ++li) {
-        const RasterLightImage& img = f.lights[li];
-        std::string p = fmt::format("light{}.", li);
-        add(p + "V", img.V);
-        if (!img.lookups) continue;
-        const DepthMapLookups& lk = *img.lookups;
-        add(p + "ref_depth", lk.ref_depth);
-        add(p + "stored_depth", lk.stored_depth);
-        add_u(p + "stored_prim", lk.stored_prim);
-        add(p + "footprint_m", lk.footprint_m);
-        add(p + "texel_slope", lk.texel_slope);
-        add(p + "bias_m", lk.bias_m);
-        add(p + "depth_to_m", lk.depth_to_m);
-        add_u(p + "flags", lk.flags);
-    }
-    return ch;
-}
 
 nlohmann::json matrix_json(const glm::dmat4& m) {
     nlohmann::json rows = nlohmann::json::array();
@@ -124,19 +93,6 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
         {"lights", lights},
         {"warnings", s.warnings},
     };
-}
-
-void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, const Technique& technique,
-                          const RasterResult& result, const RasterTimings& timings) {
-    const RasterFrame& f = result.frame;
-    auto t0 = SteadyClock::now();
-    out.write_exr("raster.exr", f.width, f.height, exr_channels(f));
-    std::vector<PreviewLight> lights;
-    for (const auto& l : f.lights) lights.push_back({&l.V, nullptr});
-    out.write_png("raster.png", f.width, f.height, visibility_preview(f.A, {}, lights));
-    nlohmann::json j = raster_json(scenario, technique, result, timings);
-    j["seconds"]["write"] = seconds_since(t0);
-    out.write_json("raster.json", j);
 }
 
 }  // namespace penumbra::raster

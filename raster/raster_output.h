@@ -1,7 +1,9 @@
-// raster.exr, raster.json and raster.png (docs/outputs.md).
+// raster.json (docs/outputs.md). report/frame_files.h writes it with raster.exr and raster.png,
+// so that the raster library does not link OpenImageIO.
 #pragma once
 
-#include "common/output_files.h"
+#include <nlohmann/json.hpp>
+
 #include "common/scenario.h"
 #include "raster/raster.h"
 
@@ -14,7 +16,5 @@ struct RasterTimings {
 
 nlohmann::json raster_json(const Scenario& scenario, const Technique& technique, const RasterResult& result,
                            const RasterTimings& timings);
-void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, const Technique& technique,
-                          const RasterResult& result, const RasterTimings& timings);
 
 }  // namespace penumbra::raster

@@ -1,10 +1,12 @@
 // What validate leaves behind for people and CI (docs/design.md, "Output directory"):
-// report.json, errors.exr, the PNG maps, report.html and the JUnit file.
+// report.json, errors.exr, the PNG maps, report.html and the JUnit file. This header has the
+// JSON and XML; report_files.h writes the image files and the page.
 #pragma once
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/frames.h"
@@ -32,14 +34,11 @@ struct ReportInputs {
 // the metrics table.
 nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& score);
 
-// errors.exr, light<i>.classes.png, light<i>.error.png, light<i>.compare.png, report.json and
-// report.html (images embedded), added to the transaction. The page's numbers come from `score`
-// and in.gate; `report` is written as report.json and gives the page its timing.
-void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
-                  const metrics::FrameScore& score, const nlohmann::json& report);
-
 // JUnit XML of in.gate's outcomes: one testsuite (named after in.scenario_file), one testcase per
 // light x check; no testcase without a gate.
 std::string junit_xml(const ReportInputs& in);
+
+// Escapes text for HTML and XML content and attribute values alike.
+std::string escape_markup(std::string_view s);
 
 }  // namespace penumbra::report

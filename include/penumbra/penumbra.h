@@ -15,5 +15,6 @@
 #include "metrics/gate.h"
 #include "metrics/metric_table.h"
 #include "pipeline/validate.h"
+#include "pipeline/validate_files.h"
 #include "raster/raster.h"
 #include "raster/technique.h"

@@ -9,6 +9,7 @@
 
 #include "common/errors.h"
 #include "oracle/oracle.h"
+#include "tests/data_dir.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -60,7 +61,7 @@ void expect_same_primitives(const OracleFrame& o, const RasterFrame& r) {
 }
 
 Scenario default_scenario() {
-    return load_scenario(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scenario.json");
+    return load_scenario(test::data_dir() / "default/scenario.json");
 }
 
 Scenario perspective_scene() {

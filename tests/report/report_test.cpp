@@ -1,12 +1,11 @@
 // report: report.json keys, the files validate writes, legends drawn into the PNGs, JUnit.
-#include "report/report.h"
-
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
 
 #include "report/bitmap_font.h"
+#include "report/report_files.h"
 #include "tests/metrics/synthetic_frames.h"
 #include "tests/test_support.h"
 

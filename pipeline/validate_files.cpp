@@ -1,0 +1,21 @@
+#include "pipeline/validate_files.h"
+
+#include "report/frame_files.h"
+#include "report/report_files.h"
+
+namespace penumbra {
+
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {
+    nlohmann::json oracle_info = r.oracle->info;
+    if (frames) {
+        oracle_info["seconds"]["write"] = report::write_oracle_images(out, r.oracle->frame);
+        report::write_raster_outputs(out, scenario, r.technique, r.raster, r.raster_timings);
+    } else {
+        out.write_json("raster.json", r.raster_info);
+    }
+    out.write_json("oracle.json", oracle_info);
+    report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle->frame, r.raster.frame, r.score,
+                         r.report);
+}
+
+}  // namespace penumbra

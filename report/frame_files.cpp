@@ -1,0 +1,107 @@
+#include "report/frame_files.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "common/preview.h"
+#include "common/stopwatch.h"
+#include "image_io/image_io.h"
+
+namespace penumbra::report {
+
+namespace {
+
+std::vector<ExrChannel> oracle_channels(const OracleFrame& f) {
+    const std::size_t n = f.pixel_count();
+    std::vector<ExrChannel> ch;
+    auto add = [&](std::string name, std::vector<float> data) { ch.push_back({std::move(name), std::move(data), {}}); };
+    add("A", f.A);
+    ch.push_back({"prim", {}, f.prim});
+    add("depth", f.depth);
+    for (int c = 0; c < 3; ++c) {
+        std::vector<float> p(n), nn(n);
+        for (std::size_t i = 0; i < n; ++i) {
+            p[i] = f.P[i][c];
+            nn[i] = f.N[i][c];
+        }
+        add(std::string("P.") + "XYZ"[c], std::move(p));
+        add(std::string("N.") + "XYZ"[c], std::move(nn));
+    }
+    for (std::size_t li = 0; li < f.lights.size(); ++li) {
+        const OracleLightImage& img = f.lights[li];
+        std::string prefix = fmt::format("light{}.", li);
+        add(prefix + "V", img.V);
+        add(prefix + "E", img.E);
+        add(prefix + "U", img.U);
+        add(prefix + "lightable", img.lightable);
+        add(prefix + "occluder_m", img.occluder_m);
+        add(prefix + "boundary_m", img.boundary_m);
+    }
+    return ch;
+}
+
+std::vector<float> oracle_preview(const OracleFrame& f) {
+    std::vector<float> relief(f.pixel_count());
+    for (std::size_t i = 0; i < relief.size(); ++i) relief[i] = 0.6f + 0.4f * std::abs(f.N[i].y);
+    std::vector<PreviewLight> lights;
+    for (const auto& l : f.lights) lights.push_back({&l.V, &l.U});
+    return visibility_preview(f.A, relief, lights);
+}
+
+std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
+    std::vector<ExrChannel> ch;
+    auto add = [&](std::string name, const std::vector<float>& data) { ch.push_back({std::move(name), data, {}}); };
+    auto add_u = [&](std::string name, const std::vector<std::uint32_t>& data) {
+        ch.push_back({std::move(name), {}, data});
+    };
+    add("A", f.A);
+    add_u("prim", f.prim);
+    for (std::size_t li = 0; li < f.lights.size(); ++li) {
+        const RasterLightImage& img = f.lights[li];
+        std::string p = fmt::format("light{}.", li);
+        add(p + "V", img.V);
+        if (!img.lookups) continue;
+        const DepthMapLookups& lk = *img.lookups;
+        add(p + "ref_depth", lk.ref_depth);
+        add(p + "stored_depth", lk.stored_depth);
+        add_u(p + "stored_prim", lk.stored_prim);
+        add(p + "footprint_m", lk.footprint_m);
+        add(p + "texel_slope", lk.texel_slope);
+        add(p + "bias_m", lk.bias_m);
+        add(p + "depth_to_m", lk.depth_to_m);
+        add_u(p + "flags", lk.flags);
+    }
+    return ch;
+}
+
+}  // namespace
+
+double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
+    auto t0 = SteadyClock::now();
+    write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f));
+    write_png(out, "oracle.png", f.width, f.height, oracle_preview(f));
+    return seconds_since(t0);
+}
+
+void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
+                          const OracleTimings& timings) {
+    OracleTimings t = timings;
+    t.write_s = write_oracle_images(out, result.frame);
+    out.write_json("oracle.json", oracle_json(scenario, result, t));
+}
+
+void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, const raster::Technique& technique,
+                          const raster::RasterResult& result, const raster::RasterTimings& timings) {
+    const RasterFrame& f = result.frame;
+    auto t0 = SteadyClock::now();
+    write_exr(out, "raster.exr", f.width, f.height, raster_channels(f));
+    std::vector<PreviewLight> lights;
+    for (const auto& l : f.lights) lights.push_back({&l.V, nullptr});
+    write_png(out, "raster.png", f.width, f.height, visibility_preview(f.A, {}, lights));
+    nlohmann::json j = raster_json(scenario, technique, result, timings);
+    j["seconds"]["write"] = seconds_since(t0);
+    out.write_json("raster.json", j);
+}
+
+}  // namespace penumbra::report

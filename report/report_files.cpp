@@ -1,0 +1,306 @@
+#include "report/report_files.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "image_io/image_io.h"
+#include "report/bitmap_font.h"
+
+namespace penumbra::report {
+
+namespace {
+
+using metrics::PixelClass;
+
+glm::vec3 class_colour(PixelClass c) {
+    switch (c) {
+        case PixelClass::background: return {0.0f, 0.0f, 0.0f};
+        case PixelClass::back_facing: return {0.09f, 0.09f, 0.12f};
+        case PixelClass::uncertain: return {0.6f, 0.1f, 0.6f};
+        case PixelClass::coverage_mismatch: return {0.3f, 0.3f, 0.3f};
+        case PixelClass::correct: return {0.35f, 0.35f, 0.35f};
+        case PixelClass::aliasing: return {1.0f, 0.8f, 0.05f};
+        case PixelClass::acne: return {0.95f, 0.08f, 0.05f};
+        case PixelClass::peter_panning: return {0.05f, 0.75f, 1.0f};
+        case PixelClass::false_shadow: return {0.55f, 0.2f, 1.0f};
+        case PixelClass::false_lit: return {0.15f, 0.9f, 0.2f};
+    }
+    return {1, 1, 1};
+}
+
+std::string css_colour(glm::vec3 linear) {
+    auto s = [](float v) {
+        v = std::clamp(v, 0.0f, 1.0f);
+        v = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+        return static_cast<int>(std::lround(v * 255.0f));
+    };
+    return fmt::format("#{:02x}{:02x}{:02x}", s(linear.r), s(linear.g), s(linear.b));
+}
+
+struct LegendEntry {
+    glm::vec3 colour;
+    std::string text;
+};
+
+// Appends a band under the image with a swatch and a label per entry, wrapping into rows.
+std::vector<float> with_legend(std::vector<float> rgb, int W, int H, const std::vector<LegendEntry>& entries,
+                               int& out_height) {
+    const int scale = W >= 640 ? 2 : 1;
+    const int line = (kGlyphHeight + 5) * scale, pad = 4 * scale, swatch = kGlyphHeight * scale;
+    // Lay out once to know the band's height.
+    std::vector<std::pair<int, int>> at;
+    int x = pad, y = pad;
+    for (const auto& e : entries) {
+        const int w = swatch + 2 * scale + text_width(e.text, scale) + 4 * pad;
+        if (x > pad && x + w > W) {
+            x = pad;
+            y += line;
+        }
+        at.emplace_back(x, y);
+        x += w;
+    }
+    const int band = y + line + pad;
+    out_height = H + band;
+    rgb.resize(3 * static_cast<std::size_t>(W) * out_height, 0.04f);  // lighter than "not scored"
+    for (std::size_t k = 0; k < entries.size(); ++k) {
+        const int ex = at[k].first, ey = H + at[k].second;
+        for (int sy = 0; sy < swatch; ++sy)
+            for (int sx = 0; sx < swatch; ++sx) {
+                const int px = ex + sx, py = ey + sy;
+                if (px >= W || py >= out_height) continue;
+                float* p = &rgb[3 * (static_cast<std::size_t>(py) * W + px)];
+                p[0] = entries[k].colour.r;
+                p[1] = entries[k].colour.g;
+                p[2] = entries[k].colour.b;
+            }
+        draw_text(rgb, W, out_height, ex + swatch + 2 * scale, ey, entries[k].text, {0.9f, 0.9f, 0.9f}, scale);
+    }
+    return rgb;
+}
+
+std::vector<float> class_image(const OracleLightImage& o, const metrics::LightErrorImage& e, std::size_t n) {
+    std::vector<float> rgb(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto c = static_cast<PixelClass>(e.cls[i]);
+        // Correct pixels keep the shading of the truth, so the scene stays recognisable.
+        glm::vec3 col = c == PixelClass::correct ? glm::vec3(0.16f + 0.4f * o.V[i]) : class_colour(c);
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = col[k];
+    }
+    return rgb;
+}
+
+constexpr glm::vec3 kDarker{0.95f, 0.12f, 0.06f}, kBrighter{0.1f, 0.45f, 1.0f};
+
+std::vector<float> error_image(const OracleLightImage& o, const metrics::LightErrorImage& e, std::size_t n) {
+    std::vector<float> rgb(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto c = static_cast<PixelClass>(e.cls[i]);
+        glm::vec3 col = class_colour(PixelClass::background);
+        if (c >= PixelClass::correct) {
+            // Dim truth underneath; errors bright, small ones still visible (square-root ramp).
+            const glm::vec3 base(0.015f + 0.06f * o.V[i]);
+            const float t = std::sqrt(std::min(1.0f, std::abs(e.error[i])));
+            col = c == PixelClass::correct ? base : base + (e.error[i] < 0 ? kDarker : kBrighter) * (0.3f + 0.7f * t);
+        } else if (c != PixelClass::background) {
+            col = glm::vec3(0.01f);
+        }
+        for (int k = 0; k < 3; ++k) rgb[3 * i + k] = std::min(col[k], 1.0f);
+    }
+    return rgb;
+}
+
+std::vector<float> compare_image(const std::vector<float>& A, const std::vector<float>& Vo,
+                                 const std::vector<float>& Vr, int W, int H) {
+    const int W2 = 2 * W;
+    std::vector<float> rgb(3 * static_cast<std::size_t>(W2) * H);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * W + x;
+            const float o = A[i] != 0 ? 0.08f + 0.8f * Vo[i] : 0.02f, r = A[i] != 0 ? 0.08f + 0.8f * Vr[i] : 0.02f;
+            for (int k = 0; k < 3; ++k) {
+                rgb[3 * (static_cast<std::size_t>(y) * W2 + x) + k] = o;
+                rgb[3 * (static_cast<std::size_t>(y) * W2 + W + x) + k] = r;
+            }
+        }
+    const int scale = W >= 640 ? 2 : 1;
+    draw_text(rgb, W2, H, 6 * scale, 6 * scale, "oracle (truth)", {1.0f, 0.85f, 0.2f}, scale);
+    draw_text(rgb, W2, H, W + 6 * scale, 6 * scale, "raster (technique)", {1.0f, 0.85f, 0.2f}, scale);
+    return rgb;
+}
+
+std::string light_file(std::size_t li, const char* what) {
+    return fmt::format("light{}.{}.png", li, what);
+}
+
+std::string number(double v) {
+    return fmt::format("{:.4g}", v);
+}
+
+// A horizontal bar per error class: rates on one shared scale, so lights compare at a glance.
+std::string rate_chart(const metrics::LightScore& light) {
+    double top = 1e-6;
+    for (auto c : metrics::kErrorClasses) top = std::max(top, light.rate(c));
+    std::string svg = R"(<svg xmlns="http://www.w3.org/2000/svg" width="420" height="130" role="img">)";
+    int y = 4;
+    for (auto c : metrics::kErrorClasses) {
+        const std::string name(to_string(c));
+        const double rate = light.rate(c);
+        const int w = static_cast<int>(std::lround(220.0 * rate / top));
+        svg += fmt::format(R"(<text x="0" y="{}" font-size="12" fill="#ddd">{}</text>)", y + 13, name);
+        svg += fmt::format(R"(<rect x="105" y="{}" width="{}" height="16" fill="{}"/>)", y + 2, std::max(w, 1),
+                           css_colour(class_colour(c)));
+        svg += fmt::format(R"(<text x="{}" y="{}" font-size="12" fill="#ddd">{:.3f}%</text>)", 110 + w, y + 14,
+                           100.0 * rate);
+        y += 25;
+    }
+    return svg + "</svg>";
+}
+
+// The metrics of one light that the class table does not show, from the table: every other
+// metric appears here without an edit.
+std::string metric_rows(const metrics::LightScore& l) {
+    std::string rows;
+    for (const metrics::Metric& m : metrics::metric_table()) {
+        if (m.path.starts_with("counts.") || m.path.starts_with("rates.") || m.path.starts_with("pixels.")) continue;
+        const std::optional<double> v = metrics::value_of(m, l);
+        if (!v && m.scope == metrics::MetricScope::area_lights) continue;
+        rows += fmt::format("<tr><td title=\"{}\">{}</td><td>{}</td><td>{}</td></tr>\n", escape_markup(m.meaning),
+                            escape_markup(m.path), v ? number(*v) : "not measured", to_string(m.unit));
+    }
+    return rows;
+}
+
+std::string evidence_text(const metrics::ClassificationEvidence& e) {
+    if (e.source == metrics::Evidence::depth_map_lookups) return "the technique's depth-map lookups";
+    return fmt::format("the oracle's geometry (V only): texel footprint {} m ({}), bias reach {} m ({})",
+                       number(e.texel_footprint_m), to_string(e.texel_footprint_source), number(e.bias_reach_m),
+                       to_string(e.bias_reach_source));
+}
+
+std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, const nlohmann::json& report,
+                      const OutputTransaction& out) {
+    auto img = [&](const std::string& file, const std::string& alt) {
+        return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(out.written_bytes(file)),
+                           escape_markup(alt));
+    };
+    std::string h = R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>penumbra report</title>
+<style>
+body{font-family:system-ui,sans-serif;background:#16181d;color:#e6e6e6;margin:2em;max-width:1400px}
+h1,h2{font-weight:600} table{border-collapse:collapse;margin:.5em 0 1em} td,th{padding:.25em .8em;border-bottom:1px solid #333;text-align:right}
+th:first-child,td:first-child{text-align:left} img{max-width:100%;display:block;margin:.5em 0;image-rendering:pixelated}
+pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{color:#ff5252} .swatch{display:inline-block;width:.9em;height:.9em;margin-right:.4em;vertical-align:middle}
+.grid{display:grid;grid-template-columns:1fr 1fr;gap:1em}
+</style></head><body>
+)";
+    const Scenario& sc = *in.scenario;
+    h += fmt::format("<h1>penumbra report</h1>\n<p>Scenario <code>{}</code>, {}&times;{} pixels, {} light(s). ",
+                     escape_markup(in.scenario_file.string()), sc.width, sc.height, sc.lights.size());
+    if (in.raster.contains("device"))
+        h += fmt::format("Raster device: {}. ", escape_markup(in.raster["device"].value("name", "?")));
+    h += fmt::format("penumbra {}.</p>\n", escape_markup(report.value("version", "")));
+    if (in.gate) {
+        const bool passed = in.gate->passed;
+        h += fmt::format(
+            "<h2>Gate: <span class=\"{}\" "
+            "id=\"gate\">{}</span></h2>\n<table><tr><th>light</th><th>check</th><th>value</th><th>result</th></tr>\n",
+            passed ? "pass" : "fail", passed ? "passed" : "FAILED");
+        for (const auto& c : in.gate->outcomes)
+            h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>\n", c.light,
+                             escape_markup(c.name()), std::isfinite(c.value) ? number(c.value) : "not measured",
+                             c.passed ? "pass" : "fail", c.passed ? "pass" : "fail");
+        h += "</table>\n";
+    }
+    for (std::size_t li = 0; li < score.lights.size(); ++li) {
+        const metrics::LightScore& l = score.lights[li];
+        h += fmt::format("<h2>Light {} ({})</h2>\n", li, escape_markup(to_string(sc.lights[li].type)));
+        h += fmt::format("<p>Classes from {}.</p>\n", escape_markup(evidence_text(l.evidence)));
+        h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th></tr>\n";
+        for (auto c : metrics::kErrorClasses) {
+            h += fmt::format(
+                "<tr><td><span class=\"swatch\" "
+                "style=\"background:{}\"></span>{}</td><td>{}</td><td>{:.4f}%</td></tr>\n",
+                css_colour(class_colour(c)), to_string(c), l.count(c), 100.0 * l.rate(c));
+        }
+        h += "</table><table>\n";
+        for (const metrics::Metric& m : metrics::metric_table())
+            if (m.path.starts_with("pixels."))
+                h += fmt::format("<tr><td title=\"{}\">{} pixels</td><td>{}</td></tr>\n", escape_markup(m.meaning),
+                                 m.path.substr(7), number(m.read(l)));
+        h += "</table><table><tr><th>metric</th><th>value</th><th>unit</th></tr>\n" + metric_rows(l) +
+             "</table></div>\n";
+        h += "<div>" + rate_chart(l) + "</div></div>\n";
+        h += "<h3>Classes</h3>" + img(light_file(li, "classes"), fmt::format("class map, light {}", li));
+        h += "<h3>Signed error (red: raster darker, blue: raster brighter)</h3>" +
+             img(light_file(li, "error"), fmt::format("error map, light {}", li));
+        h += "<h3>Oracle and raster</h3>" +
+             img(light_file(li, "compare"), fmt::format("oracle and raster, light {}", li));
+    }
+    h += "<h2>Timing</h2>\n<table>\n";
+    const auto& t = report["timing"];
+    h += fmt::format("<tr><td>oracle ({})</td><td>{:.3f} s</td></tr>\n",
+                     t.value("oracle_cached", false) ? "cached" : "traced", t.value("oracle_s", 0.0));
+    h += fmt::format("<tr><td>raster, wall clock</td><td>{:.3f} s</td></tr>\n", t.value("raster_s", 0.0));
+    for (const auto& [k, v] : t["raster_ms"].items())
+        h += fmt::format("<tr><td>GPU {}</td><td>{:.2f} ms</td></tr>\n", escape_markup(k), v.get<double>());
+    h += fmt::format("<tr><td>metrics</td><td>{:.3f} s</td></tr>\n</table>\n", t.value("metrics_s", 0.0));
+    h += "<h2>Technique</h2>\n<pre>" + escape_markup(report["technique"].dump(2)) + "</pre>\n";
+    h += "<h2>Scoring</h2>\n<pre>" + escape_markup(report["scoring"].dump(2)) + "</pre>\n";
+    // A broken embedded image is a console error, so a headless browser check notices it.
+    h += R"(<script>
+window.addEventListener("load", function () {
+  var broken = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
+  broken.forEach(function (i) { console.error("image did not load: " + i.alt); });
+  document.body.setAttribute("data-images", broken.length === 0 ? "ok" : "broken");
+});
+</script>
+</body></html>
+)";
+    return h;
+}
+
+}  // namespace
+
+void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
+                  const metrics::FrameScore& score, const nlohmann::json& report) {
+    const int W = oracle.width, H = oracle.height;
+    const std::size_t n = oracle.pixel_count();
+    std::vector<ExrChannel> channels = {{"A", oracle.A, {}}};  // the surface mask, and never an empty file
+    for (std::size_t li = 0; li < score.images.size(); ++li) {
+        const auto& e = score.images[li];
+        channels.push_back({fmt::format("light{}.error", li), e.error, {}});
+        channels.push_back(
+            {fmt::format("light{}.class", li), {}, std::vector<std::uint32_t>(e.cls.begin(), e.cls.end())});
+        channels.push_back({fmt::format("light{}.perceptual", li), e.perceptual, {}});
+    }
+    write_exr(out, "errors.exr", W, H, channels);
+
+    for (std::size_t li = 0; li < score.images.size(); ++li) {
+        const auto& e = score.images[li];
+        const metrics::LightScore& l = score.lights[li];
+        std::vector<LegendEntry> legend;
+        for (auto c : metrics::kErrorClasses)
+            legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
+        legend.push_back({class_colour(PixelClass::correct), "correct"});
+        for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
+            legend.push_back({class_colour(c), std::string(to_string(c))});
+        int h = 0;
+        auto classes = with_legend(class_image(oracle.lights[li], e, n), W, H, legend, h);
+        write_png(out, light_file(li, "classes"), W, h, classes);
+
+        const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
+                                                       {kBrighter, "raster brighter than truth"},
+                                                       {glm::vec3(0.06f), "within tolerance"},
+                                                       {glm::vec3(0.01f), "not scored"}};
+        auto errors = with_legend(error_image(oracle.lights[li], e, n), W, H, error_legend, h);
+        write_png(out, light_file(li, "error"), W, h, errors);
+        write_png(out, light_file(li, "compare"), 2 * W, H,
+                  compare_image(oracle.A, oracle.lights[li].V, raster.lights[li].V, W, H));
+    }
+    out.write_json("report.json", report);
+    out.write_text("report.html", html_page(in, score, report, out));
+}
+
+}  // namespace penumbra::report
