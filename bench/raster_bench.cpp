@@ -12,18 +12,14 @@
 #include <string>
 #include <vector>
 
+#include "bench/raster_bench_args.h"
 #include "common/scenario.h"
 #include "raster/raster.h"
-#include "tests/data_dir.h"
 
 namespace {
 
 using namespace penumbra;
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
+using bench::median;
 
 void add_terrain(Scene& s, int grid) {
     const double extent = 16.0;
@@ -50,31 +46,15 @@ void add_terrain(Scene& s, int grid) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    int repeat = 3;
-    bool terrain = false;
-    std::string device;
-    std::filesystem::path scenario_file = test::data_dir() / "default/scenario.json";
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        if (a == "--repeat" && i + 1 < argc)
-            repeat = std::max(1, std::atoi(argv[++i]));
-        else if (a == "--device" && i + 1 < argc)
-            device = argv[++i];
-        else if (a == "--terrain")
-            terrain = true;
-        else if (a == "--scenario" && i + 1 < argc)
-            scenario_file = argv[++i];
-        else {
-            std::fprintf(stderr, "usage: raster_bench [--repeat N] [--device D] [--terrain] [--scenario FILE]\n");
-            return 2;
-        }
-    }
+    const auto args = bench::parse_raster_bench_args(argc, argv, "raster_bench", 3, true);
+    if (!args) return 2;
+    const int repeat = args->repeat;
     try {
-        Scenario sc = load_scenario(scenario_file);
+        Scenario sc = load_scenario(args->scenario);
         sc.lights.resize(1);  // the directional light: one map per run
-        if (terrain) add_terrain(sc.scene, 256);
+        if (args->terrain) add_terrain(sc.scene, 256);
         raster::ContextOptions co;
-        co.device = device;
+        co.device = args->device;
         raster::VulkanContext ctx(co);
         std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light\n", ctx.info().name.c_str(),
                     ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height);

@@ -18,19 +18,15 @@
 #include <string>
 #include <vector>
 
+#include "bench/raster_bench_args.h"
 #include "common/scenario.h"
 #include "common/stopwatch.h"
 #include "raster/raster.h"
-#include "tests/data_dir.h"
 
 namespace {
 
 using namespace penumbra;
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
+using bench::median;
 
 raster::Technique technique(const nlohmann::json& change) {
     nlohmann::json j = {{"resolution", 2048}, {"bias", {{"slope", 1.5}}}};
@@ -41,27 +37,14 @@ raster::Technique technique(const nlohmann::json& change) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    int repeat = 7;
-    std::string device;
-    std::filesystem::path scenario_file = test::data_dir() / "default/scenario.json";
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        if (a == "--repeat" && i + 1 < argc)
-            repeat = std::max(1, std::atoi(argv[++i]));
-        else if (a == "--device" && i + 1 < argc)
-            device = argv[++i];
-        else if (a == "--scenario" && i + 1 < argc)
-            scenario_file = argv[++i];
-        else {
-            std::fprintf(stderr, "usage: raster_session_bench [--repeat N] [--device D] [--scenario FILE]\n");
-            return 2;
-        }
-    }
+    const auto args = bench::parse_raster_bench_args(argc, argv, "raster_session_bench", 7, false);
+    if (!args) return 2;
+    const int repeat = args->repeat;
     try {
-        Scenario sc = load_scenario(scenario_file);
+        Scenario sc = load_scenario(args->scenario);
         sc.lights.resize(1);
         raster::ContextOptions co;
-        co.device = device;
+        co.device = args->device;
         raster::VulkanContext ctx(co);
         std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light, 2048^2 map; median of %d\n",
                     ctx.info().name.c_str(), ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height,
