@@ -1,18 +1,7 @@
 #!/usr/bin/env bash
 # End-to-end checks of the penumbra command line: exit codes, messages, no partial output,
 # bit-identical results whatever the thread count. Usage: cli_test.sh PENUMBRA SOURCE_DIR
-set -uo pipefail
-bin=$1
-src=$2
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-passed=0
-failed=0
-check() {  # check NAME CONDITION...
-    local name=$1
-    shift
-    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name"; fi
-}
+source "$(dirname "$0")/harness.sh"
 run() {  # run OUT_DIR ARGS... -> sets rc, err
     "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
     rc=$?
@@ -209,5 +198,4 @@ check "raster.json: orthographic maps give metres_per_texel" grep -q '"metres_pe
 check "raster.json: perspective maps give metres_per_texel_per_metre" \
     grep -q '"metres_per_texel_per_metre":' "$tmp/r1/raster.json"
 
-echo "$passed passed, $failed failed"
-test "$failed" -eq 0
+finish

@@ -3,18 +3,8 @@
 # per row) and asserts what the user must see: exit 2 (or the stated code), a message naming
 # the file and the element, nothing left in --out. The deep and large inputs are generated
 # here, not committed. Usage: hostile_input.sh PENUMBRA SOURCE_DIR
-set -uo pipefail
-bin=$1
-src=$2
-tmp=$(mktemp -d)
-trap 'chmod -R u+w "$tmp" 2>/dev/null; rm -rf "$tmp"' EXIT
-passed=0
-failed=0
-check() {  # check NAME CONDITION...
-    local name=$1
-    shift
-    if "$@"; then passed=$((passed + 1)); else failed=$((failed + 1)); echo "FAIL: $name (rc=$rc) $err"; fi
-}
+source "$(dirname "$0")/harness.sh"
+fail_detail() { echo "(rc=$rc) $err"; }
 run() {  # run ARGS... -> sets rc, err; a hang is a failure (rc 124)
     timeout 120 "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
     rc=$?
@@ -286,5 +276,4 @@ check "row 14 duplicate roots: exit 0" test "$rc" -eq 0
 check "row 14 duplicate roots: a warning" grep -q 'dup_roots\.gltf: scene lists root node 0 more than once' <<<"$err"
 check "row 14 duplicate roots: geometry once" grep -q ' 2 triangles' "$tmp/stdout"
 
-echo "$passed passed, $failed failed"
-test "$failed" -eq 0
+finish

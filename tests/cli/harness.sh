@@ -1,0 +1,25 @@
+# Sourced by the CLI test scripts (cli_test.sh, hostile_input.sh): their two arguments, a
+# temporary folder removed at exit, and check(), which counts and names each failure. A script
+# may define fail_detail() to add context to a failure line (e.g. the exit code and stderr).
+# End a script with `finish`.
+set -uo pipefail
+bin=$1
+src=$2
+tmp=$(mktemp -d)
+trap 'chmod -R u+w "$tmp" 2>/dev/null; rm -rf "$tmp"' EXIT
+passed=0
+failed=0
+check() {  # check NAME CONDITION...
+    local name=$1
+    shift
+    if "$@"; then
+        passed=$((passed + 1))
+    else
+        failed=$((failed + 1))
+        echo "FAIL: $name$(declare -F fail_detail >/dev/null && echo " $(fail_detail)")"
+    fi
+}
+finish() {
+    echo "$passed passed, $failed failed"
+    test "$failed" -eq 0
+}
