@@ -134,7 +134,9 @@ std::string light_file(std::size_t li, const char* what) {
     return fmt::format("light{}.{}.png", li, what);
 }
 
+// Whole numbers (pixel counts) in full, the rest to four significant digits.
 std::string number(double v) {
+    if (v == std::floor(v) && std::abs(v) < 1e15) return fmt::format("{:.0f}", v);
     return fmt::format("{:.4g}", v);
 }
 
