@@ -111,7 +111,7 @@ step() {
     summary+=("$(printf '%-22s %-16s %4ds  %s' "$name" "$line" $((SECONDS - t0)) "$logs/$name.log")")
     echo "${summary[-1]}"
 }
-echo "penumbra GPU bundle: device ${PENUMBRA_VK_DEVICE:-(default: lavapipe)}"
+echo "penumbra GPU bundle: device ${PENUMBRA_VK_DEVICE:-(default: lavapipe when installed, else device 0)}"
 step raster_tests "$here/bin/raster_tests"
 step verdict_tests "$here/bin/verdict_tests"
 step raster_bench "$here/bin/raster_bench" "${device_args[@]}"
