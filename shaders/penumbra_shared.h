@@ -55,8 +55,8 @@ PENUMBRA_CONST uint kFilterPcf = 2;
 PENUMBRA_CONST uint kFilterPoisson = 3;
 PENUMBRA_CONST uint kFilterPcss = 4;
 
-PENUMBRA_CONST uint kModeLookup = 0;    // write LookupTexel per pixel
-PENUMBRA_CONST uint kModeFaceMask = 1;  // only mark the cube faces receivers would sample
+PENUMBRA_CONST uint kModeLookup = 0;      // write LookupTexel per pixel
+PENUMBRA_CONST uint kModeFaceMask = 1;    // only mark the cube faces receivers would sample
 PENUMBRA_CONST uint kModeVisibility = 2;  // write V alone, skipping the diagnostics
 
 PENUMBRA_CONST uint kMaxPoissonTaps = 64;
