@@ -1,10 +1,13 @@
-// Raster path speed: GPU time of the shadow pass and the camera pass (camera raster + per-light
-// lookup) at shadow-map resolutions 1024^2 ... 8192^2, 1280 x 720 pixels, on the chosen Vulkan
-// device (lavapipe unless --device or $PENUMBRA_VK_DEVICE says otherwise).
+// Raster path speed: GPU time of the shadow pass against a bare depth-only pass of the same
+// triangles, size, format and light matrix in the same run (the ratio is what penumbra's pass
+// costs beyond what an engine pays), and of the camera pass (camera raster + per-light lookup),
+// at shadow-map resolutions 1024^2 ... 8192^2, 1280 x 720 pixels, on the chosen Vulkan device
+// (lavapipe unless --device or $PENUMBRA_VK_DEVICE says otherwise).
 //
-// Scene: the bundled default scenario with only its directional light (one map per run), and
-// a 131k-triangle terrain version of it (--terrain) to load the rasteriser. Median of --repeat
-// runs per resolution; wall clock includes submission and waiting, not setup.
+// Scene: the bundled default scenario with only its directional light (one map per run), plus
+// a terrain to load the rasteriser: --terrain (131k triangles) or --terrain-grid N (2 N^2, e.g.
+// 1024 for 2.1M). Median of --repeat runs per resolution on one session, every map drawn;
+// wall clock includes submission and waiting, not setup.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -14,7 +17,10 @@
 
 #include "bench/raster_bench_args.h"
 #include "common/scenario.h"
+#include "raster/gpu_passes.h"
 #include "raster/raster.h"
+// SPIR-V compiled from shaders/ at build time.
+#include "shadow_vert.h"
 
 namespace {
 
@@ -43,6 +49,137 @@ void add_terrain(Scene& s, int grid) {
         }
 }
 
+// The anchor: the same triangles into a depth-only target of the same size and format from the
+// same light matrix, vertex shader only, no colour target, no bias: what an engine's bare depth
+// pass costs on this device. The shadow pass also writes the triangle id per texel (for the
+// acne rule), which is what it pays beyond this.
+class BareDepthPass {
+  public:
+    BareDepthPass(const raster::VulkanContext& ctx, const Scene& scene, const glm::dvec3& origin) : ctx_(ctx) {
+        std::vector<float> pos;
+        for (const glm::dvec3& p : scene.positions) {
+            const glm::dvec3 r = p - origin;
+            pos.insert(pos.end(), {static_cast<float>(r.x), static_cast<float>(r.y), static_cast<float>(r.z)});
+        }
+        std::vector<std::uint32_t> idx;
+        for (const auto& t : scene.triangles) idx.insert(idx.end(), {t.x, t.y, t.z});
+        count_ = static_cast<std::uint32_t>(idx.size());
+        positions_ = raster::upload(ctx, pos.data(), pos.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+        indices_ =
+            raster::upload(ctx, idx.data(), idx.size() * sizeof(std::uint32_t), VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+        layout_ = raster::make_pipeline_layout(ctx, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
+        make_pipeline();
+        VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+        qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+        qi.queryCount = 2;
+        VkQueryPool qp;
+        VK_CHECK(vkCreateQueryPool(ctx.device(), &qi, nullptr, &qp));
+        queries_ = raster::UniqueQueryPool(ctx.device(), qp);
+    }
+
+    double render_ms(const glm::dmat4& view_proj, std::uint32_t res) {
+        if (depth_.width != res)
+            depth_ = raster::create_image(ctx_, kFormat, res, res, 1, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                                          VK_IMAGE_ASPECT_DEPTH_BIT, false);
+        const glm::mat4 vp(view_proj);
+        ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
+            vkCmdResetQueryPool(cmd, queries_.get(), 0, 2);
+            raster::image_barrier(cmd, depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, 1, VK_IMAGE_LAYOUT_UNDEFINED,
+                                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                                  raster::kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 0);
+            VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+            da.imageView = depth_.view.get();
+            da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+            da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+            da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+            da.clearValue.depthStencil.depth = 1.0f;
+            VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+            ri.renderArea = {{0, 0}, {res, res}};
+            ri.layerCount = 1;
+            ri.pDepthAttachment = &da;
+            vkCmdBeginRendering(cmd, &ri);
+            raster::set_viewport(cmd, res, res);
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.get());
+            vkCmdPushConstants(cmd, layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+            VkDeviceSize zero = 0;
+            vkCmdBindVertexBuffers(cmd, 0, 1, positions_.buffer.ptr(), &zero);
+            vkCmdBindIndexBuffer(cmd, indices_.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
+            vkCmdDrawIndexed(cmd, count_, 1, 0, 0, 0);
+            vkCmdEndRendering(cmd);
+            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 1);
+        });
+        std::uint64_t t[2] = {0, 0};
+        VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), 0, 2, sizeof(t), t, sizeof(std::uint64_t),
+                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        return t[1] >= t[0] ? static_cast<double>(t[1] - t[0]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
+    }
+
+  private:
+    static constexpr VkFormat kFormat = VK_FORMAT_D32_SFLOAT;  // the technique's d32
+
+    void make_pipeline() {
+        raster::UniqueShaderModule vs = raster::make_module(ctx_, kShadowVert, sizeof(kShadowVert));
+        VkPipelineShaderStageCreateInfo stage{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+        stage.stage = VK_SHADER_STAGE_VERTEX_BIT;
+        stage.module = vs.get();
+        stage.pName = "main";
+        VkVertexInputBindingDescription binding{0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
+        VkVertexInputAttributeDescription attribute{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
+        VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+        vi.vertexBindingDescriptionCount = 1;
+        vi.pVertexBindingDescriptions = &binding;
+        vi.vertexAttributeDescriptionCount = 1;
+        vi.pVertexAttributeDescriptions = &attribute;
+        VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+        ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+        VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+        vp.viewportCount = 1;
+        vp.scissorCount = 1;
+        VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+        rs.depthClampEnable = VK_TRUE;  // as the shadow pass
+        rs.polygonMode = VK_POLYGON_MODE_FILL;
+        rs.cullMode = VK_CULL_MODE_BACK_BIT;
+        rs.frontFace = VK_FRONT_FACE_CLOCKWISE;
+        rs.lineWidth = 1.0f;
+        VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+        ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+        VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+        ds.depthTestEnable = VK_TRUE;
+        ds.depthWriteEnable = VK_TRUE;
+        ds.depthCompareOp = VK_COMPARE_OP_LESS;
+        VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+        VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+        dy.dynamicStateCount = 2;
+        dy.pDynamicStates = dyn;
+        VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
+        ri.depthAttachmentFormat = kFormat;
+        VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+        ci.pNext = &ri;
+        ci.stageCount = 1;
+        ci.pStages = &stage;
+        ci.pVertexInputState = &vi;
+        ci.pInputAssemblyState = &ia;
+        ci.pViewportState = &vp;
+        ci.pRasterizationState = &rs;
+        ci.pMultisampleState = &ms;
+        ci.pDepthStencilState = &ds;
+        ci.pDynamicState = &dy;
+        ci.layout = layout_.get();
+        VkPipeline p;
+        VK_CHECK(vkCreateGraphicsPipelines(ctx_.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
+        pipeline_ = raster::UniquePipeline(ctx_.device(), p);
+    }
+
+    const raster::VulkanContext& ctx_;
+    raster::GpuBuffer positions_, indices_;
+    std::uint32_t count_ = 0;
+    raster::UniquePipelineLayout layout_;
+    raster::UniquePipeline pipeline_;
+    raster::UniqueQueryPool queries_;
+    raster::GpuImage depth_;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -52,25 +189,34 @@ int main(int argc, char** argv) {
     try {
         Scenario sc = load_scenario(args->scenario);
         sc.lights.resize(1);  // the directional light: one map per run
-        if (args->terrain) add_terrain(sc.scene, 256);
+        if (args->terrain_grid > 0) add_terrain(sc.scene, args->terrain_grid);
         raster::ContextOptions co;
         co.device = args->device;
         raster::VulkanContext ctx(co);
         std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light\n", ctx.info().name.c_str(),
                     ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height);
-        std::printf("%-10s %12s %14s %12s %12s\n", "map", "shadow ms", "camera+lookup", "lookup ms", "wall ms");
+        BareDepthPass bare(ctx, sc.scene, sc.camera.eye);
+        std::printf("%-10s %12s %12s %8s %14s %12s %12s\n", "map", "shadow ms", "bare ms", "ratio", "camera+lookup",
+                    "lookup ms", "wall ms");
         for (int res : {1024, 2048, 4096, 8192}) {
             raster::Technique t = raster::parse_technique({{"resolution", res}, {"bias", {{"slope", 1.5}}}}, "bench");
-            std::vector<double> shadow, camera, lookup, wall;
-            raster::run_raster(sc, t, ctx);  // warm-up: pipeline compilation, first-touch memory
+            std::vector<double> shadow, depth_only, camera, lookup, wall;
+            raster::RasterSession session(sc, ctx);
+            raster::RenderOptions fresh;  // every render draws its map: timing runs reuse nothing
+            fresh.reuse_maps = false;
+            const raster::RasterResult first = session.render(t, fresh);  // warm-up: pipelines, first touch
+            const glm::dmat4 view_proj = first.stats.lights[0].projection.view_proj[0];
+            bare.render_ms(view_proj, static_cast<std::uint32_t>(res));
             for (int r = 0; r < repeat; ++r) {
-                raster::RasterResult out = raster::run_raster(sc, t, ctx);
+                raster::RasterResult out = session.render(t, fresh);
                 shadow.push_back(out.stats.shadow_ms);
+                depth_only.push_back(bare.render_ms(view_proj, static_cast<std::uint32_t>(res)));
                 camera.push_back(out.stats.camera_ms + out.stats.lookup_ms);
                 lookup.push_back(out.stats.lookup_ms);
                 wall.push_back(out.stats.render_s * 1e3);
             }
-            std::printf("%5d^2    %12.2f %14.2f %12.2f %12.2f\n", res, median(shadow), median(camera), median(lookup),
+            std::printf("%5d^2    %12.2f %12.2f %8.2f %14.2f %12.2f %12.2f\n", res, median(shadow), median(depth_only),
+                        median(shadow) / std::max(median(depth_only), 1e-9), median(camera), median(lookup),
                         median(wall));
         }
     } catch (const std::exception& e) {

@@ -1,5 +1,5 @@
 // What the raster benches share: their options (--repeat N, --device D, --scenario FILE and,
-// where a bench has it, --terrain) and the median they report.
+// where a bench has it, --terrain / --terrain-grid N) and the median they report.
 #pragma once
 
 #include <algorithm>
@@ -18,7 +18,7 @@ struct RasterBenchArgs {
     int repeat = 3;
     std::string device;  // empty: $PENUMBRA_VK_DEVICE, else lavapipe
     std::filesystem::path scenario = test::data_dir() / "default/scenario.json";
-    bool terrain = false;
+    int terrain_grid = 0;  // > 0: add a terrain of grid x grid quads (2 grid^2 triangles)
 };
 
 // Prints the usage line and returns nothing on an unknown or incomplete option.
@@ -35,10 +35,12 @@ inline std::optional<RasterBenchArgs> parse_raster_bench_args(int argc, char** a
         } else if (a == "--scenario" && i + 1 < argc) {
             args.scenario = argv[++i];
         } else if (has_terrain && a == "--terrain") {
-            args.terrain = true;
+            args.terrain_grid = 256;  // 131k triangles
+        } else if (has_terrain && a == "--terrain-grid" && i + 1 < argc) {
+            args.terrain_grid = std::clamp(std::atoi(argv[++i]), 1, 4096);
         } else {
             std::fprintf(stderr, "usage: %s [--repeat N] [--device D] [--scenario FILE]%s\n", name,
-                         has_terrain ? " [--terrain]" : "");
+                         has_terrain ? " [--terrain | --terrain-grid N]" : "");
             return std::nullopt;
         }
     }
