@@ -26,7 +26,7 @@ if [[ -z $out ]]; then
 fi
 
 binaries=(tests/raster_tests tests/verdict_tests bench/raster_bench bench/raster_session_bench
-    bench/receiver_plane_probe)
+    bench/receiver_plane_probe bench/class_counts)
 for b in "${binaries[@]}"; do
     if [[ ! -x $build/$b ]]; then
         echo "gpu-bundle: $build/$b is missing: build first (scripts/build.sh)" >&2
@@ -43,7 +43,7 @@ done
 rm -rf "$out"
 mkdir -p "$out/bin" "$out/lib" "$out/data"
 for b in "${binaries[@]}"; do cp "$build/$b" "$out/bin/"; done
-cp -r "$root/data/default" "$out/data/"
+cp -r "$root/data/default" "$root/data/soft" "$out/data/"
 
 # Every shared library the binaries load except those any Ubuntu 24.04 / Debian 12 machine with
 # a Vulkan driver has: the C and C++ runtimes, and the Vulkan loader (which must match the
@@ -117,6 +117,8 @@ step verdict_tests "$here/bin/verdict_tests"
 step raster_bench "$here/bin/raster_bench" "${device_args[@]}"
 step raster_session_bench "$here/bin/raster_session_bench" "${device_args[@]}"
 step receiver_plane_probe "$here/bin/receiver_plane_probe" "${device_args[@]}"
+step class_counts "$here/bin/class_counts" "${device_args[@]}" "$here/data/default/scenario.json" \
+    "$here/data/soft/scenario.json"
 
 echo
 echo "summary:"

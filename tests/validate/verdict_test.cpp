@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <memory>
 
 #include "metrics/classification.h"
@@ -48,7 +49,15 @@ class Verdict : public ::testing::Test {
             own = std::make_unique<raster::RasterSession>(sc, *ctx_);
             session = own.get();
         }
-        return validate(sc, technique, metrics::Gate{}, options, session, oracle);
+        ValidateResult r = validate(sc, technique, metrics::Gate{}, options, session, oracle);
+        // The counts on this device, for comparing devices (docs/raster.md, "Verdicts on two devices").
+        const metrics::LightScore& l = r.score.lights[0];
+        std::string counts;
+        for (metrics::PixelClass c : metrics::kErrorClasses)
+            counts += fmt::format(", {} {}", metrics::to_string(c), l.count(c));
+        std::printf("  [%s] scored %llu%s\n", ::testing::UnitTest::GetInstance()->current_test_info()->name(),
+                    static_cast<unsigned long long>(l.pixels.scored), counts.c_str());
+        return r;
     }
     static Judged judge(const Scenario& sc, const nlohmann::json& technique_json) {
         const ValidateResult r = run(sc, technique_json);
