@@ -102,6 +102,7 @@ class BareDepthPass {
             raster::set_viewport(cmd, res, res);
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.get());
             vkCmdPushConstants(cmd, layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+            vkCmdSetDepthBias(cmd, 0.0f, 0.0f, 0.0f);  // dynamic in the shared pipeline set-up; no bias here
             VkDeviceSize zero = 0;
             vkCmdBindVertexBuffers(cmd, 0, 1, positions_.buffer.ptr(), &zero);
             vkCmdBindIndexBuffer(cmd, indices_.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
@@ -119,56 +120,11 @@ class BareDepthPass {
     static constexpr VkFormat kFormat = VK_FORMAT_D32_SFLOAT;  // the technique's d32
 
     void make_pipeline() {
-        raster::UniqueShaderModule vs = raster::make_module(ctx_, kShadowVert, sizeof(kShadowVert));
-        VkPipelineShaderStageCreateInfo stage{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-        stage.stage = VK_SHADER_STAGE_VERTEX_BIT;
-        stage.module = vs.get();
-        stage.pName = "main";
-        VkVertexInputBindingDescription binding{0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
-        VkVertexInputAttributeDescription attribute{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
-        VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-        vi.vertexBindingDescriptionCount = 1;
-        vi.pVertexBindingDescriptions = &binding;
-        vi.vertexAttributeDescriptionCount = 1;
-        vi.pVertexAttributeDescriptions = &attribute;
-        VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-        ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-        VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-        vp.viewportCount = 1;
-        vp.scissorCount = 1;
-        VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-        rs.depthClampEnable = VK_TRUE;  // as the shadow pass
-        rs.polygonMode = VK_POLYGON_MODE_FILL;
-        rs.cullMode = VK_CULL_MODE_BACK_BIT;
-        rs.frontFace = VK_FRONT_FACE_CLOCKWISE;
-        rs.lineWidth = 1.0f;
-        VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-        ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-        VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-        ds.depthTestEnable = VK_TRUE;
-        ds.depthWriteEnable = VK_TRUE;
-        ds.depthCompareOp = VK_COMPARE_OP_LESS;
-        VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-        VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-        dy.dynamicStateCount = 2;
-        dy.pDynamicStates = dyn;
-        VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-        ri.depthAttachmentFormat = kFormat;
-        VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-        ci.pNext = &ri;
-        ci.stageCount = 1;
-        ci.pStages = &stage;
-        ci.pVertexInputState = &vi;
-        ci.pInputAssemblyState = &ia;
-        ci.pViewportState = &vp;
-        ci.pRasterizationState = &rs;
-        ci.pMultisampleState = &ms;
-        ci.pDepthStencilState = &ds;
-        ci.pDynamicState = &dy;
-        ci.layout = layout_.get();
-        VkPipeline p;
-        VK_CHECK(vkCreateGraphicsPipelines(ctx_.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
-        pipeline_ = raster::UniquePipeline(ctx_.device(), p);
+        // The shadow pass's state (depth clamp, back-face culling, LESS), no fragment shader.
+        pipeline_ =
+            raster::make_graphics_pipeline(ctx_, layout_.get(),
+                                           {kShadowVert, sizeof(kShadowVert), nullptr, 0, kFormat, VK_COMPARE_OP_LESS,
+                                            VK_CULL_MODE_BACK_BIT, VK_FRONT_FACE_CLOCKWISE, true, false});
     }
 
     const raster::VulkanContext& ctx_;

@@ -60,7 +60,10 @@ void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAcce
 }
 
 UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g) {
-    UniqueShaderModule vs = make_module(ctx, g.vert, g.vert_bytes), fs = make_module(ctx, g.frag, g.frag_bytes);
+    // No fragment shader: a depth-only pass without a colour target.
+    const bool colour = g.frag != nullptr;
+    UniqueShaderModule vs = make_module(ctx, g.vert, g.vert_bytes);
+    UniqueShaderModule fs = colour ? make_module(ctx, g.frag, g.frag_bytes) : UniqueShaderModule();
     VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
                                                  {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
     stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
@@ -105,14 +108,14 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     dy.dynamicStateCount = 3;
     dy.pDynamicStates = dyn;
     VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-    ri.colorAttachmentCount = 1;
+    ri.colorAttachmentCount = colour ? 1 : 0;
     VkFormat color = kPrimFormat;
     ri.pColorAttachmentFormats = &color;
     ri.depthAttachmentFormat = g.depth_format;
 
     VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
     ci.pNext = &ri;
-    ci.stageCount = 2;
+    ci.stageCount = colour ? 2 : 1;
     ci.pStages = stages;
     ci.pVertexInputState = &vi;
     ci.pInputAssemblyState = &ia;
@@ -120,7 +123,7 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     ci.pRasterizationState = &rs;
     ci.pMultisampleState = &ms;
     ci.pDepthStencilState = &ds;
-    ci.pColorBlendState = &cb;
+    ci.pColorBlendState = colour ? &cb : nullptr;
     ci.pDynamicState = &dy;
     ci.layout = layout;
     VkPipeline p;

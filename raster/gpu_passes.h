@@ -30,7 +30,8 @@ void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAcce
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
 
 // A graphics pipeline for the camera and shadow passes: one vec3 stream, one R32_UINT colour
-// target (the primitive id) and a depth target, dynamic rendering, dynamic depth bias.
+// target (the primitive id) and a depth target, dynamic rendering, dynamic depth bias. Without a
+// fragment shader (frag null) it is depth-only, with no colour target.
 struct GraphicsSetup {
     const std::uint32_t* vert;
     std::size_t vert_bytes;
