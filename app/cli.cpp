@@ -1,0 +1,89 @@
+#include "app/cli.h"
+
+#include <fmt/format.h>
+
+#include "common/json_reader.h"
+#include "common/memory_estimate.h"
+#include "pipeline/validate.h"
+
+namespace penumbra::cli {
+
+void add_common(CLI::App* cmd, Common& c) {
+    cmd->add_option("--out", c.out, "Output folder (created if missing)")->required();
+    cmd->add_flag("--allow-external-paths", c.allow_external_paths,
+                  "Let glTF buffer URIs point outside the scene's folder");
+    cmd->add_option("--threads", c.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
+    cmd->add_flag("-q,--quiet", c.quiet, "Print nothing but errors");
+    cmd->add_option("--max-memory", c.max_memory,
+                    "Refuse runs estimated to need more memory, e.g. 8G (0: no limit; default 3/4 of the machine's)");
+}
+
+void add_sampling(CLI::App* cmd, SamplingArgs& a) {
+    cmd->add_option("--seed", a.seed, "Area lights: seed of the sampling pattern (default 0)");
+    cmd->add_option("--area-target", a.target, "Area lights: 95% half-width E a pixel samples down to (default 1/255)")
+        ->check(CLI::Range(1e-6, 1.0))
+        ->check(finite_number_problem);
+    cmd->add_option("--area-max-rays", a.max_rays, "Area lights: most rays per pixel (default 4096)")
+        ->check(CLI::Range(16, 1 << 20));
+}
+
+OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
+    OracleSettings settings;
+    settings.threads = c.threads;
+    settings.progress = !c.quiet;
+    settings.seed = a.seed;
+    settings.area_target = a.target;
+    settings.area_max_rays = a.max_rays;
+    return settings;
+}
+
+Scenario load_for_command(const std::filesystem::path& scenario_file, const Common& c) {
+    ScenarioOptions so;
+    so.allow_external_paths = c.allow_external_paths;
+    so.max_memory_bytes = memory_budget(c.max_memory);
+    Scenario scenario = load_scenario(scenario_file, so);
+    if (!c.quiet) {
+        for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
+        if (auto w = no_lights_warning(scenario)) fmt::print(stderr, "warning: {}\n", *w);
+    }
+    return scenario;
+}
+
+void check_run_memory(const Scenario& s, const Common& c, bool oracle, const raster::Technique* t, bool metrics) {
+    RasterMemory rm;
+    if (t) rm = {t->resolution, t->depth_format == raster::DepthFormat::d16 ? 2 : 4, t->area_samples};
+    check_memory(estimate_memory(memory_inputs(s, oracle, t ? &rm : nullptr, metrics)), memory_budget(c.max_memory),
+                 s.label);
+}
+
+void add_technique(CLI::App* cmd, TechniqueArgs& t) {
+    cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")");
+    cmd->add_option("--preset", t.preset, "Start from a named preset (see below)")->check(utf8_problem);
+    cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)")
+        ->check(set_assignment_problem);
+    cmd->add_option("--device", t.device,
+                    "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
+    std::string text = "Presets:\n";
+    for (const auto& p : raster::presets()) text += fmt::format("  {:<24}{}\n", p.name, p.description);
+    cmd->footer(text);
+}
+
+nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, std::string& label) {
+    nlohmann::json j = scenario.technique;
+    label = scenario.label + ": technique";
+    if (!t.file.empty()) {
+        j = read_json_file(t.file);
+        label = t.file.filename().string();
+    }
+    if (!t.preset.empty()) j["preset"] = t.preset;
+    for (const auto& s : t.sets) raster::apply_override(j, s);
+    return j;
+}
+
+raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArgs& t) {
+    std::string label;
+    nlohmann::json j = technique_json(scenario, t, label);
+    return raster::parse_technique(j, label, scenario.lights);
+}
+
+}  // namespace penumbra::cli

@@ -1,0 +1,68 @@
+// The command line's shared pieces: the options every subcommand takes, and the one way each
+// subcommand registers itself (a CLI11 subcommand plus the function that runs it). One file per
+// subcommand (app/*_command.cpp) keeps each one readable on its own.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "common/scenario.h"
+#include "oracle/oracle.h"
+#include "raster/technique.h"
+
+namespace penumbra::cli {
+
+// Options every subcommand that reads a scenario takes.
+struct Common {
+    std::filesystem::path out;
+    bool allow_external_paths = false;
+    bool quiet = false;
+    int threads = 0;
+    std::string max_memory;  // empty: the default budget (common/memory_estimate.h)
+};
+void add_common(CLI::App* cmd, Common& c);
+
+// How the oracle samples area lights (docs/oracle.md, "Area lights").
+struct SamplingArgs {
+    std::uint64_t seed = 0;
+    double target = 1.0 / 255;
+    int max_rays = 4096;
+};
+void add_sampling(CLI::App* cmd, SamplingArgs& a);
+OracleSettings oracle_settings(const Common& c, const SamplingArgs& a);
+
+// Loads and validates the scenario every subcommand starts from; prints the scene's warnings.
+Scenario load_for_command(const std::filesystem::path& scenario_file, const Common& c);
+
+// Refuses, before any large allocation, a run the memory budget cannot hold (exit 2).
+void check_run_memory(const Scenario& s, const Common& c, bool oracle, const raster::Technique* t, bool metrics);
+
+// The technique's three sources: the scenario or --technique file, --preset, --set.
+struct TechniqueArgs {
+    std::filesystem::path file;
+    std::string preset;
+    std::vector<std::string> sets;
+    std::string device;
+};
+void add_technique(CLI::App* cmd, TechniqueArgs& t);
+// The technique JSON from those sources, in order (not yet parsed).
+nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, std::string& label);
+raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArgs& t);
+
+// A registered subcommand: run() is called when CLI11 selected `app`. Arguments live in state
+// the closure owns, so a subcommand's options stay private to its file.
+struct Subcommand {
+    CLI::App* app = nullptr;
+    std::function<int()> run;
+};
+
+Subcommand add_oracle_command(CLI::App& parent);
+Subcommand add_raster_command(CLI::App& parent);
+Subcommand add_validate_command(CLI::App& parent);
+Subcommand add_devices_command(CLI::App& parent);
+
+}  // namespace penumbra::cli

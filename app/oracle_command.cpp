@@ -1,0 +1,65 @@
+// `penumbra oracle`: trace the exact visibility of every light and write the oracle's frame.
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "app/cli.h"
+#include "common/errors.h"
+#include "common/output_files.h"
+#include "common/stopwatch.h"
+#include "oracle/oracle_output.h"
+#include "report/frame_files.h"
+
+namespace penumbra::cli {
+namespace {
+
+int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c, const SamplingArgs& a) {
+    auto t0 = SteadyClock::now();
+    Scenario scenario = load_for_command(scenario_file, c);
+    check_run_memory(scenario, c, true, nullptr, false);
+    OracleTimings timings;
+    timings.load_s = seconds_since(t0);
+
+    OracleResult result = run_oracle(scenario, oracle_settings(c, a));
+
+    OutputTransaction out(c.out);
+    report::write_oracle_outputs(out, scenario, result, timings);
+    out.commit();
+    if (!c.quiet) {
+        const auto& s = result.stats;
+        fmt::print(
+            "oracle: {}x{} px, {} triangles, {} lights; trace {:.3f} s, area lights {:.3f} s, boundaries {:.3f} s\n",
+            scenario.width, scenario.height, scenario.scene.triangle_count(), scenario.lights.size(), s.trace_s,
+            s.area_s, s.boundary_s);
+        for (std::size_t li = 0; li < s.lights.size(); ++li) {
+            const OracleLightStats& l = s.lights[li];
+            fmt::print("  light {} ({}): {} lightable px, {} shadowed, {} ambiguous", li,
+                       to_string(scenario.lights[li].type), l.lightable, l.shadowed, l.uncertain);
+            if (l.area)
+                fmt::print("; {:.1f} rays/px (max {}), {} px refined, {} at the ray cap",
+                           l.sampling.rays_per_pixel_mean, l.sampling.rays_per_pixel_max, l.sampling.refined,
+                           l.sampling.capped);
+            fmt::print("\n");
+        }
+        fmt::print("results: {}/oracle.exr, oracle.json, oracle.png\n", c.out.string());
+    }
+    return kExitSuccess;
+}
+
+}  // namespace
+
+Subcommand add_oracle_command(CLI::App& parent) {
+    struct Args {
+        std::filesystem::path scenario;
+        Common common;
+        SamplingArgs sampling;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = parent.add_subcommand("oracle", "Trace the exact visibility of every light (Embree)");
+    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_common(cmd, a->common);
+    add_sampling(cmd, a->sampling);
+    return {cmd, [a] { return run_oracle_command(a->scenario, a->common, a->sampling); }};
+}
+
+}  // namespace penumbra::cli

@@ -1,0 +1,114 @@
+// `penumbra validate`: oracle + raster + metrics, the verdict per pixel, reports and CI gates.
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "app/cli.h"
+#include "common/errors.h"
+#include "common/json_reader.h"
+#include "common/output_files.h"
+#include "common/stopwatch.h"
+#include "metrics/gate.h"
+#include "metrics/metric_table.h"
+#include "pipeline/validate.h"
+#include "pipeline/validate_files.h"
+
+namespace penumbra::cli {
+namespace {
+
+struct ValidateArgs {
+    std::filesystem::path gate_file;
+    std::filesystem::path junit_file;
+    std::filesystem::path cache_dir;
+    bool no_cache = false;
+    bool frames = false;
+    double tolerance = 1.0 / 255.0;
+    SamplingArgs sampling;
+};
+
+int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
+                         const ValidateArgs& v) {
+    if (!v.junit_file.empty()) check_output_file(v.junit_file, c.out, "--junit");
+    Scenario scenario = load_for_command(scenario_file, c);
+    // Everything the user wrote is checked before any work starts.
+    raster::Technique technique = resolve_technique(scenario, t);
+    const nlohmann::json gate_json = v.gate_file.empty() ? scenario.gate : read_json_file(v.gate_file);
+    const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
+    const metrics::Gate gate =
+        metrics::parse_gate(gate_json, gate_label, scenario.lights,
+                            v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
+    check_run_memory(scenario, c, true, &technique, true);
+
+    ValidateOptions options;
+    options.oracle = oracle_settings(c, v.sampling);
+    options.use_cache = !v.no_cache;
+    options.cache_dir = v.cache_dir;
+    options.keep_oracle_frame = v.frames;
+    options.tolerance = v.tolerance;
+    options.device = t.device;
+    OutputTransaction out(c.out);
+    const ValidateResult r = validate(scenario, technique, gate, options);
+
+    auto t0 = SteadyClock::now();
+    write_validate_outputs(out, scenario, r, v.frames);
+    out.commit();
+    const double write_s = seconds_since(t0);
+    if (!v.junit_file.empty()) {
+        std::filesystem::path dir = v.junit_file.parent_path();
+        OutputTransaction junit(dir.empty() ? std::filesystem::path(".") : dir);
+        junit.write_text(v.junit_file.filename().string(), validate_junit(scenario, r));
+        junit.commit();
+    }
+
+    if (!c.quiet) {
+        for (const auto& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
+        fmt::print(
+            "validate: {}x{} px, {} lights; oracle {} ({:.3f} s), Vulkan device {:.3f} s, raster {:.3f} s, metrics "
+            "{:.3f} s, writing {:.3f} s\n",
+            scenario.width, scenario.height, scenario.lights.size(), r.oracle->cached ? "from cache" : "traced",
+            r.oracle->seconds, r.raster_timings.device_s, r.raster_s, r.metrics_s, write_s);
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li)
+            fmt::print("  light {} ({}): {}\n", li, to_string(scenario.lights[li].type),
+                       metrics::summary_line(r.score.lights[li]));
+        fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
+    }
+    if (r.gate) {
+        for (const auto& o : r.gate->outcomes)
+            if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
+        if (!c.quiet)
+            fmt::print("gate: {} ({} checks)\n", r.gate->passed ? "passed" : "FAILED", r.gate->outcomes.size());
+        if (!r.gate->passed) return kExitGateFailed;
+    }
+    return kExitSuccess;
+}
+
+}  // namespace
+
+Subcommand add_validate_command(CLI::App& parent) {
+    struct Args {
+        std::filesystem::path scenario;
+        Common common;
+        TechniqueArgs technique;
+        ValidateArgs validate;
+    };
+    auto a = std::make_shared<Args>();
+    ValidateArgs& v = a->validate;
+    CLI::App* cmd =
+        parent.add_subcommand("validate", "Oracle + raster + metrics: the verdict per pixel, reports and CI gates");
+    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_common(cmd, a->common);
+    add_technique(cmd, a->technique);
+    cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")");
+    cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file");
+    cmd->add_option("--cache", v.cache_dir,
+                    "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
+    cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
+    cmd->add_flag("--frames", v.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
+    cmd->add_option("--tolerance", v.tolerance, "tau: |error| above this plus the oracle's E is wrong")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+    add_sampling(cmd, v.sampling);
+    return {cmd, [a] { return run_validate_command(a->scenario, a->common, a->technique, a->validate); }};
+}
+
+}  // namespace penumbra::cli
