@@ -16,4 +16,8 @@ namespace penumbra::report {
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report);
 
+// The class map of light `li` with its legend (each class's rate), as a PNG named `name`.
+void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l);
+
 }  // namespace penumbra::report
