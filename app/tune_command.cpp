@@ -9,6 +9,7 @@
 #include "common/json_reader.h"
 #include "common/output_files.h"
 #include "common/stopwatch.h"
+#include "metrics/metric_table.h"
 #include "raster/vulkan_context.h"
 #include "tune/tune_files.h"
 
@@ -50,6 +51,9 @@ int run_tune_command(const TuneArgs& a) {
     options.precision = a.precision;
     options.objective = {a.max_acne, a.minimize, a.then, a.tie};
     if (a.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; give at least 1", a.budget));
+    for (const auto& [option, path] : {std::pair{"--minimize", &a.minimize}, std::pair{"--then", &a.then}})
+        if (!metrics::find_metric(*path))
+            throw InputError(fmt::format("{}: no metric \"{}\" (see docs/metrics.md for the paths)", option, *path));
     std::vector<Scenario> scenarios, holdout;
     for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
     for (const auto& f : a.holdout) holdout.push_back(load_for_command(f, c));

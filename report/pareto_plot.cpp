@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <glm/vec3.hpp>
 
@@ -69,6 +70,7 @@ Frame frame_of(const ScatterPlot& p, int width, int height) {
         xs.push_back(q.x);
         ys.push_back(q.y);
     }
+    if (p.x_limit) xs.push_back(*p.x_limit);
     return {Axis(p.log_x, xs), Axis(p.log_y, ys), width, height};
 }
 
@@ -78,6 +80,27 @@ std::vector<const PlotPoint*> front_by_x(const ScatterPlot& p) {
         if (q.on_front) f.push_back(&q);
     std::sort(f.begin(), f.end(), [](auto* a, auto* b) { return a->x < b->x; });
     return f;
+}
+
+// Which points get their label printed: the chosen one first, then front points, skipping any
+// whose label box would overlap one already placed (a crowded front stays readable).
+std::vector<bool> labelled(const ScatterPlot& p, const Frame& f) {
+    std::vector<bool> on(p.points.size(), false);
+    std::vector<std::array<double, 4>> boxes;  // x0, y0, x1, y1
+    auto place = [&](std::size_t i) {
+        const PlotPoint& q = p.points[i];
+        if (q.label.empty()) return;
+        const double x0 = f.px(q.x) + 8, y0 = f.py(q.y) - 16, x1 = x0 + 6.5 * q.label.size(), y1 = y0 + 14;
+        for (const auto& b : boxes)
+            if (x0 < b[2] && b[0] < x1 && y0 < b[3] && b[1] < y1) return;
+        boxes.push_back({x0, y0, x1, y1});
+        on[i] = true;
+    };
+    for (std::size_t i = 0; i < p.points.size(); ++i)
+        if (p.points[i].chosen) place(i);
+    for (std::size_t i = 0; i < p.points.size(); ++i)
+        if (p.points[i].on_front && !p.points[i].chosen) place(i);
+    return on;
 }
 
 std::string hex(glm::vec3 c) {
@@ -154,7 +177,15 @@ std::string plot_svg(const ScatterPlot& p, int width, int height) {
         for (auto* q : front) s += fmt::format("{:.1f},{:.1f} ", f.px(q->x), f.py(q->y));
         s += "\"/>\n";
     }
-    for (const auto& q : p.points) {
+    if (p.x_limit)
+        s += fmt::format(R"(<line x1="{0:.1f}" y1="{1}" x2="{0:.1f}" y2="{2}" stroke="{3}" stroke-dasharray="6 4"/>)"
+                         R"(<text x="{4:.1f}" y="{5}" fill="{3}">{6}</text>)"
+                         "\n",
+                         f.px(*p.x_limit), kTop, height - kBottom, hex(kChosen), f.px(*p.x_limit) + 4, kTop + 12,
+                         escape_markup(p.x_limit_label));
+    const std::vector<bool> label = labelled(p, f);
+    for (std::size_t i = 0; i < p.points.size(); ++i) {
+        const PlotPoint& q = p.points[i];
         const glm::vec3 c = q.chosen ? kChosen : q.on_front ? kFront : kOther;
         s += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="{}" fill="{}"><title>{}</title></circle>)"
                          "\n",
@@ -167,7 +198,7 @@ std::string plot_svg(const ScatterPlot& p, int width, int height) {
             s += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="10" fill="none" stroke="{}" stroke-width="2"/>)"
                              "\n",
                              f.px(q.x), f.py(q.y), hex(kChosen));
-        if ((q.on_front || q.chosen) && !q.label.empty())
+        if (label[i])
             s += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="10" fill="{}">{}</text>)"
                              "\n",
                              f.px(q.x) + 8, f.py(q.y) - 6, hex(c), escape_markup(q.label));
@@ -204,12 +235,19 @@ std::vector<float> plot_rgb(const ScatterPlot& p, int width, int height) {
         c.line(f.px(front[k - 1]->x), f.py(front[k - 1]->y), f.px(front[k]->x), f.py(front[k]->y), kFront);
     for (const auto& q : p.points)
         if (!q.on_front && !q.chosen) c.dot(f.px(q.x), f.py(q.y), 2.5, kOther);
-    for (const auto& q : p.points) {
+    if (p.x_limit) {
+        const double x = f.px(*p.x_limit);
+        for (int y = kTop; y < height - kBottom; y += 10) c.line(x, y, x, y + 5, kChosen);
+        c.text(x + 4, kTop + 4, p.x_limit_label, kChosen);
+    }
+    const std::vector<bool> label = labelled(p, f);
+    for (std::size_t i = 0; i < p.points.size(); ++i) {
+        const PlotPoint& q = p.points[i];
         if (!q.on_front && !q.chosen) continue;
         const glm::vec3 col = q.chosen ? kChosen : kFront;
         c.dot(f.px(q.x), f.py(q.y), q.chosen ? 5 : 3.5, col);
         if (q.chosen) c.dot(f.px(q.x), f.py(q.y), 9, col, true);
-        if (!q.label.empty()) c.text(f.px(q.x) + 8, f.py(q.y) - 12, q.label, col);
+        if (label[i]) c.text(f.px(q.x) + 8, f.py(q.y) - 12, q.label, col);
     }
     const int lx = width - kRight - 300;
     c.dot(lx, kTop - 14, 3.5, kFront);

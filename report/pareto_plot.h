@@ -3,6 +3,7 @@
 // for a PNG that explains itself. Log axes where the values span decades.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,8 @@ struct PlotPoint {
 struct ScatterPlot {
     std::string title, x_label, y_label;
     bool log_x = false, log_y = false;  // values <= 0 are drawn at the axis' low end
+    std::optional<double> x_limit;      // a vertical line (a constraint), labelled
+    std::string x_limit_label;
     std::vector<PlotPoint> points;
 };
 

@@ -250,20 +250,24 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
     h += fmt::format("<tr><td>metrics</td><td>{:.3f} s</td></tr>\n</table>\n", t.value("metrics_s", 0.0));
     h += "<h2>Technique</h2>\n<pre>" + escape_markup(report["technique"].dump(2)) + "</pre>\n";
     h += "<h2>Scoring</h2>\n<pre>" + escape_markup(report["scoring"].dump(2)) + "</pre>\n";
-    // A broken embedded image is a console error, so a headless browser check notices it.
-    h += R"(<script>
+    h += image_check_script();
+    h += R"(</body></html>
+)";
+    return h;
+}
+
+}  // namespace
+
+const char* image_check_script() {
+    return R"(<script>
 window.addEventListener("load", function () {
   var broken = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
   broken.forEach(function (i) { console.error("image did not load: " + i.alt); });
   document.body.setAttribute("data-images", broken.length === 0 ? "ok" : "broken");
 });
 </script>
-</body></html>
 )";
-    return h;
 }
-
-}  // namespace
 
 void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
                      const metrics::LightErrorImage& e, const metrics::LightScore& l) {

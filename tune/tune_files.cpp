@@ -34,6 +34,16 @@ report::ScatterPlot pareto_plot(const TuneReport& r) {
     p.x_label = "worst acne rate over scenarios and lights";
     p.y_label = r.options.objective.minimize;
     p.log_x = true;
+    p.x_limit = r.options.objective.max_acne;
+    p.x_limit_label = fmt::format("acne limit {}", r.options.objective.max_acne);
+    // A log scale when the objective spans more than two decades (0 is drawn at the low end).
+    double lo = 0, hi = 0;
+    for (const auto& e : res.evaluations)
+        if (e.minimized > 0) {
+            lo = lo == 0 ? e.minimized : std::min(lo, e.minimized);
+            hi = std::max(hi, e.minimized);
+        }
+    p.log_y = lo > 0 && hi > 100 * lo;
     for (std::size_t i = 0; i < res.evaluations.size(); ++i) {
         const Evaluation& e = res.evaluations[i];
         report::PlotPoint q;
@@ -126,7 +136,9 @@ td,th{border:1px solid #ccc;padding:4px 8px;text-align:left}.fail{color:#b00}</s
     h += revalidation_section(out, "Re-validated on the tuning scenarios", "tuned", r.tuned, r.scenario_files);
     h += revalidation_section(out, "Hold-out scenarios (not tuned on)", "holdout", r.holdout, r.holdout_files);
     h += "<p>Every evaluation is in tune.json and pareto.csv; technique.json is the recommendation, for "
-         "<code>penumbra validate --technique</code>.</p>\n</body></html>\n";
+         "<code>penumbra validate --technique</code>.</p>\n";
+    h += report::image_check_script();
+    h += "</body></html>\n";
     return h;
 }
 
