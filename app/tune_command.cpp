@@ -31,6 +31,7 @@ struct TuneArgs {
     std::filesystem::path cache_dir;
     bool no_cache = false;
     bool gate = false;
+    bool visibility_only = false;
 };
 
 std::string describe(const tune::Setting& s, std::span<const tune::Knob> knobs) {
@@ -49,6 +50,7 @@ int run_tune_command(const TuneArgs& a) {
     options.knobs = tune::parse_knobs(a.knobs, "--knobs");
     options.budget = a.budget;
     options.precision = a.precision;
+    options.lookups = !a.visibility_only;
     options.objective = {a.max_acne, a.minimize, a.then, a.tie};
     if (a.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; give at least 1", a.budget));
     for (const auto& [option, path] : {std::pair{"--minimize", &a.minimize}, std::pair{"--then", &a.then}})
@@ -159,6 +161,8 @@ Subcommand add_tune_command(CLI::App& parent) {
     cmd->add_option("--tie", a->tie, "Values of --minimize within this fraction of each other are ties (default 0.01)")
         ->check(CLI::Range(0.0, 1.0));
     cmd->add_option("--holdout", a->holdout, "Scenarios to re-validate the recommendation on, not tuned on");
+    cmd->add_flag("--visibility-only", a->visibility_only,
+                  "Evaluate from V alone, classified from the oracle's geometry (faster on GPUs; docs/tune.md)");
     cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne");
     cmd->add_option("--tolerance", a->tolerance, "tau: |error| above this plus the oracle's E is wrong")
         ->check(CLI::Range(0.0, 1.0))

@@ -140,6 +140,19 @@ Evaluator::Evaluator(std::span<const Scenario> scenarios, const raster::Techniqu
         scene.session = std::make_unique<raster::RasterSession>(s, ctx);
         scene.scoring = scoring_options(s, base, options.validate.tolerance);
         for (auto& o : scene.scoring) o.perceptual = false;
+        if (!options.lookups) {
+            // V only: each light's footprint from one lookup render of the starting technique;
+            // every brighter pixel with a true occluder outside the aliasing band is counted as
+            // peter-panning (no bias reach: the bias is what is being searched).
+            const raster::RasterResult rr = scene.session->render(base);
+            for (std::size_t li = 0; li < scene.scoring.size() && li < rr.frame.lights.size(); ++li) {
+                const auto& lk = rr.frame.lights[li].lookups;
+                const double f = lk ? median_at_surface(lk->footprint_m, rr.frame.A, true) : 0.0;
+                scene.scoring[li].texel_footprint_m = static_cast<float>(f);
+                scene.scoring[li].bias_reach_m = std::numeric_limits<float>::max();
+                if (footprint_m_ == 0) footprint_m_ = f;
+            }
+        }
         scenes_.push_back(std::move(scene));
     }
 }
@@ -152,7 +165,7 @@ Evaluation Evaluator::evaluate(const Setting& s) {
     e.setting = s;
     const raster::Technique technique = apply_setting(base_, options_.knobs, s, footprint_m_);
     raster::RenderOptions ro;
-    ro.lookups = true;  // the classes rest on the stored depth (docs/metrics.md)
+    ro.lookups = options_.lookups;
     double pooled_min = 0, pooled_then = 0, scored_total = 0;
     for (std::size_t si = 0; si < scenes_.size(); ++si) {
         TuneScene& scene = scenes_[si];
