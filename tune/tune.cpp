@@ -257,8 +257,7 @@ class Search {
 
     // The evaluation of `s`, or none when the budget is spent.
     const Evaluation* eval(const Setting& s) {
-        for (const auto& e : r_.evaluations)
-            if (e.setting == s) return &e;
+        if (const Evaluation* e = seen(s)) return e;
         if (out_of_budget()) {
             r_.budget_exhausted = true;
             return nullptr;
@@ -270,26 +269,64 @@ class Search {
 
     bool is_better(const Evaluation& a, const Evaluation& b) const { return better(a, b, opt_.knobs, opt_.objective); }
 
-    // The least position of knob k in [lo, hi] at which `s` is feasible, by bisection on the log
-    // scale down to `step` decades; `hi` must be feasible (evaluated) and lo infeasible (or
-    // below the range). Returns the feasible setting found.
+    // The evaluation of `s` when it was made already; never evaluates.
+    const Evaluation* seen(const Setting& s) const {
+        for (const auto& e : r_.evaluations)
+            if (e.setting == s) return &e;
+        return nullptr;
+    }
+
+    // How far a setting is from the acne limit, on a log scale: <= 0 is feasible.
+    std::optional<double> margin(const Evaluation* e) const {
+        if (!e || !(opt_.objective.max_acne > 0)) return std::nullopt;
+        return std::log10(std::max(e->worst_acne, 1e-9) / opt_.objective.max_acne);
+    }
+
+    // The least position of knob k in [lo, hi] at which `s` is feasible, to within `step`
+    // decades; `hi` must be feasible and `lo` infeasible (or below the range: off). Acne falls
+    // smoothly with the bias, so where both ends were evaluated near the limit, the next probe
+    // goes half a step either side of where the line through their log acne margins crosses it
+    // (two probes bracket a good estimate); otherwise, and when a probe did not halve the
+    // bracket, the next one bisects it. Returns the feasible setting found.
     Setting bisect(Setting s, Knob k, double lo, double hi, double step) {
+        auto margin_at = [&](double x) {
+            Setting t = s;
+            t[k] = value_at(k, x);
+            return margin(seen(t));
+        };
+        std::optional<double> m_lo = margin_at(lo), m_hi = margin_at(hi);
+        bool above = true, halved = true;
         while (hi - lo > step) {
-            const double mid = 0.5 * (lo + hi);
-            s[k] = value_at(k, mid);
+            const double width = hi - lo;
+            double x = 0.5 * (lo + hi);
+            // Only near the limit (both ends within a decade of it) is the line a good guide:
+            // far above it acne saturates, and a feasible end with no acne says nothing of how far.
+            if (halved && m_lo && m_hi && *m_lo > 0 && *m_lo < 1 && *m_hi <= 0 && *m_hi > -1 && width > 2 * step) {
+                const double crossing = lo + width * *m_lo / (*m_lo - *m_hi);
+                x = std::clamp(crossing + (above ? 0.5 : -0.5) * step, lo + 0.05 * width, hi - 0.05 * width);
+                above = !above;
+            }
+            s[k] = value_at(k, x);
             const Evaluation* e = eval(s);
             if (!e) break;
-            if (e->feasible)
-                hi = mid;
-            else
-                lo = mid;
+            if (e->feasible) {
+                hi = x;
+                m_hi = margin(e);
+            } else {
+                lo = x;
+                m_lo = margin(e);
+            }
+            halved = hi - lo <= 0.5 * width + 1e-12;
         }
         s[k] = value_at(k, hi);
         return s;
     }
 
     void run(bool receiver_plane) {
+        // Brackets are first narrowed to a tenth of a decade (a factor 1.26), the winner's knobs
+        // then to `precision`: most evaluations go to where the optimum is.
         const double fine = std::log10(1.0 + opt_.precision);
+        const double coarse = std::max(fine, 0.1);
         Setting zero;
         zero.receiver_plane = receiver_plane;
         const Evaluation* e0 = eval(zero);
@@ -310,30 +347,25 @@ class Search {
             s[k] = range.hi;
             const Evaluation* top = eval(s);
             if (!top || !top->feasible) continue;  // this knob alone cannot cure the acne
-            s[k] = range.lo;
-            const Evaluation* bottom = eval(s);
-            if (!bottom) break;
-            if (!bottom->feasible) s = bisect(s, k, std::log10(range.lo), std::log10(range.hi), fine);
+            s = bisect(s, k, std::log10(range.lo) - coarse, std::log10(range.hi), coarse);
             intercept[index_of(k)] = position(k, s[k]);
             consider(s);
         }
         if (!best) return;
-        // One knob: its least feasible value is the optimum (peter-panning grows with it).
-        if (std::count_if(opt_.knobs.begin(), opt_.knobs.end(), is_continuous) < 2) return;
 
-        // 2. Local search along the boundary: give up some of knob a (or tighten the clamp) and
-        // take back only as much of knob b as feasibility needs. Steps halve when no trade helps.
-        double step = 1.0;
+        // 2. With two knobs or more, trades along the boundary: give up a step of knob a (or
+        // tighten the clamp) and take back only as much of knob b as feasibility needs. Steps
+        // halve, from one decade, when no trade helps.
         Setting at = *best;
-        while (step >= fine && !out_of_budget()) {
+        const bool several = std::count_if(opt_.knobs.begin(), opt_.knobs.end(), is_continuous) >= 2;
+        for (double step = 1.0; several && step >= coarse && !out_of_budget();) {
             bool moved = false;
             for (Knob a : opt_.knobs) {
-                if (!is_continuous(a)) continue;
+                if (!is_continuous(a) || out_of_budget()) continue;
                 const double pa = position(a, at[a]);
                 if (a != Knob::clamp && std::isinf(pa)) continue;  // off: nothing to give up
                 Setting q = at;
-                const KnobRange ra = knob_range(a);
-                q[a] = value_at(a, std::isinf(pa) ? std::log10(ra.hi) : pa - step);
+                q[a] = value_at(a, std::isinf(pa) ? std::log10(knob_range(a).hi) : pa - step);
                 if (q[a] == at[a]) continue;
                 const Evaluation* eq = eval(q);
                 if (!eq) break;
@@ -348,15 +380,18 @@ class Search {
                     if (b == a || !is_continuous(b) || b == Knob::clamp) continue;
                     const KnobRange rb = knob_range(b);
                     const double pb = position(b, q[b]);
-                    const double lo = std::isinf(pb) ? std::log10(rb.lo) - fine : pb;
-                    const double hi = std::min(std::log10(rb.hi), intercept[index_of(b)]);
+                    const double lo = std::isinf(pb) ? std::log10(rb.lo) - coarse : pb;
+                    // b's own intercept is feasible with any a (acne only falls as a grows).
+                    double hi = intercept[index_of(b)];
+                    if (std::isinf(hi)) {
+                        hi = std::log10(rb.hi);
+                        Setting top = q;
+                        top[b] = rb.hi;
+                        const Evaluation* et = eval(top);
+                        if (!et || !et->feasible) continue;
+                    }
                     if (!(hi > lo)) continue;
-                    Setting top = q;
-                    top[b] = value_at(b, hi);
-                    const Evaluation* et = eval(top);
-                    if (!et) break;
-                    if (!et->feasible) continue;
-                    Setting s = bisect(q, b, lo, hi, std::max(fine, step / 4));
+                    Setting s = bisect(q, b, lo, hi, std::max(coarse, step / 4));
                     const Evaluation* es = eval(s);
                     if (es && es->feasible && is_better(*es, *eval(at))) {
                         at = s;
@@ -367,6 +402,17 @@ class Search {
             }
             if (!moved) step /= 2;
         }
+
+        // 3. The best point's knobs, one at a time, down to `precision`.
+        if (fine < coarse)
+            for (Knob k : opt_.knobs) {
+                if (!is_continuous(k) || k == Knob::clamp || out_of_budget()) continue;
+                const double pk = position(k, at[k]);
+                if (std::isinf(pk)) continue;
+                const Setting s = bisect(at, k, pk - coarse, pk, fine);
+                const Evaluation* es = eval(s);
+                if (es && es->feasible && is_better(*es, *eval(at))) at = s;
+            }
     }
 
   private:
