@@ -2,6 +2,8 @@
 // truth scores nothing wrong, penumbra's raster frame passed as an engine's scores what validate
 // scores, a frame off by one pixel or flipped is refused with a message that says so, and bad
 // image files are refused naming the file and what was expected.
+#include "pipeline/compare.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,7 +13,6 @@
 
 #include "common/errors.h"
 #include "image_io/image_io.h"
-#include "pipeline/compare.h"
 #include "pipeline/compare_files.h"
 #include "tests/test_support.h"
 
@@ -136,8 +137,7 @@ TEST_F(Compare, PenumbrasOwnRasterFrameScoresWhatValidateScores) {
         const auto& v = validated_->score.lights[li];
         const double silhouettes = static_cast<double>(v.pixels.coverage_mismatch);
         EXPECT_GT(v.wrong, 0u) << "light " << li << ": the default technique leaves wrong pixels";
-        EXPECT_NEAR(static_cast<double>(c.wrong), static_cast<double>(v.wrong), silhouettes + 2)
-            << "light " << li;
+        EXPECT_NEAR(static_cast<double>(c.wrong), static_cast<double>(v.wrong), silhouettes + 2) << "light " << li;
     }
     // Without depth: the same frame, scored outside the silhouette band.
     const ValidateResult nd = compare(*sc_, raster_engine(), no_cache());
@@ -188,8 +188,9 @@ TEST_F(Compare, BadFramesNameTheFileAndWhatWasExpected) {
     refused(nan, "engine.exr: light 1: NaN at pixel (5, 3); expected a shadow factor in [0, 1]");
     EngineFrame bytes = perfect_engine();
     bytes.V[0][7] = 255.0f;
-    refused(bytes, "engine.exr: light 0: 255 at pixel (7, 0); expected a shadow factor in [0, 1] (1 = lit) (was it "
-                   "written as 0..255?)");
+    refused(bytes,
+            "engine.exr: light 0: 255 at pixel (7, 0); expected a shadow factor in [0, 1] (1 = lit) (was it "
+            "written as 0..255?)");
     EngineFrame two = perfect_engine();
     two.V.pop_back();
     refused(two, "engine.exr: 2 shadow channels; expected one per light of scenario.json (3)");
