@@ -25,6 +25,7 @@ struct CompareArgs {
     bool depth_space_given = false;
     int light = -1;
     double texel_m = 0;
+    double bias_m = -1;
     int shadow_map = 0;
     double filter_reach = 1.0;
     int band_px = 1;
@@ -72,6 +73,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
     options.validate.tolerance = a.tolerance;
     if (a.texel_m > 0) options.texel_footprint_m = static_cast<float>(a.texel_m);
     if (a.shadow_map > 0) options.shadow_map_resolution = a.shadow_map;
+    if (a.bias_m >= 0) options.bias_reach_m = static_cast<float>(a.bias_m);
     options.filter_reach_texels = static_cast<float>(a.filter_reach);
     options.silhouette_band_px = a.band_px;
     const ValidateResult r = compare(scenario, frame, options, gate);
@@ -144,6 +146,11 @@ Subcommand add_compare_command(CLI::App& parent) {
     cmd->add_option("--shadow-map", v.shadow_map, "Or the engine's shadow-map resolution, texels per side")
         ->check(CLI::Range(1, 65536))
         ->excludes(texel);
+    cmd->add_option("--bias-m", v.bias_m,
+                    "The engine's biases together as metres along the light ray (peter-panning reach; default: "
+                    "estimated)")
+        ->check(CLI::Range(0.0, 1e6))
+        ->check(finite_number_problem);
     cmd->add_option("--filter-reach", v.filter_reach, "The engine's filter reach in texels (aliasing band, default 1)")
         ->check(CLI::Range(0.0, 64.0))
         ->check(finite_number_problem);

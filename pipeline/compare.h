@@ -38,6 +38,7 @@ struct CompareOptions {
     ValidateOptions validate;                  // oracle, cache, tolerance (the raster fields are unused)
     std::optional<float> texel_footprint_m;    // the engine's shadow-map texel at the receivers, metres
     std::optional<int> shadow_map_resolution;  // or its map's texels per side: the footprint is derived
+    std::optional<float> bias_reach_m;         // the engine's biases together, metres along the light ray
     float filter_reach_texels = 1.0f;          // the engine's filter reach (aliasing band), texels
     // Without depth: oracle pixels within this many pixels of a silhouette are left unscored.
     int silhouette_band_px = 1;
