@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
-# Real engines judged by `penumbra compare` (docs/compare.md): three.js renders data/default's
-# glTF in headless chromium with the camera and lights `penumbra camera` prints, once per
-# setting, and the verdicts must follow from what each setting does:
+# Real engines judged by `penumbra compare` (docs/compare.md): three.js and Babylon.js render
+# data/default's glTF in headless chromium with the camera and lights `penumbra camera` prints,
+# once per setting, and the verdicts must follow from what each setting does. three.js:
 #   shadowSide FrontSide, bias 0   -> acne nearly everywhere lit (the textbook self-shadowing);
 #   three's defaults (bias 0, back faces cast) -> acne almost gone: a closed mesh's back faces
 #                                     lie behind its lit front faces (three.js docs, Material.shadowSide);
 #   defaults + normalBias 0.3 m     -> light leaks: peter-panning where there was none, and more
 #                                     false light.
+# Babylon.js (ShadowGenerator: front faces cast, bias in the light's depth units):
+#   its default bias 0.00005        -> acne;
+#   bias 0.02                       -> acne gone; peter-panning under spot and point lights,
+#                                     whose perspective depth makes 0.02 metres here;
+#   bias 0.2                        -> shadows lost: brighter everywhere they were.
 # Skipped (exit 77) only when node or chromium is missing; the npm packages come from
 # `npm ci` in this folder (scripts/install-deps.sh). Usage: engines_test.sh PENUMBRA SOURCE_DIR
 set -uo pipefail
@@ -35,6 +40,17 @@ json.dump(configs, open(sys.argv[1], "w"))
 PY
 node "$here/render.mjs" three "$tmp/camera.json" "$src/data/default/scene.glb" "$tmp/configs.json" "$tmp/three" ||
     { echo "FAIL: three.js did not render"; exit 1; }
+python3 - "$tmp/babylon_configs.json" <<'PY'
+import json, sys
+configs = []
+for light in (0, 1, 2):
+    configs += [{"name": f"default_{light}", "light": light},
+                {"name": f"bias002_{light}", "light": light, "bias": 0.02},
+                {"name": f"bias02_{light}", "light": light, "bias": 0.2}]
+json.dump(configs, open(sys.argv[1], "w"))
+PY
+node "$here/render.mjs" babylon "$tmp/camera.json" "$src/data/default/scene.glb" "$tmp/babylon_configs.json" \
+    "$tmp/babylon" || { echo "FAIL: Babylon.js did not render"; exit 1; }
 
 failed=0
 for light in 0 1 2; do
@@ -45,6 +61,12 @@ for light in 0 1 2; do
         "$bin" compare "$tmp/scenario.json" --light $light --image "$tmp/three/$name.shadow.pfm" \
             --depth "$tmp/three/$name.depth.pfm" --depth-space linear --shadow-map 1024 "${extra[@]}" \
             --out "$tmp/c_$name" -q || { echo "FAIL: compare on three.js $name"; failed=1; }
+    done
+    for setting in default bias002 bias02; do
+        name=${setting}_$light
+        "$bin" compare "$tmp/scenario.json" --light $light --image "$tmp/babylon/$name.shadow.pfm" \
+            --depth "$tmp/babylon/$name.depth.pfm" --depth-space linear --shadow-map 1024 \
+            --out "$tmp/b_$name" -q || { echo "FAIL: compare on Babylon.js $name"; failed=1; }
     done
     # One without depth: a silhouette band is left out instead, and the verdict stands.
     "$bin" compare "$tmp/scenario.json" --light $light --image "$tmp/three/front_$light.shadow.pfm" \
@@ -114,5 +136,25 @@ for li in (0, 1, 2):
     check(f"three.js {t}: without depth, a silhouette band is left out and acne still found",
           rn["coverage"]["source"] == "silhouette_band" and nodepth["rates"]["acne"] > 0.5,
           f"band {rn['coverage']['mismatch_fraction']:.3f}, acne {nodepth['rates']['acne']:.3f}")
+for li in (0, 1, 2):
+    rb, default = light(f"b_default_{li}")
+    _, fixed = light(f"b_bias002_{li}")
+    _, lost = light(f"b_bias02_{li}")
+    t = default["type"]
+    leaks = lambda l: l["rates"]["peter_panning"] + l["rates"]["false_lit"]
+    check(f"Babylon.js {t}: frame lines up (depth)", rb["coverage"]["mismatch_fraction"] < 0.01,
+          f"coverage mismatch {rb['coverage']['mismatch_fraction']:.4f}")
+    check(f"Babylon.js {t}: default bias 0.00005, front faces cast -> acne",
+          default["rates"]["acne"] > 0.05 and default["counts"]["acne"] > 0.9 * default["wrong"],
+          f"acne {default['rates']['acne']:.3f} of {default['wrong_fraction']:.3f} wrong")
+    check(f"Babylon.js {t}: bias 0.02 -> acne gone", fixed["rates"]["acne"] < default["rates"]["acne"] / 100,
+          f"acne {fixed['rates']['acne']:.5f}")
+    if t != "directional":  # perspective depth: 0.02 of it is metres at these distances
+        check(f"Babylon.js {t}: bias 0.02 -> peter-panning", fixed["counts"]["peter_panning"] > 0.8 * fixed["wrong"]
+              and fixed["rates"]["peter_panning"] > 0.005,
+              f"peter-panning {fixed['rates']['peter_panning']:.4f} of {fixed['wrong_fraction']:.4f} wrong")
+    check(f"Babylon.js {t}: bias 0.2 -> shadows lost (brighter, no acne)",
+          leaks(lost) > 0.01 and lost["bias"] > 0 and lost["rates"]["acne"] < 0.001,
+          f"leaks {leaks(lost):.4f}, mean error {lost['bias']:.4f}")
 sys.exit(0 if ok else 1)
 PY
