@@ -55,6 +55,7 @@ struct RowSums {
     std::array<std::uint64_t, 5> counts{};
     double abs_sum = 0, sq_sum = 0, signed_sum = 0;
     double gap_sum = 0, gap_max = 0, acne_sum = 0, acne_max = 0;
+    std::vector<float> gaps;  // peter-panning gaps, for their percentile
     // Soft lights: per oracle region (umbra, penumbra, lit) pixels and |error| sums.
     std::array<std::uint64_t, 3> region_pixels{};
     std::array<double, 3> region_abs{};
@@ -80,6 +81,7 @@ struct RowSums {
         signed_sum += r.signed_sum;
         gap_sum += r.gap_sum;
         gap_max = std::max(gap_max, r.gap_max);
+        gaps.insert(gaps.end(), r.gaps.begin(), r.gaps.end());
         acne_sum += r.acne_sum;
         acne_max = std::max(acne_max, r.acne_max);
     }
@@ -240,6 +242,7 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                         if (c == PixelClass::peter_panning) {
                             s.gap_sum += o.occluder_m[i];
                             s.gap_max = std::max(s.gap_max, static_cast<double>(o.occluder_m[i]));
+                            s.gaps.push_back(o.occluder_m[i]);
                         } else if (c == PixelClass::acne && r.lookups) {
                             double depth = std::max(0.0f, (lk.ref_depth[i] - lk.stored_depth[i]) * lk.depth_to_m[i]);
                             s.acne_sum += depth;
@@ -271,6 +274,12 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
     const auto pp = s.count(PixelClass::peter_panning);
     const auto acne = s.count(PixelClass::acne);
     s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
+    if (!t.gaps.empty()) {
+        // Nearest rank: the smallest gap with at least 95% of them at or below it.
+        const std::size_t rank = (t.gaps.size() * 95 + 99) / 100 - 1;
+        std::nth_element(t.gaps.begin(), t.gaps.begin() + static_cast<std::ptrdiff_t>(rank), t.gaps.end());
+        s.peter_panning_gap_p95 = t.gaps[rank];
+    }
     s.acne_depth = {acne ? t.acne_sum / acne : 0.0, t.acne_max};
     if (opt.soft) {
         SoftScore& soft = s.soft.emplace();
@@ -291,6 +300,7 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
             t.band_oracle ? static_cast<double>(t.band_raster) / static_cast<double>(t.band_oracle) - 1.0 : 0.0;
     }
 
+    if (!opt.perceptual) return s;
     // Both pictures agree wherever the pixel is not scored, so only scored differences show.
     std::vector<float> truth(n), shown(n);
     for (std::size_t i = 0; i < n; ++i) {

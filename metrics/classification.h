@@ -49,6 +49,7 @@ struct ScoringOptions {
     float depth_quantum = 0.0f;              // the depth format's resolution r (depth units), 0 for float
     double pixels_per_degree = 67.0;         // viewing condition of the perceptual error (FLIP's default)
     bool soft = false;                       // an area light: also score the penumbra (SoftScore)
+    bool perceptual = true;                  // false: skip the FLIP-style image (search loops need counts only)
     std::optional<float> texel_footprint_m;  // V only: shadow-map texel size at the receivers, metres
     std::optional<float> bias_reach_m;       // V only: every bias together, metres along the light ray
 };
@@ -106,6 +107,7 @@ struct LightScore {
     double mae = 0, rmse = 0, wrong_fraction = 0;
     double bias = 0;                          // mean signed error (raster - oracle) over scored pixels
     MeanMax peter_panning_gap;                // metres along the shadow ray to the true occluder, peter-panning pixels
+    double peter_panning_gap_p95 = 0;         // its 95th percentile (nearest rank), metres
     MeanMax acne_depth;                       // metres the receiver lies behind its own stored surface, acne pixels
                                               // (measured from the lookups: 0, and not reported, with V only)
     MeanMax perceptual;                       // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)

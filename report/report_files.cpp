@@ -250,20 +250,38 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
     h += fmt::format("<tr><td>metrics</td><td>{:.3f} s</td></tr>\n</table>\n", t.value("metrics_s", 0.0));
     h += "<h2>Technique</h2>\n<pre>" + escape_markup(report["technique"].dump(2)) + "</pre>\n";
     h += "<h2>Scoring</h2>\n<pre>" + escape_markup(report["scoring"].dump(2)) + "</pre>\n";
-    // A broken embedded image is a console error, so a headless browser check notices it.
-    h += R"(<script>
+    h += image_check_script();
+    h += R"(</body></html>
+)";
+    return h;
+}
+
+}  // namespace
+
+const char* image_check_script() {
+    return R"(<script>
 window.addEventListener("load", function () {
   var broken = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
   broken.forEach(function (i) { console.error("image did not load: " + i.alt); });
   document.body.setAttribute("data-images", broken.length === 0 ? "ok" : "broken");
 });
 </script>
-</body></html>
 )";
-    return h;
 }
 
-}  // namespace
+void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l) {
+    std::vector<LegendEntry> legend;
+    for (auto c : metrics::kErrorClasses)
+        legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
+    legend.push_back({class_colour(PixelClass::correct), "correct"});
+    for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
+        legend.push_back({class_colour(c), std::string(to_string(c))});
+    int h = 0;
+    auto classes =
+        with_legend(class_image(oracle.lights[li], e, oracle.pixel_count()), oracle.width, oracle.height, legend, h);
+    write_png(out, name, oracle.width, h, classes);
+}
 
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report) {
@@ -281,16 +299,8 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
 
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
-        const metrics::LightScore& l = score.lights[li];
-        std::vector<LegendEntry> legend;
-        for (auto c : metrics::kErrorClasses)
-            legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
-        legend.push_back({class_colour(PixelClass::correct), "correct"});
-        for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
-            legend.push_back({class_colour(c), std::string(to_string(c))});
+        write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li]);
         int h = 0;
-        auto classes = with_legend(class_image(oracle.lights[li], e, n), W, H, legend, h);
-        write_png(out, light_file(li, "classes"), W, h, classes);
 
         const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
                                                        {kBrighter, "raster brighter than truth"},

@@ -16,4 +16,12 @@ namespace penumbra::report {
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report);
 
+// A page's check of its own images: a broken embedded image is a console error and the body's
+// data-images attribute says "ok" or "broken", so a headless browser test notices it.
+const char* image_check_script();
+
+// The class map of light `li` with its legend (each class's rate), as a PNG named `name`.
+void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l);
+
 }  // namespace penumbra::report

@@ -146,7 +146,6 @@ check "failing gate still writes its report" grep -q '"passed": false' "$tmp/g2/
 check "failing JUnit validates" junit_ok "$tmp/g2.xml"
 check "JUnit counts the failures" grep -q 'failures="3"' "$tmp/g2.xml"
 sed 's/ classname="[^"]*"//' "$tmp/g2.xml" >"$tmp/bad.xml"
-fails() { ! "$@"; }
 check "the schema rejects a testcase without a classname" fails junit_ok "$tmp/bad.xml"
 echo '{"checks": [{"metric": "rates.acnee", "max": 0}]}' >"$tmp/badgate.json"
 run validate "$tmp/small.json" --out "$tmp/g3" --gate "$tmp/badgate.json"
@@ -160,11 +159,6 @@ check "the scenario's gate names its light" grep -q '^light 1: rates.false_lit' 
 
 # The HTML report opens in headless Chromium with every image decoded and no console message;
 # a page with a broken image shows that this check can fail.
-html_check() {  # html_check FILE -> 0 when clean
-    timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 --dump-dom "file://$1" \
-        >"$tmp/dom.html" 2>"$tmp/browser.log" || return 1
-    grep -q 'data-images="ok"' "$tmp/dom.html" && ! grep -q ':CONSOLE' "$tmp/browser.log"
-}
 check "chromium is installed" test -x "$(command -v chromium)"
 check "report.html renders cleanly in Chromium" html_check "$tmp/g2/report.html"
 sed 's#data:image/png;base64,[^"]*#data:image/png;base64,AAAA#' "$tmp/g2/report.html" >"$tmp/broken.html"

@@ -1,4 +1,4 @@
-# Sourced by the CLI test scripts (cli_test.sh, hostile_input.sh): their two arguments, a
+# Sourced by the CLI test scripts (cli_test.sh, hostile_input.sh, tune_test.sh): their two arguments, a
 # temporary folder removed at exit, and check(), which counts and names each failure. A script
 # may define fail_detail() to add context to a failure line (e.g. the exit code and stderr).
 # End a script with `finish`.
@@ -18,6 +18,14 @@ check() {  # check NAME CONDITION...
         failed=$((failed + 1))
         echo "FAIL: $name$(declare -F fail_detail >/dev/null && echo " $(fail_detail)")"
     fi
+}
+fails() { ! "$@"; }
+# The page opens in headless Chromium with every image decoded and no console message (pages
+# carry report::image_check_script()).
+html_check() {  # html_check FILE -> 0 when clean
+    timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 --dump-dom "file://$1" \
+        >"$tmp/dom.html" 2>"$tmp/browser.log" || return 1
+    grep -q 'data-images="ok"' "$tmp/dom.html" && ! grep -q ':CONSOLE' "$tmp/browser.log"
 }
 finish() {
     echo "$passed passed, $failed failed"

@@ -1,0 +1,176 @@
+// `penumbra tune`: the bias that removes acne with the least peter-panning, found against the
+// oracle on one or more scenarios (docs/tune.md).
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "app/cli.h"
+#include "common/errors.h"
+#include "common/json_reader.h"
+#include "common/output_files.h"
+#include "common/stopwatch.h"
+#include "metrics/metric_table.h"
+#include "raster/vulkan_context.h"
+#include "tune/tune_files.h"
+
+namespace penumbra::cli {
+namespace {
+
+struct TuneArgs {
+    std::vector<std::filesystem::path> scenarios, holdout;
+    Common common;
+    TechniqueArgs technique;
+    SamplingArgs sampling;
+    std::string knobs = "constant,slope";
+    double max_acne = 0.001;
+    int budget = 80;
+    double precision = 0.05;
+    std::string minimize = "rates.peter_panning", then = "peter_panning_gap.p95";
+    double tie = 0.01;
+    double tolerance = 1.0 / 255.0;
+    std::filesystem::path cache_dir;
+    bool no_cache = false;
+    bool gate = false;
+    bool visibility_only = false;
+};
+
+std::string describe(const tune::Setting& s, std::span<const tune::Knob> knobs) {
+    std::string text;
+    for (tune::Knob k : knobs)
+        text += k == tune::Knob::receiver_plane ? fmt::format(" receiver_plane={}", s.receiver_plane)
+                                                : fmt::format(" {}={:.4g}", tune::to_string(k), s[k]);
+    return text;
+}
+
+int run_tune_command(const TuneArgs& a) {
+    const auto t0 = SteadyClock::now();
+    const Common& c = a.common;
+    // Everything the user wrote is checked before any work starts.
+    tune::TuneOptions options;
+    options.knobs = tune::parse_knobs(a.knobs, "--knobs");
+    options.budget = a.budget;
+    options.precision = a.precision;
+    options.lookups = !a.visibility_only;
+    options.objective = {a.max_acne, a.minimize, a.then, a.tie};
+    if (a.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; give at least 1", a.budget));
+    for (const auto& [option, path] : {std::pair{"--minimize", &a.minimize}, std::pair{"--then", &a.then}})
+        if (!metrics::find_metric(*path))
+            throw InputError(fmt::format("{}: no metric \"{}\" (see docs/metrics.md for the paths)", option, *path));
+    std::vector<Scenario> scenarios, holdout;
+    for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
+    for (const auto& f : a.holdout) holdout.push_back(load_for_command(f, c));
+    const raster::Technique start = resolve_technique(scenarios.front(), a.technique);
+    for (const auto* list : {&scenarios, &holdout})
+        for (const Scenario& s : *list) {
+            raster::check_technique_lights(start, s.lights, s.label + ": technique");
+            check_run_memory(s, c, true, &start, true);
+        }
+
+    options.validate.oracle = oracle_settings(c, a.sampling);
+    options.validate.use_cache = !a.no_cache;
+    options.validate.cache_dir = a.cache_dir;
+    options.validate.tolerance = a.tolerance;
+    options.validate.oracle.progress = false;
+    if (!c.quiet)
+        options.progress = [&](const tune::Evaluation& e, std::size_t i) {
+            fmt::print(stderr, "tune: [{}/{}]{}: worst acne {:.5f}, {} {:.5f}{}\n", i + 1, options.budget,
+                       describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
+                       e.feasible ? "" : " (acne too high)");
+        };
+
+    raster::ContextOptions co;
+    co.device = a.technique.device;
+    raster::VulkanContext ctx(co);
+    tune::TuneReport report;
+    for (const auto& f : a.scenarios) report.scenario_files.push_back(f.string());
+    for (const auto& f : a.holdout) report.holdout_files.push_back(f.string());
+    report.start = start;
+    report.result = tune::tune(scenarios, start, options, ctx);
+    options.progress = nullptr;
+    report.options = options;
+    const tune::TuneResult& res = report.result;
+    report.tuned = tune::revalidate(scenarios, start, res.recommended, options.validate, ctx);
+    report.holdout = tune::revalidate(holdout, start, res.recommended, options.validate, ctx);
+    report.units = tune::api_units(report.tuned);
+    report.seconds = seconds_since(t0);
+
+    OutputTransaction out(c.out);
+    tune::write_tune_outputs(out, report);
+    out.commit();
+
+    const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
+    const tune::Evaluation& e = res.evaluations[chosen];
+    if (!c.quiet) {
+        fmt::print(
+            "tune: {} evaluations in {:.1f} s ({:.3f} s each on average){}\n", res.evaluations.size(), report.seconds,
+            [&] {
+                double s = 0;
+                for (const auto& x : res.evaluations) s += x.seconds;
+                return s / static_cast<double>(res.evaluations.size());
+            }(),
+            res.budget_exhausted ? "; the budget ran out" : "");
+        fmt::print("{}:{}: worst acne {:.5f}, {} {:.5f}, {} {:.4g}\n",
+                   res.winner ? "recommended" : "no setting meets the acne limit; best reachable",
+                   describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
+                   options.objective.then, e.then);
+        if (!report.units.empty()) {
+            const auto& u = report.units.front();
+            fmt::print(
+                "  Vulkan ({}): depthBiasConstantFactor {:.4g}, depthBiasSlopeFactor {:.4g}, depthBiasClamp {:.4g}\n"
+                "  D3D12: DepthBias {} (D24) / {} (D32), SlopeScaledDepthBias {:.4g}, DepthBiasClamp {:.4g}\n"
+                "  OpenGL: glPolygonOffset({:.4g}, {:.4g}); constant = {:.4g} m; world {:.4g} m; normal offset "
+                "{:.4g} texels = {:.4g} m\n",
+                raster::to_string(res.recommended.depth_format), u.vk_constant, u.vk_slope, u.vk_clamp,
+                u.d3d12_depth_bias_d24, u.d3d12_depth_bias_d32, u.d3d12_slope, u.d3d12_clamp, u.gl_factor, u.gl_units,
+                u.constant_m, u.world_m, u.normal_offset_texels, u.normal_offset_m);
+        }
+        for (std::size_t k = 0; k < report.holdout.size(); ++k)
+            for (const auto& l : report.holdout[k].after.score.lights)
+                fmt::print("  hold-out {}: acne {:.5f}, peter-panning {:.5f}\n", report.holdout_files[k],
+                           l.rate(metrics::PixelClass::acne), l.rate(metrics::PixelClass::peter_panning));
+        fmt::print("results: {}/technique.json, tune.json, pareto.csv, pareto.svg, report.html\n", c.out.string());
+    }
+    if (a.gate && !res.winner) {
+        fmt::print(stderr, "gate: FAILED: no setting keeps acne <= {}; the best reachable has {:.5f}\n",
+                   options.objective.max_acne, e.worst_acne);
+        return kExitGateFailed;
+    }
+    return kExitSuccess;
+}
+
+}  // namespace
+
+Subcommand add_tune_command(CLI::App& parent) {
+    auto a = std::make_shared<TuneArgs>();
+    CLI::App* cmd = parent.add_subcommand(
+        "tune", "Find the bias that removes acne with the least peter-panning, against the oracle");
+    cmd->add_option("SCENARIO", a->scenarios, "Scenario JSON files; one recommendation holds for all")->required();
+    add_common(cmd, a->common);
+    add_technique(cmd, a->technique);
+    cmd->add_option("--knobs", a->knobs,
+                    "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane "
+                    "(default constant,slope)");
+    cmd->add_option("--max-acne", a->max_acne, "Acne rate allowed on every scenario and light (default 0.001)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+    cmd->add_option("--budget", a->budget, "Most evaluations (default 80)");
+    cmd->add_option("--precision", a->precision, "Bisection stops at this relative step (default 0.05)")
+        ->check(CLI::Range(1e-4, 1.0));
+    cmd->add_option("--minimize", a->minimize, "Metric minimised (default rates.peter_panning)");
+    cmd->add_option("--then", a->then, "Metric that breaks ties (default peter_panning_gap.p95)");
+    cmd->add_option("--tie", a->tie, "Values of --minimize within this fraction of each other are ties (default 0.01)")
+        ->check(CLI::Range(0.0, 1.0));
+    cmd->add_option("--holdout", a->holdout, "Scenarios to re-validate the recommendation on, not tuned on");
+    cmd->add_flag("--visibility-only", a->visibility_only,
+                  "Evaluate from V alone, classified from the oracle's geometry (faster on GPUs; docs/tune.md)");
+    cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne");
+    cmd->add_option("--tolerance", a->tolerance, "tau: |error| above this plus the oracle's E is wrong")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+    cmd->add_option("--cache", a->cache_dir, "Oracle cache folder (as for validate)");
+    cmd->add_flag("--no-cache", a->no_cache, "Trace the oracle and keep nothing");
+    add_sampling(cmd, a->sampling);
+    return {cmd, [a] { return run_tune_command(*a); }};
+}
+
+}  // namespace penumbra::cli

@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# penumbra tune end to end: the files, technique.json accepted by validate, hold-out scenarios,
+# determinism across thread counts, --gate, and bad input (exit 2 naming it, nothing written).
+# Usage: tune_test.sh PENUMBRA SOURCE_DIR
+source "$(dirname "$0")/harness.sh"
+run() {  # run ARGS... -> sets rc, err
+    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+    rc=$?
+    err=$(cat "$tmp/stderr")
+}
+fail_detail() { echo "(rc $rc: $(head -c 400 <<<"$err"))"; }
+export PENUMBRA_CACHE_DIR="$tmp/cache"
+cp "$src/data/default/scene.glb" "$tmp/"
+sed -e 's/"width": 1280/"width": 240/' -e 's/"height": 720/"height": 136/' \
+    -e 's#"scene.glb"#"'"$tmp"'/scene.glb"#' "$src/data/default/scenario.json" >"$tmp/a.json"
+sed 's/"eye": \[4.5, 4.0, 9.0\]/"eye": [-6.0, 5.0, 6.0]/' "$tmp/a.json" >"$tmp/b.json"
+small=(--set resolution=512 --budget 14)
+
+run tune "$tmp/a.json" --out "$tmp/t1" "${small[@]}" --holdout "$tmp/b.json" --threads 1
+check "tune exits 0" test "$rc" -eq 0
+for f in technique.json tune.json pareto.csv pareto.svg pareto.png report.html; do
+    check "tune writes $f" test -s "$tmp/t1/$f"
+done
+check "tune.json has every evaluation" python3 -c "
+import json, sys; j = json.load(open('$tmp/t1/tune.json'))
+assert 1 <= len(j['evaluations']) <= 14 and j['front'] and j['holdout'] and j['revalidation']
+assert j['recommendation']['units'][0]['d3d12']['DepthBias_D24'] >= 0"
+check "pareto.csv has a row per evaluation" test "$(($(wc -l <"$tmp/t1/pareto.csv") - 1))" -eq \
+    "$(python3 -c "import json; print(len(json.load(open('$tmp/t1/tune.json'))['evaluations']))")"
+check "the terminal shows the hold-out result" grep -q "hold-out" "$tmp/stdout"
+check "report.html renders cleanly in Chromium" html_check "$tmp/t1/report.html"
+check "the plot renders in Chromium" timeout 120 chromium --headless --no-sandbox --disable-gpu \
+    --screenshot="$tmp/plot.png" --window-size=720,480 "file://$tmp/t1/pareto.svg" 2>/dev/null
+
+run validate "$tmp/a.json" --out "$tmp/v1" --technique "$tmp/t1/technique.json" -q
+check "validate accepts technique.json as it is" test "$rc" -eq 0
+
+# Deterministic: the same evaluations and recommendation with 2 threads.
+run tune "$tmp/a.json" --out "$tmp/t2" "${small[@]}" --holdout "$tmp/b.json" --threads 2 -q
+check "second run exits 0" test "$rc" -eq 0
+check "same recommendation with 1 and 2 threads" cmp -s "$tmp/t1/technique.json" "$tmp/t2/technique.json"
+check "same evaluations with 1 and 2 threads" python3 -c "
+import json
+a, b = (json.load(open(f'$tmp/{d}/tune.json'))['evaluations'] for d in ('t1', 't2'))
+strip = lambda es: [{k: v for k, v in e.items() if k != 'seconds'} for e in es]
+assert strip(a) == strip(b)"
+
+# --gate: nothing feasible within one evaluation (no bias at all leaves acne): exit 1.
+run tune "$tmp/a.json" --out "$tmp/t3" --set resolution=512 --budget 1 --gate -q
+check "--gate without a feasible setting exits 1" test "$rc" -eq 1
+check "--gate prints the best reachable" grep -q "best reachable" <<<"$err"
+
+# Bad input: exit 2 naming it, before any work, nothing written.
+run tune "$tmp/a.json" --out "$tmp/t4" --knobs constant,slop
+check "unknown knob exits 2" test "$rc" -eq 2
+check "unknown knob is named" grep -q -- '--knobs: unknown knob "slop"' <<<"$err"
+check "unknown knob writes nothing" test ! -e "$tmp/t4"
+run tune "$tmp/a.json" --out "$tmp/t5" --budget -3
+check "negative budget exits 2" test "$rc" -eq 2
+check "negative budget is named" grep -q -- '--budget: -3' <<<"$err"
+check "negative budget writes nothing" test ! -e "$tmp/t5"
+run tune "$tmp/a.json" --out "$tmp/t6" --minimize rates.peter_pan
+check "unknown metric exits 2" test "$rc" -eq 2
+check "unknown metric is named" grep -q -- '--minimize: no metric "rates.peter_pan"' <<<"$err"
+check "unknown metric writes nothing" test ! -e "$tmp/t6"
+run tune "$tmp/nope.json" --out "$tmp/t7"
+check "missing scenario exits 2" test "$rc" -eq 2
+finish

@@ -1,0 +1,447 @@
+#include "tune/tune.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/errors.h"
+#include "common/stopwatch.h"
+#include "metrics/metric_table.h"
+
+namespace penumbra::tune {
+namespace {
+
+constexpr std::array<const char*, 6> kKnobNames = {"constant", "slope",         "clamp",
+                                                   "world",    "normal_offset", "receiver_plane"};
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::size_t index_of(Knob k) {
+    return static_cast<std::size_t>(k);
+}
+bool is_continuous(Knob k) {
+    return k != Knob::receiver_plane;
+}
+
+// A knob's place on its log scale, growing with the bias it adds: "off" is -inf for the
+// additive knobs and +inf for clamp (0 = unclamped, the most bias).
+double position(Knob k, double v) {
+    if (v <= 0) return k == Knob::clamp ? kInf : -kInf;
+    return std::log10(v);
+}
+double value_at(Knob k, double pos) {
+    const KnobRange r = knob_range(k);
+    if (k == Knob::clamp) return pos >= std::log10(r.hi) + 1e-9 ? 0.0 : std::pow(10.0, std::max(pos, std::log10(r.lo)));
+    if (pos < std::log10(r.lo) - 1e-9) return 0.0;
+    return std::pow(10.0, std::min(pos, std::log10(r.hi)));
+}
+
+// How much bias a setting adds, for ties: each knob's position in [0, 1] of its range (off: 0;
+// unclamped: 1), summed.
+double bias_size(const Setting& s, std::span<const Knob> knobs) {
+    double sum = 0;
+    for (Knob k : knobs) {
+        if (!is_continuous(k)) continue;
+        const KnobRange r = knob_range(k);
+        const double p = position(k, s[k]);
+        if (std::isinf(p)) {
+            sum += p > 0 ? 1.0 : 0.0;
+            continue;
+        }
+        sum += 1e-3 + (p - std::log10(r.lo)) / (std::log10(r.hi) - std::log10(r.lo));
+    }
+    return sum;
+}
+
+const metrics::Metric& metric_named(const std::string& path, const char* option) {
+    const metrics::Metric* m = metrics::find_metric(path);
+    if (!m) throw InputError(fmt::format("{}: no metric \"{}\" (see docs/metrics.md for the paths)", option, path));
+    return *m;
+}
+
+}  // namespace
+
+const char* to_string(Knob k) {
+    return kKnobNames[index_of(k)];
+}
+
+double median_at_surface(const std::vector<float>& v, const std::vector<float>& A, bool positive) {
+    std::vector<float> x;
+    for (std::size_t i = 0; i < v.size(); ++i)
+        if (A[i] != 0 && std::isfinite(v[i]) && (!positive || v[i] > 0)) x.push_back(v[i]);
+    if (x.empty()) return 0;
+    std::nth_element(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2), x.end());
+    return x[x.size() / 2];
+}
+
+std::vector<Knob> parse_knobs(const std::string& list, const std::string& option) {
+    std::vector<Knob> knobs;
+    std::size_t start = 0;
+    while (start <= list.size()) {
+        const std::size_t end = std::min(list.find(',', start), list.size());
+        const std::string name = list.substr(start, end - start);
+        auto it = std::find(kKnobNames.begin(), kKnobNames.end(), name);
+        if (it == kKnobNames.end())
+            throw InputError(
+                fmt::format("{}: unknown knob \"{}\" (knobs: constant, slope, clamp, world, "
+                            "normal_offset, receiver_plane)",
+                            option, name));
+        const Knob k = static_cast<Knob>(it - kKnobNames.begin());
+        if (std::find(knobs.begin(), knobs.end(), k) != knobs.end())
+            throw InputError(fmt::format("{}: knob \"{}\" is named twice", option, name));
+        knobs.push_back(k);
+        start = end + 1;
+    }
+    if (std::none_of(knobs.begin(), knobs.end(), [](Knob k) { return k != Knob::clamp && is_continuous(k); }))
+        throw InputError(
+            fmt::format("{}: \"{}\" has no knob that adds bias (constant, slope, world or "
+                        "normal_offset)",
+                        option, list));
+    return knobs;
+}
+
+KnobRange knob_range(Knob k) {
+    switch (k) {
+        case Knob::constant: return {1e-1, 1e6, "r"};
+        case Knob::slope: return {1e-2, 1e2, "factor"};
+        case Knob::clamp: return {1e-7, 1e-1, "depth units"};
+        case Knob::world: return {1e-2, 1e2, "texel footprints"};
+        case Knob::normal_offset: return {1e-2, 1e1, "texels"};
+        case Knob::receiver_plane: break;
+    }
+    return {0, 0, ""};
+}
+
+raster::Technique apply_setting(const raster::Technique& base, std::span<const Knob> knobs, const Setting& s,
+                                double footprint_m) {
+    raster::Technique t = base;
+    t.preset.clear();  // the tuned bias is no longer the preset's
+    for (Knob k : knobs) switch (k) {
+            case Knob::constant: t.bias.constant = s[k]; break;
+            case Knob::slope: t.bias.slope = s[k]; break;
+            case Knob::clamp: t.bias.clamp = s[k]; break;
+            case Knob::world: t.bias.world = s[k] * footprint_m; break;
+            case Knob::normal_offset: t.bias.normal_offset = s[k]; break;
+            case Knob::receiver_plane: t.bias.receiver_plane = s.receiver_plane; break;
+        }
+    return t;
+}
+
+Evaluator::Evaluator(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
+                     const raster::VulkanContext& ctx)
+    : base_(base), options_(options) {
+    metric_named(options.objective.minimize, "--minimize");
+    metric_named(options.objective.then, "--then");
+    for (const Scenario& s : scenarios) {
+        TuneScene scene;
+        scene.scenario = &s;
+        scene.oracle = std::make_shared<const OracleRun>(oracle_for(s, options.validate));
+        scene.session = std::make_unique<raster::RasterSession>(s, ctx);
+        scene.scoring = scoring_options(s, base, options.validate.tolerance);
+        for (auto& o : scene.scoring) o.perceptual = false;
+        if (!options.lookups) {
+            // V only: each light's footprint from one lookup render of the starting technique;
+            // every brighter pixel with a true occluder outside the aliasing band is counted as
+            // peter-panning (no bias reach: the bias is what is being searched).
+            const raster::RasterResult rr = scene.session->render(base);
+            for (std::size_t li = 0; li < scene.scoring.size() && li < rr.frame.lights.size(); ++li) {
+                const auto& lk = rr.frame.lights[li].lookups;
+                const double f = lk ? median_at_surface(lk->footprint_m, rr.frame.A, true) : 0.0;
+                scene.scoring[li].texel_footprint_m = static_cast<float>(f);
+                scene.scoring[li].bias_reach_m = std::numeric_limits<float>::max();
+                if (footprint_m_ == 0) footprint_m_ = f;
+            }
+        }
+        scenes_.push_back(std::move(scene));
+    }
+}
+
+Evaluation Evaluator::evaluate(const Setting& s) {
+    const auto t0 = SteadyClock::now();
+    const metrics::Metric& minimize = metric_named(options_.objective.minimize, "--minimize");
+    const metrics::Metric& then = metric_named(options_.objective.then, "--then");
+    Evaluation e;
+    e.setting = s;
+    const raster::Technique technique = apply_setting(base_, options_.knobs, s, footprint_m_);
+    raster::RenderOptions ro;
+    ro.lookups = options_.lookups;
+    double pooled_min = 0, pooled_then = 0, scored_total = 0;
+    for (std::size_t si = 0; si < scenes_.size(); ++si) {
+        TuneScene& scene = scenes_[si];
+        const auto tr = SteadyClock::now();
+        raster::RasterResult rr = scene.session->render(technique, ro);
+        e.render_s += seconds_since(tr);
+        const auto tc = SteadyClock::now();
+        if (footprint_m_ == 0) {
+            // The world knob's unit: the median texel footprint at the receivers, over every light
+            // of the first scenario that has one.
+            for (const auto& l : rr.frame.lights)
+                if (l.lookups && footprint_m_ == 0)
+                    footprint_m_ = median_at_surface(l.lookups->footprint_m, rr.frame.A, true);
+        }
+        const metrics::FrameScore score = metrics::score_frames(scene.oracle->frame, rr.frame, scene.scoring);
+        for (std::size_t li = 0; li < score.lights.size(); ++li) {
+            const metrics::LightScore& ls = score.lights[li];
+            LightOutcome o;
+            o.scenario = si;
+            o.light = li;
+            o.scored = ls.pixels.scored;
+            o.acne = ls.rate(metrics::PixelClass::acne);
+            o.minimized = metrics::value_of(minimize, ls).value_or(0.0);
+            o.then = metrics::value_of(then, ls).value_or(0.0);
+            e.worst_acne = std::max(e.worst_acne, o.acne);
+            pooled_min += o.minimized * static_cast<double>(o.scored);
+            pooled_then += o.then * static_cast<double>(o.scored);
+            scored_total += static_cast<double>(o.scored);
+            e.lights.push_back(o);
+        }
+        e.count_s += seconds_since(tc);
+    }
+    if (scored_total > 0) {
+        e.minimized = pooled_min / scored_total;
+        e.then = pooled_then / scored_total;
+    }
+    e.feasible = e.worst_acne <= options_.objective.max_acne;
+    e.seconds = seconds_since(t0);
+    return e;
+}
+
+bool better(const Evaluation& a, const Evaluation& b, std::span<const Knob> knobs, const Objective& objective) {
+    if (a.feasible != b.feasible) return a.feasible;
+    if (!a.feasible && a.worst_acne != b.worst_acne) return a.worst_acne < b.worst_acne;
+    if (std::abs(a.minimized - b.minimized) > objective.tie * std::max(a.minimized, b.minimized))
+        return a.minimized < b.minimized;
+    if (a.then != b.then) return a.then < b.then;
+    return bias_size(a.setting, knobs) < bias_size(b.setting, knobs);
+}
+
+void rank(TuneResult& r, std::span<const Knob> knobs, const Objective& objective) {
+    r.winner.reset();
+    r.front.clear();
+    const auto& ev = r.evaluations;
+    for (std::size_t i = 0; i < ev.size(); ++i) {
+        if (ev[i].feasible && (!r.winner || better(ev[i], ev[*r.winner], knobs, objective))) r.winner = i;
+        if (i == 0 || ev[i].worst_acne < ev[r.best_reachable].worst_acne ||
+            (ev[i].worst_acne == ev[r.best_reachable].worst_acne &&
+             better(ev[i], ev[r.best_reachable], knobs, objective)))
+            r.best_reachable = i;
+        // Pareto: no other evaluation is at least as good on both and better on one.
+        bool dominated = false;
+        for (std::size_t j = 0; j < ev.size() && !dominated; ++j) {
+            if (j == i) continue;
+            const bool no_worse = ev[j].worst_acne <= ev[i].worst_acne && ev[j].minimized <= ev[i].minimized;
+            const bool strictly = ev[j].worst_acne < ev[i].worst_acne || ev[j].minimized < ev[i].minimized;
+            // Equal points: the earlier one stands for both.
+            dominated = no_worse && (strictly || j < i);
+        }
+        if (!dominated) r.front.push_back(i);
+    }
+    std::sort(r.front.begin(), r.front.end(), [&](std::size_t a, std::size_t b) {
+        return ev[a].worst_acne != ev[b].worst_acne ? ev[a].worst_acne < ev[b].worst_acne : a < b;
+    });
+}
+
+namespace {
+
+// The search's bookkeeping: every evaluation once (a setting seen before is not evaluated
+// again), within the budget.
+class Search {
+  public:
+    // Evaluations are handed out by address: reserving the budget keeps them in place.
+    Search(const EvaluateFn& ev, const TuneOptions& options, TuneResult& result) : ev_(ev), opt_(options), r_(result) {
+        r_.evaluations.reserve(static_cast<std::size_t>(options.budget));
+    }
+
+    bool out_of_budget() const { return static_cast<int>(r_.evaluations.size()) >= opt_.budget; }
+
+    // The evaluation of `s`, or none when the budget is spent.
+    const Evaluation* eval(const Setting& s) {
+        for (const auto& e : r_.evaluations)
+            if (e.setting == s) return &e;
+        if (out_of_budget()) {
+            r_.budget_exhausted = true;
+            return nullptr;
+        }
+        r_.evaluations.push_back(ev_(s));
+        if (opt_.progress) opt_.progress(r_.evaluations.back(), r_.evaluations.size() - 1);
+        return &r_.evaluations.back();
+    }
+
+    bool is_better(const Evaluation& a, const Evaluation& b) const { return better(a, b, opt_.knobs, opt_.objective); }
+
+    // The least position of knob k in [lo, hi] at which `s` is feasible, by bisection on the log
+    // scale down to `step` decades; `hi` must be feasible (evaluated) and lo infeasible (or
+    // below the range). Returns the feasible setting found.
+    Setting bisect(Setting s, Knob k, double lo, double hi, double step) {
+        while (hi - lo > step) {
+            const double mid = 0.5 * (lo + hi);
+            s[k] = value_at(k, mid);
+            const Evaluation* e = eval(s);
+            if (!e) break;
+            if (e->feasible)
+                hi = mid;
+            else
+                lo = mid;
+        }
+        s[k] = value_at(k, hi);
+        return s;
+    }
+
+    void run(bool receiver_plane) {
+        const double fine = std::log10(1.0 + opt_.precision);
+        Setting zero;
+        zero.receiver_plane = receiver_plane;
+        const Evaluation* e0 = eval(zero);
+        if (!e0 || e0->feasible) return;  // no bias needed: any bias only adds peter-panning
+
+        // 1. Each knob alone: its least feasible value (the boundary's intercept on its axis).
+        std::array<double, kContinuousKnobs> intercept;
+        intercept.fill(kInf);
+        std::optional<Setting> best;
+        auto consider = [&](const Setting& s) {
+            const Evaluation* e = eval(s);
+            if (e && e->feasible && (!best || is_better(*e, *eval(*best)))) best = s;
+        };
+        for (Knob k : opt_.knobs) {
+            if (!is_continuous(k) || k == Knob::clamp) continue;
+            const KnobRange range = knob_range(k);
+            Setting s = zero;
+            s[k] = range.hi;
+            const Evaluation* top = eval(s);
+            if (!top || !top->feasible) continue;  // this knob alone cannot cure the acne
+            s[k] = range.lo;
+            const Evaluation* bottom = eval(s);
+            if (!bottom) break;
+            if (!bottom->feasible) s = bisect(s, k, std::log10(range.lo), std::log10(range.hi), fine);
+            intercept[index_of(k)] = position(k, s[k]);
+            consider(s);
+        }
+        if (!best) return;
+        // One knob: its least feasible value is the optimum (peter-panning grows with it).
+        if (std::count_if(opt_.knobs.begin(), opt_.knobs.end(), is_continuous) < 2) return;
+
+        // 2. Local search along the boundary: give up some of knob a (or tighten the clamp) and
+        // take back only as much of knob b as feasibility needs. Steps halve when no trade helps.
+        double step = 1.0;
+        Setting at = *best;
+        while (step >= fine && !out_of_budget()) {
+            bool moved = false;
+            for (Knob a : opt_.knobs) {
+                if (!is_continuous(a)) continue;
+                const double pa = position(a, at[a]);
+                if (a != Knob::clamp && std::isinf(pa)) continue;  // off: nothing to give up
+                Setting q = at;
+                const KnobRange ra = knob_range(a);
+                q[a] = value_at(a, std::isinf(pa) ? std::log10(ra.hi) : pa - step);
+                if (q[a] == at[a]) continue;
+                const Evaluation* eq = eval(q);
+                if (!eq) break;
+                if (eq->feasible) {
+                    if (is_better(*eq, *eval(at))) {
+                        at = q;
+                        moved = true;
+                    }
+                    continue;
+                }
+                for (Knob b : opt_.knobs) {
+                    if (b == a || !is_continuous(b) || b == Knob::clamp) continue;
+                    const KnobRange rb = knob_range(b);
+                    const double pb = position(b, q[b]);
+                    const double lo = std::isinf(pb) ? std::log10(rb.lo) - fine : pb;
+                    const double hi = std::min(std::log10(rb.hi), intercept[index_of(b)]);
+                    if (!(hi > lo)) continue;
+                    Setting top = q;
+                    top[b] = value_at(b, hi);
+                    const Evaluation* et = eval(top);
+                    if (!et) break;
+                    if (!et->feasible) continue;
+                    Setting s = bisect(q, b, lo, hi, std::max(fine, step / 4));
+                    const Evaluation* es = eval(s);
+                    if (es && es->feasible && is_better(*es, *eval(at))) {
+                        at = s;
+                        moved = true;
+                        break;
+                    }
+                }
+            }
+            if (!moved) step /= 2;
+        }
+    }
+
+  private:
+    const EvaluateFn& ev_;
+    const TuneOptions& opt_;
+    TuneResult& r_;
+};
+
+std::vector<bool> receiver_plane_choices(bool start, std::span<const Knob> knobs) {
+    if (std::find(knobs.begin(), knobs.end(), Knob::receiver_plane) != knobs.end()) return {false, true};
+    return {start};
+}
+
+void recommend(TuneResult& r, const Evaluator& ev, const TuneOptions& options) {
+    r.footprint_m = ev.footprint_m();
+    const std::size_t chosen = r.winner ? *r.winner : r.best_reachable;
+    if (!r.evaluations.empty())
+        r.recommended = apply_setting(ev.base(), options.knobs, r.evaluations[chosen].setting, ev.footprint_m());
+}
+
+}  // namespace
+
+TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane) {
+    if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
+    TuneResult r;
+    Search s(evaluate, options, r);
+    for (bool rp : receiver_plane_choices(receiver_plane, options.knobs)) s.run(rp);
+    rank(r, options.knobs, options.objective);
+    return r;
+}
+
+TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels, bool receiver_plane) {
+    TuneResult r;
+    std::vector<Knob> axes;
+    for (Knob k : options.knobs)
+        if (is_continuous(k)) axes.push_back(k);
+    // Level 0 is off (unclamped for clamp); levels 1..n-1 span the range on a log scale.
+    auto value = [&](Knob k, int level) {
+        const KnobRange range = knob_range(k);
+        if (level == 0) return 0.0;
+        const double t = levels > 2 ? static_cast<double>(level - 1) / (levels - 2) : 1.0;
+        return std::pow(10.0, std::log10(range.lo) + t * (std::log10(range.hi) - std::log10(range.lo)));
+    };
+    for (bool rp : receiver_plane_choices(receiver_plane, options.knobs)) {
+        std::vector<int> level(axes.size(), 0);
+        while (true) {
+            Setting s;
+            s.receiver_plane = rp;
+            for (std::size_t a = 0; a < axes.size(); ++a) s[axes[a]] = value(axes[a], level[a]);
+            r.evaluations.push_back(evaluate(s));
+            if (options.progress) options.progress(r.evaluations.back(), r.evaluations.size() - 1);
+            std::size_t a = 0;
+            while (a < axes.size() && ++level[a] == levels) level[a++] = 0;
+            if (a == axes.size()) break;
+        }
+    }
+    rank(r, options.knobs, options.objective);
+    return r;
+}
+
+TuneResult tune(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
+                const raster::VulkanContext& ctx) {
+    if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
+    Evaluator ev(scenarios, base, options, ctx);
+    TuneResult r = search([&](const Setting& s) { return ev.evaluate(s); }, options, base.bias.receiver_plane);
+    recommend(r, ev, options);
+    return r;
+}
+
+TuneResult grid_search(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
+                       const raster::VulkanContext& ctx, int levels) {
+    Evaluator ev(scenarios, base, options, ctx);
+    TuneResult r = grid([&](const Setting& s) { return ev.evaluate(s); }, options, levels, base.bias.receiver_plane);
+    recommend(r, ev, options);
+    return r;
+}
+
+}  // namespace penumbra::tune

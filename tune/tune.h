@@ -1,0 +1,161 @@
+// penumbra tune: the bias that removes acne with the least peter-panning, found against the
+// oracle (docs/tune.md). The search uses the structure of the problem: each bias knob trades
+// acne (falling as the knob grows) for peter-panning (growing), so the least feasible value of a
+// knob is found by bisection, and a mix of knobs by trading one for another along the boundary
+// of the feasible set.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/scenario.h"
+#include "pipeline/validate.h"
+#include "raster/raster.h"
+#include "raster/technique.h"
+#include "raster/vulkan_context.h"
+
+namespace penumbra::tune {
+
+// The bias knobs, each bounded and scaled as it behaves (docs/tune.md, "Knobs").
+enum class Knob { constant, slope, clamp, world, normal_offset, receiver_plane };
+inline constexpr std::size_t kContinuousKnobs = 5;  // all but receiver_plane
+
+const char* to_string(Knob k);
+// "constant,slope": unknown or repeated names are InputError naming `option` and the name.
+std::vector<Knob> parse_knobs(const std::string& list, const std::string& option);
+
+// The range a continuous knob is searched over, in its own unit, on a log scale; 0 is "off"
+// (for clamp, 0 is Vulkan's "unclamped", the most bias).
+struct KnobRange {
+    double lo, hi;
+    const char* unit;
+};
+KnobRange knob_range(Knob k);
+
+// One point of the search. Values in the knobs' units: constant in the format's r, slope as
+// Vulkan's factor, clamp in depth units, world in texel footprints (the reference footprint),
+// normal_offset in texels.
+struct Setting {
+    std::array<double, kContinuousKnobs> value{};
+    bool receiver_plane = false;
+    double& operator[](Knob k) { return value[static_cast<std::size_t>(k)]; }
+    double operator[](Knob k) const { return value[static_cast<std::size_t>(k)]; }
+    bool operator==(const Setting&) const = default;
+};
+
+// The technique `base` with the tuned knobs of `s` in place (the others are base's own).
+raster::Technique apply_setting(const raster::Technique& base, std::span<const Knob> knobs, const Setting& s,
+                                double footprint_m);
+
+// What is minimised, subject to acne <= max_acne on every scenario and light (docs/tune.md,
+// "Objective"). Metric paths are rows of metrics/metric_table.h; both are pooled over every
+// scenario and light, weighted by scored pixels.
+struct Objective {
+    double max_acne = 0.001;
+    std::string minimize = "rates.peter_panning";
+    std::string then = "peter_panning_gap.p95";
+    double tie = 0.01;  // relative: values of `minimize` within 1% are a tie; then `then`, then the smaller bias
+};
+
+struct LightOutcome {
+    std::size_t scenario = 0, light = 0;
+    double acne = 0, minimized = 0, then = 0;
+    std::uint64_t scored = 0;
+};
+
+struct Evaluation {
+    Setting setting;
+    std::vector<LightOutcome> lights;
+    double worst_acne = 0;  // the largest acne rate over scenarios and lights
+    double minimized = 0, then = 0;
+    bool feasible = false;
+    double seconds = 0;                // wall clock: renders and counts
+    double render_s = 0, count_s = 0;  // of which the renders (with read-back) and the counts
+};
+
+struct TuneOptions {
+    std::vector<Knob> knobs = {Knob::constant, Knob::slope};
+    Objective objective;
+    int budget = 80;           // most evaluations
+    double precision = 0.05;   // bisection stops when the bracket's ratio is below 1 + precision
+    // What an evaluation reads back (docs/tune.md, "Evidence"): the depth-map lookups the classes
+    // rest on (true), or V alone, classified from the oracle's geometry with each light's texel
+    // footprint from one lookup render at the start (false: several times faster on GPUs, where
+    // reading back the lookups is most of a render).
+    bool lookups = true;
+    ValidateOptions validate;  // the oracle's settings and cache, tau, device
+    // Called after each evaluation with its index (progress on a terminal).
+    std::function<void(const Evaluation&, std::size_t)> progress;
+};
+
+// One scenario ready to be evaluated: its oracle (cache) and warm raster session, made once.
+struct TuneScene {
+    const Scenario* scenario = nullptr;
+    std::shared_ptr<const OracleRun> oracle;
+    std::unique_ptr<raster::RasterSession> session;
+    std::vector<metrics::ScoringOptions> scoring;  // perceptual off: the objective needs counts only
+};
+
+// Evaluates settings on every scene: a warm render with lookups and the objective's counts; no
+// images, no report.
+class Evaluator {
+  public:
+    Evaluator(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
+              const raster::VulkanContext& ctx);
+    Evaluation evaluate(const Setting& s);
+    double footprint_m() const { return footprint_m_; }  // the reference footprint (world knob's unit)
+    const raster::Technique& base() const { return base_; }
+    std::span<const Knob> knobs() const { return options_.knobs; }
+
+  private:
+    raster::Technique base_;
+    const TuneOptions& options_;
+    std::vector<TuneScene> scenes_;
+    double footprint_m_ = 0;
+};
+
+// Lexicographic: feasible first; then `minimize` (ties within objective.tie), `then`, and the
+// smaller bias. True when a is better than b.
+bool better(const Evaluation& a, const Evaluation& b, std::span<const Knob> knobs, const Objective& objective);
+
+struct TuneResult {
+    std::vector<Evaluation> evaluations;  // in the order they were made
+    std::optional<std::size_t> winner;    // the best feasible evaluation; none when nothing was feasible
+    std::size_t best_reachable = 0;       // the least worst_acne (when nothing was feasible)
+    std::vector<std::size_t> front;       // Pareto front of (worst_acne, minimized), by worst_acne
+    raster::Technique recommended;        // the winner's technique (the best reachable's when none)
+    double footprint_m = 0;
+    bool budget_exhausted = false;
+};
+
+// What the search evaluates a setting with: Evaluator::evaluate, or a function in the tests.
+using EvaluateFn = std::function<Evaluation(const Setting&)>;
+
+// The search (docs/tune.md, "Search") over `evaluate`, within options.budget. Deterministic: the
+// same inputs give the same evaluations in the same order. `receiver_plane` is the starting
+// technique's (used unless the knob is tuned). Fills evaluations, winner, front; not recommended.
+TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane = false);
+
+// The same objective over an exhaustive grid of `levels` values per knob (off, then levels - 1
+// log-spaced over the range), for the benchmark.
+TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels, bool receiver_plane = false);
+
+// The search on real scenarios: an Evaluator, search(), and the recommended technique.
+TuneResult tune(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
+                const raster::VulkanContext& ctx);
+TuneResult grid_search(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
+                       const raster::VulkanContext& ctx, int levels);
+
+// The median of `v` over surface pixels (A != 0), finite values only (and positive ones only
+// when asked); 0 when there are none.
+double median_at_surface(const std::vector<float>& v, const std::vector<float>& A, bool positive);
+
+// Pareto front and winner of a list of evaluations.
+void rank(TuneResult& r, std::span<const Knob> knobs, const Objective& objective);
+
+}  // namespace penumbra::tune

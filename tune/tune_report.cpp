@@ -1,0 +1,215 @@
+#include "tune/tune_report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/version.h"
+#include "metrics/metric_table.h"
+
+namespace penumbra::tune {
+namespace {
+
+// r of float depth at `depth`: 2^(e - 23), e the exponent of depth (Vulkan spec, "Depth Bias";
+// D3D12's "Depth Bias" uses the same definition for D32_FLOAT).
+double float_r(double depth) {
+    if (!(depth > 0)) return std::ldexp(1.0, -149);
+    int e = 0;
+    std::frexp(depth, &e);  // depth = m x 2^e, m in [0.5, 1): IEEE exponent is e - 1
+    return std::ldexp(1.0, e - 1 - 23);
+}
+
+nlohmann::json light_outcomes(const Evaluation& e) {
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& o : e.lights)
+        a.push_back({{"scenario", o.scenario},
+                     {"light", o.light},
+                     {"acne", o.acne},
+                     {"minimized", o.minimized},
+                     {"then", o.then},
+                     {"scored", o.scored}});
+    return a;
+}
+
+nlohmann::json evaluation_json(const Evaluation& e, std::span<const Knob> knobs) {
+    return {{"setting", to_json(e.setting, knobs)},
+            {"worst_acne", e.worst_acne},
+            {"minimized", e.minimized},
+            {"then", e.then},
+            {"feasible", e.feasible},
+            {"seconds", e.seconds},
+            {"lights", light_outcomes(e)}};
+}
+
+nlohmann::json revalidation_json(std::span<const Revalidation> rs, std::span<const std::string> files) {
+    nlohmann::json a = nlohmann::json::array();
+    for (std::size_t k = 0; k < rs.size(); ++k) {
+        nlohmann::json before = nlohmann::json::array(), after = nlohmann::json::array();
+        for (const auto& l : rs[k].before.score.lights) before.push_back(metrics::to_json(l));
+        for (const auto& l : rs[k].after.score.lights) after.push_back(metrics::to_json(l));
+        a.push_back(
+            {{"scenario", k < files.size() ? files[k] : rs[k].scenario->label}, {"before", before}, {"after", after}});
+    }
+    return a;
+}
+
+}  // namespace
+
+std::vector<Revalidation> revalidate(std::span<const Scenario> scenarios, const raster::Technique& before,
+                                     const raster::Technique& after, const ValidateOptions& options,
+                                     const raster::VulkanContext& ctx) {
+    std::vector<Revalidation> out;
+    const metrics::Gate no_gate;
+    for (const Scenario& s : scenarios) {
+        raster::RasterSession session(s, ctx);
+        auto oracle = std::make_shared<const OracleRun>(oracle_for(s, options));
+        Revalidation r;
+        r.scenario = &s;
+        r.before = validate(s, before, no_gate, options, &session, oracle);
+        r.after = validate(s, after, no_gate, options, &session, oracle);
+        out.push_back(std::move(r));
+    }
+    return out;
+}
+
+std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations) {
+    std::vector<ApiBias> out;
+    for (std::size_t si = 0; si < revalidations.size(); ++si) {
+        const ValidateResult& v = revalidations[si].after;
+        const raster::Technique& t = v.technique;
+        const RasterFrame& f = v.raster.frame;
+        for (std::size_t li = 0; li < f.lights.size(); ++li) {
+            const auto& lk = f.lights[li].lookups;
+            if (!lk) continue;
+            ApiBias b;
+            b.scenario = si;
+            b.light = li;
+            b.median_depth = median_at_surface(lk->ref_depth, f.A, false);
+            b.depth_to_m = median_at_surface(lk->depth_to_m, f.A, true);
+            b.footprint_m = median_at_surface(lk->footprint_m, f.A, true);
+            const double r_format = t.depth_format == raster::DepthFormat::d32
+                                        ? float_r(b.median_depth)
+                                        : raster::depth_resolution(t.depth_format);
+            b.depth_offset = t.bias.constant * r_format;
+            b.vk_constant = t.bias.constant;
+            b.vk_slope = b.d3d12_slope = b.gl_factor = t.bias.slope;
+            b.vk_clamp = b.d3d12_clamp = t.bias.clamp;
+            b.gl_units = t.bias.constant;
+            b.d3d12_depth_bias_d24 = std::llround(b.depth_offset / raster::depth_resolution(raster::DepthFormat::d24));
+            b.d3d12_depth_bias_d32 = std::llround(b.depth_offset / float_r(b.median_depth));
+            b.constant_m = b.depth_offset * b.depth_to_m;
+            b.world_m = t.bias.world;
+            b.normal_offset_texels = t.bias.normal_offset;
+            b.normal_offset_m = t.bias.normal_offset * b.footprint_m;
+            out.push_back(b);
+        }
+    }
+    return out;
+}
+
+nlohmann::json to_json(const Setting& s, std::span<const Knob> knobs) {
+    nlohmann::json j = nlohmann::json::object();
+    for (Knob k : knobs) {
+        if (k == Knob::receiver_plane)
+            j[to_string(k)] = s.receiver_plane;
+        else
+            j[to_string(k)] = s[k];
+    }
+    return j;
+}
+
+nlohmann::json tune_json(const TuneReport& r) {
+    const TuneResult& res = r.result;
+    const auto knobs = std::span<const Knob>(r.options.knobs);
+    nlohmann::json knob_info = nlohmann::json::array();
+    for (Knob k : knobs) {
+        if (k == Knob::receiver_plane) {
+            knob_info.push_back({{"name", to_string(k)}, {"values", {false, true}}});
+            continue;
+        }
+        const KnobRange range = knob_range(k);
+        knob_info.push_back(
+            {{"name", to_string(k)}, {"unit", range.unit}, {"range", {range.lo, range.hi}}, {"scale", "log"}});
+    }
+    nlohmann::json evaluations = nlohmann::json::array();
+    for (const auto& e : res.evaluations) evaluations.push_back(evaluation_json(e, knobs));
+    nlohmann::json units = nlohmann::json::array();
+    for (const ApiBias& b : r.units)
+        units.push_back({{"scenario", b.scenario},
+                         {"light", b.light},
+                         {"median_depth", b.median_depth},
+                         {"footprint_m", b.footprint_m},
+                         {"vulkan",
+                          {{"format", raster::to_string(res.recommended.depth_format)},
+                           {"depthBiasConstantFactor", b.vk_constant},
+                           {"depthBiasSlopeFactor", b.vk_slope},
+                           {"depthBiasClamp", b.vk_clamp}}},
+                         {"d3d12",
+                          {{"DepthBias_D24", b.d3d12_depth_bias_d24},
+                           {"DepthBias_D32", b.d3d12_depth_bias_d32},
+                           {"SlopeScaledDepthBias", b.d3d12_slope},
+                           {"DepthBiasClamp", b.d3d12_clamp}}},
+                         {"opengl", {{"glPolygonOffset_factor", b.gl_factor}, {"glPolygonOffset_units", b.gl_units}}},
+                         {"world",
+                          {{"constant_m", b.constant_m},
+                           {"world_bias_m", b.world_m},
+                           {"normal_offset_texels", b.normal_offset_texels},
+                           {"normal_offset_m", b.normal_offset_m}}}});
+    nlohmann::json front = nlohmann::json::array();
+    for (std::size_t i : res.front) front.push_back(i);
+    const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
+    nlohmann::json j = {
+        {"version", version_string()},
+        {"scenarios", r.scenario_files},
+        {"holdout_scenarios", r.holdout_files},
+        {"objective",
+         {{"minimize", r.options.objective.minimize},
+          {"then", r.options.objective.then},
+          {"subject_to", fmt::format("rates.acne <= {} on every scenario and light", r.options.objective.max_acne)},
+          {"max_acne", r.options.objective.max_acne},
+          {"tie", r.options.objective.tie},
+          {"pooling", "mean over every scenario and light, weighted by scored pixels"},
+          {"ties_broken_towards", "the smaller bias"}}},
+        {"knobs", knob_info},
+        {"reference_footprint_m", res.footprint_m},
+        {"budget", r.options.budget},
+        {"budget_exhausted", res.budget_exhausted},
+        {"feasible", res.winner.has_value()},
+        {"start", r.start.to_json()},
+        {"recommendation",
+         {{"evaluation", chosen},
+          {"setting", res.evaluations.empty() ? nlohmann::json() : to_json(res.evaluations[chosen].setting, knobs)},
+          {"technique", res.recommended.to_json()},
+          {"units", units}}},
+        {"evaluations", evaluations},
+        {"front", front},
+        {"revalidation", revalidation_json(r.tuned, r.scenario_files)},
+        {"holdout", revalidation_json(r.holdout, r.holdout_files)},
+        {"seconds", r.seconds},
+    };
+    return j;
+}
+
+std::string pareto_csv(const TuneReport& r) {
+    const auto knobs = std::span<const Knob>(r.options.knobs);
+    std::string s = "evaluation";
+    for (Knob k : knobs) s += fmt::format(",{}", to_string(k));
+    s += fmt::format(",worst_acne,{},{},feasible,on_front,chosen\n", r.options.objective.minimize,
+                     r.options.objective.then);
+    const TuneResult& res = r.result;
+    const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
+    for (std::size_t i = 0; i < res.evaluations.size(); ++i) {
+        const Evaluation& e = res.evaluations[i];
+        s += fmt::format("{}", i);
+        for (Knob k : knobs)
+            s += k == Knob::receiver_plane ? fmt::format(",{}", e.setting.receiver_plane)
+                                           : fmt::format(",{:.9g}", e.setting[k]);
+        const bool front = std::find(res.front.begin(), res.front.end(), i) != res.front.end();
+        s += fmt::format(",{:.9g},{:.9g},{:.9g},{},{},{}\n", e.worst_acne, e.minimized, e.then, e.feasible, front,
+                         i == chosen);
+    }
+    return s;
+}
+
+}  // namespace penumbra::tune
