@@ -65,5 +65,7 @@ Subcommand add_raster_command(CLI::App& parent);
 Subcommand add_validate_command(CLI::App& parent);
 Subcommand add_devices_command(CLI::App& parent);
 Subcommand add_tune_command(CLI::App& parent);
+Subcommand add_compare_command(CLI::App& parent);
+Subcommand add_camera_command(CLI::App& parent);
 
 }  // namespace penumbra::cli

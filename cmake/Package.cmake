@@ -30,7 +30,7 @@ set(penumbra_public_headers
   common/version.h
   metrics/classification.h metrics/gate.h metrics/metric_table.h
   oracle/oracle.h
-  pipeline/validate.h pipeline/validate_files.h
+  pipeline/validate.h pipeline/validate_files.h pipeline/compare.h pipeline/compare_files.h
   raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h raster/vk_check.h
   raster/vulkan_context.h
   report/report.h)

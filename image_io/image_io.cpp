@@ -61,4 +61,35 @@ void write_png(OutputTransaction& out, const std::string& name, int width, int h
                                            file ? file->geterror() : OIIO::geterror()));
 }
 
+ImageFile read_image(const fs::path& file) {
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) throw InputError(fmt::format("{}: no such image file", file.string()));
+    auto in = OIIO::ImageInput::open(file.string());
+    if (!in)
+        throw InputError(fmt::format("{}: not an image OpenImageIO can read: {}", file.string(), OIIO::geterror()));
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.deep) throw InputError(fmt::format("{}: a deep image; expected a flat image", file.string()));
+    if (spec.depth > 1) throw InputError(fmt::format("{}: a volume image; expected a 2D image", file.string()));
+    ImageFile img;
+    img.width = spec.width;
+    img.height = spec.height;
+    img.format = in->format_name();
+    img.bits = static_cast<int>(spec.format.size() * 8);
+    img.floating = spec.format.is_floating_point();
+    const int nc = spec.nchannels;
+    const std::size_t n = static_cast<std::size_t>(img.width) * img.height;
+    if (nc <= 0 || n == 0) throw InputError(fmt::format("{}: an empty image", file.string()));
+    std::vector<float> data(n * nc);
+    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data()))
+        throw InputError(fmt::format("{}: cannot read the pixels: {}", file.string(), in->geterror()));
+    in->close();
+    img.channel_names.resize(nc);
+    img.channels.assign(nc, std::vector<float>(n));
+    for (int c = 0; c < nc; ++c) {
+        img.channel_names[c] = c < static_cast<int>(spec.channelnames.size()) ? spec.channelnames[c] : "";
+        for (std::size_t i = 0; i < n; ++i) img.channels[c][i] = data[i * nc + c];
+    }
+    return img;
+}
+
 }  // namespace penumbra

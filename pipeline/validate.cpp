@@ -18,7 +18,7 @@ report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResul
     in.version = version_string();
     in.scenario = &scenario;
     in.scenario_file = scenario.file;
-    in.technique = r.technique.to_json();
+    in.technique = r.engine.is_null() ? r.technique.to_json() : nlohmann::json{{"engine", r.engine}};
     in.raster = r.raster_info;
     in.oracle = oracle_info;
     in.scoring = r.scoring;

@@ -52,7 +52,8 @@ struct ValidateResult {
     double raster_s = 0, metrics_s = 0;
     metrics::FrameScore score;
     std::optional<metrics::GateResult> gate;  // empty when the gate has no checks
-    nlohmann::json raster_info;               // raster.json
+    nlohmann::json raster_info;               // raster.json (compare: {"engine": engine})
+    nlohmann::json engine;                    // compare only: the engine frame (reported instead of the technique)
     nlohmann::json timing;                    // report.json's "timing"
     nlohmann::json report;                    // report.json
     std::vector<std::string> warnings;  // from the run: the cache's, the raster path's (the scene's are on Scenario)

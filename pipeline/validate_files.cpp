@@ -11,7 +11,7 @@ void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, co
         oracle_info["seconds"]["write"] = report::write_oracle_images(out, r.oracle->frame);
         report::write_raster_outputs(out, scenario, r.technique, r.raster, r.raster_timings);
     } else {
-        out.write_json("raster.json", r.raster_info);
+        out.write_json(r.engine.is_null() ? "raster.json" : "engine.json", r.raster_info);
     }
     out.write_json("oracle.json", oracle_info);
     report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle->frame, r.raster.frame, r.score,

@@ -14,7 +14,19 @@ packages=(
   python3 assimp-testmodels
   chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
   clang libclang-rt-14-dev  # tests: the libFuzzer targets (tests/fuzz, docs/testing.md)
+  nodejs  # tests/engines: real engines in chromium (npm, with Debian's nodejs the npm package, installs what its package-lock.json pins)
 )
+
+# tests/engines' npm packages, exactly as its lockfile pins them (from the npm registry), once
+# per lockfile change.
+engine_packages() {
+  local dir
+  dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/engines"
+  command -v npm >/dev/null || { echo "install-deps: no npm: tests/engines will fail (apt-get install npm)"; return 0; }
+  cmp -s "$dir/package-lock.json" "$dir/node_modules/.penumbra-lock" && return 0
+  (cd "$dir" && npm ci --no-audit --no-fund --ignore-scripts >/dev/null && cp package-lock.json node_modules/.penumbra-lock)
+  echo "install-deps: tests/engines npm packages installed"
+}
 
 missing=()
 for p in "${packages[@]}"; do
@@ -22,6 +34,7 @@ for p in "${packages[@]}"; do
 done
 if ((${#missing[@]} == 0)); then
   echo "install-deps: all ${#packages[@]} packages present"
+  engine_packages
   exit 0
 fi
 
@@ -31,3 +44,4 @@ echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update -qq
 "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+engine_packages

@@ -6,6 +6,10 @@
 //   auto gate = penumbra::metrics::parse_gate(sc.gate, "gate", sc.lights, penumbra::metrics::GateOrigin::scenario);
 //   penumbra::ValidateResult r = penumbra::validate(sc, technique, gate, {});
 //   r.score.lights[0].rate(penumbra::metrics::PixelClass::acne);
+//
+// An engine's own shadow image instead of penumbra's raster path (docs/compare.md):
+//   penumbra::EngineFrame f = penumbra::load_engine_frame(sc, "shadow.exr", {0, 1, 2}, std::nullopt, {});
+//   penumbra::ValidateResult c = penumbra::compare(sc, f);
 #pragma once
 
 #include "common/errors.h"
@@ -14,6 +18,8 @@
 #include "metrics/classification.h"
 #include "metrics/gate.h"
 #include "metrics/metric_table.h"
+#include "pipeline/compare.h"
+#include "pipeline/compare_files.h"
 #include "pipeline/validate.h"
 #include "pipeline/validate_files.h"
 #include "raster/raster.h"

@@ -35,3 +35,21 @@ for i, (a, b) in enumerate(zip(inproc["lights"], cli)):
     assert sum(a["counts"].values()) > 0, f"light {i}: the default technique should leave some wrong pixels"
 print("package: in-process verdicts equal the CLI's on", len(cli), "lights")
 PY
+
+# penumbra::compare through the package: penumbra's own raster frame as an engine's image, the
+# same verdict in-process as `penumbra compare` gives.
+"$exe" raster "$scenario" --out "$tmp/raster" -q || fail "penumbra raster failed"
+"$tmp/consumer/consumer" "$scenario" --compare "$tmp/raster/raster.exr" >"$tmp/compare.json" ||
+  fail "the consumer's compare failed"
+"$exe" compare "$scenario" --image "$tmp/raster/raster.exr" --out "$tmp/cmp" --no-cache -q || fail "penumbra compare failed"
+python3 - "$tmp/compare.json" "$tmp/cmp/report.json" <<'PY'
+import json, sys
+inproc = json.load(open(sys.argv[1]))
+report = json.load(open(sys.argv[2]))
+cli = [{k: v for k, v in l.items() if k not in ("index", "type")} for l in report["lights"]]
+assert len(inproc["lights"]) == 3
+for i, (a, b) in enumerate(zip(inproc["lights"], cli)):
+    assert a == b, f"light {i}: in-process compare {a} != CLI {b}"
+    assert a["evidence"]["source"] == "oracle_geometry"
+print("package: in-process compare equals the CLI's on", len(cli), "lights")
+PY
