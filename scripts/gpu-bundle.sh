@@ -25,8 +25,8 @@ if [[ -z $out ]]; then
     exit 2
 fi
 
-binaries=(tests/raster_tests tests/verdict_tests bench/raster_bench bench/raster_session_bench
-    bench/receiver_plane_probe bench/class_counts)
+binaries=(tests/raster_tests tests/verdict_tests tests/tune_tests bench/raster_bench bench/raster_session_bench
+    bench/receiver_plane_probe bench/class_counts bench/tune_bench)
 for b in "${binaries[@]}"; do
     if [[ ! -x $build/$b ]]; then
         echo "gpu-bundle: $build/$b is missing: build first (scripts/build.sh)" >&2
@@ -114,16 +114,19 @@ step() {
 echo "penumbra GPU bundle: device ${PENUMBRA_VK_DEVICE:-(default: lavapipe when installed, else device 0)}"
 step raster_tests "$here/bin/raster_tests"
 step verdict_tests "$here/bin/verdict_tests"
+step tune_tests "$here/bin/tune_tests"
 step raster_bench "$here/bin/raster_bench" "${device_args[@]}"
 step raster_session_bench "$here/bin/raster_session_bench" "${device_args[@]}"
 step receiver_plane_probe "$here/bin/receiver_plane_probe" "${device_args[@]}"
 step class_counts "$here/bin/class_counts" "${device_args[@]}" "$here/data/default/scenario.json" \
     "$here/data/soft/scenario.json"
+step tune_bench "$here/bin/tune_bench" "${device_args[@]}" --repeat 7 --grid 16 --budget 25
+step tune_bench_all_lights "$here/bin/tune_bench" "${device_args[@]}" --repeat 7 --all-lights --grid 16 --budget 25
 
 echo
 echo "summary:"
 printf '  %s\n' "${summary[@]}"
-for t in raster_tests verdict_tests; do
+for t in raster_tests verdict_tests tune_tests; do
     grep -hE '^\[  (PASSED|FAILED)  \]' "$logs/$t.log" | sed "s/^/  $t: /"
 done
 exit $failed
