@@ -67,5 +67,7 @@ Subcommand add_devices_command(CLI::App& parent);
 Subcommand add_tune_command(CLI::App& parent);
 Subcommand add_compare_command(CLI::App& parent);
 Subcommand add_camera_command(CLI::App& parent);
+Subcommand add_sweep_command(CLI::App& parent);
+Subcommand add_merge_command(CLI::App& parent);
 
 }  // namespace penumbra::cli

@@ -1,0 +1,140 @@
+// `penumbra sweep`: error against GPU time over technique configurations; `penumbra merge`:
+// shard outputs back into what one run writes (docs/sweep.md).
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "app/cli.h"
+#include "common/errors.h"
+#include "common/json_reader.h"
+#include "common/output_files.h"
+#include "raster/vulkan_context.h"
+#include "sweep/sweep_files.h"
+
+namespace penumbra::cli {
+namespace {
+
+struct SweepArgs {
+    std::filesystem::path scenario;
+    Common common;
+    TechniqueArgs technique;
+    SamplingArgs sampling;
+    std::vector<std::string> vary;
+    std::filesystem::path configs;
+    std::string shard = "1/1";
+    int repeat = 3;
+    double tolerance = 1.0 / 255.0;
+    std::filesystem::path cache_dir;
+    bool no_cache = false;
+};
+
+int run_sweep_command(const SweepArgs& a) {
+    const Common& c = a.common;
+    // Everything the user wrote is checked before any work starts: every configuration is parsed.
+    if (a.vary.empty() == a.configs.empty())
+        throw InputError("sweep: give --vary KEY=V1,V2,... (one or more) or --configs FILE, not both");
+    if (a.repeat < 1) throw InputError(fmt::format("--repeat: {}; at least 1", a.repeat));
+    const sweep::Shard shard = sweep::parse_shard(a.shard);
+    const Scenario scenario = load_for_command(a.scenario, c);
+    std::string label;
+    const nlohmann::json base = technique_json(scenario, a.technique, label);
+    std::vector<sweep::Config> all;
+    std::vector<std::string> keys;
+    if (!a.configs.empty()) {
+        all = sweep::configs_from_file(a.configs, base, scenario.lights);
+        keys = {"configuration"};
+    } else {
+        std::vector<sweep::Axis> axes;
+        for (const auto& v : a.vary) {
+            axes.push_back(sweep::parse_axis(v));
+            for (const auto& k : keys)
+                if (k == axes.back().key) throw InputError(fmt::format("--vary {}: the key is varied twice", k));
+            keys.push_back(axes.back().key);
+        }
+        all = sweep::expand(base, axes, scenario.lights);
+    }
+    for (const auto& cfg : all) check_run_memory(scenario, c, true, &cfg.technique, true);
+    std::vector<sweep::Config> mine;
+    for (const auto& cfg : all)
+        if (static_cast<int>(cfg.index % static_cast<std::size_t>(shard.n)) == shard.k - 1) mine.push_back(cfg);
+
+    sweep::SweepOptions options;
+    options.validate.oracle = oracle_settings(c, a.sampling);
+    options.validate.oracle.progress = false;
+    options.validate.use_cache = !a.no_cache;
+    options.validate.cache_dir = a.cache_dir;
+    options.validate.tolerance = a.tolerance;
+    options.repeat = a.repeat;
+    if (!c.quiet)
+        options.progress = [&](const sweep::Row& r, std::size_t done, std::size_t of) {
+            std::string what;
+            for (std::size_t k = 0; k < r.values.size(); ++k) what += fmt::format(" {}={}", keys[k], r.values[k]);
+            fmt::print(stderr, "sweep: [{}/{}]{}: wrong {:.5f}, production {:.3f} ms, diagnostic {:.3f} ms\n", done, of,
+                       what, r.verdict[0], sweep::median(r.production_ms), sweep::median(r.diagnostic_ms));
+        };
+    raster::ContextOptions co;
+    co.device = a.technique.device;
+    raster::VulkanContext ctx(co);
+    const sweep::Table t = sweep::run_sweep(scenario, a.scenario.string(), keys, mine, all.size(), shard, options, ctx);
+    OutputTransaction out(c.out);
+    sweep::write_sweep_outputs(out, t);
+    out.commit();
+    if (!c.quiet)
+        fmt::print("sweep: {} of {} configurations on {}; results: {}/sweep.csv, sweep.json, pareto.svg, report.html\n",
+                   t.rows.size(), t.total, ctx.info().name, c.out.string());
+    return kExitSuccess;
+}
+
+int run_merge_command(const std::vector<std::filesystem::path>& dirs, const std::filesystem::path& out_dir,
+                      bool quiet) {
+    std::vector<sweep::Table> tables;
+    std::vector<std::string> labels;
+    for (const auto& d : dirs) {
+        labels.push_back((d / "sweep.json").string());
+        tables.push_back(sweep::table_from_json(read_json_file(d / "sweep.json"), labels.back()));
+    }
+    const sweep::Table t = sweep::merge(std::move(tables), labels);
+    OutputTransaction out(out_dir);
+    sweep::write_sweep_outputs(out, t);
+    out.commit();
+    if (!quiet)
+        fmt::print("merge: {} configurations from {} shards into {}\n", t.rows.size(), dirs.size(), out_dir.string());
+    return kExitSuccess;
+}
+
+}  // namespace
+
+Subcommand add_sweep_command(CLI::App& parent) {
+    auto a = std::make_shared<SweepArgs>();
+    CLI::App* cmd = parent.add_subcommand("sweep", "Error against GPU time over technique configurations");
+    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_common(cmd, a->common);
+    add_technique(cmd, a->technique);
+    cmd->add_option("--vary", a->vary, "KEY=V1,V2,...: a technique key and its values (repeatable: the product)");
+    cmd->add_option("--configs", a->configs, "JSON array of presets or technique objects, instead of --vary");
+    cmd->add_option("--shard", a->shard, "K/N: run the K-th of N slices of the configurations (default 1/1)");
+    cmd->add_option("--repeat", a->repeat, "GPU timings per configuration, median and min reported (default 3)");
+    cmd->add_option("--tolerance", a->tolerance, "tau: |error| above this plus the oracle's E is wrong")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+    cmd->add_option("--cache", a->cache_dir, "Oracle cache folder (as for validate; shards may share it)");
+    cmd->add_flag("--no-cache", a->no_cache, "Trace the oracle and keep nothing");
+    add_sampling(cmd, a->sampling);
+    return {cmd, [a] { return run_sweep_command(*a); }};
+}
+
+Subcommand add_merge_command(CLI::App& parent) {
+    struct Args {
+        std::vector<std::filesystem::path> dirs;
+        std::filesystem::path out;
+        bool quiet = false;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = parent.add_subcommand("merge", "Combine sweep shard folders into the files one run writes");
+    cmd->add_option("DIR", a->dirs, "Shard output folders (each with sweep.json)")->required();
+    cmd->add_option("--out", a->out, "Output folder (created if missing)")->required();
+    cmd->add_flag("-q,--quiet", a->quiet, "Print nothing but errors");
+    return {cmd, [a] { return run_merge_command(a->dirs, a->out, a->quiet); }};
+}
+
+}  // namespace penumbra::cli

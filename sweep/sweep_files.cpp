@@ -1,0 +1,111 @@
+#include "sweep/sweep_files.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "image_io/image_io.h"
+#include "report/pareto_plot.h"
+#include "report/report.h"
+#include "report/report_files.h"
+
+namespace penumbra::sweep {
+namespace {
+
+std::string label_of(const Table& t, const Row& r) {
+    std::string l;
+    for (std::size_t k = 0; k < r.values.size(); ++k) {
+        if (!l.empty()) l += " ";
+        l += t.keys.size() == 1 && t.keys[0] == "configuration" ? r.values[k] : t.keys[k] + "=" + r.values[k];
+    }
+    return l;
+}
+
+// Pareto front of (production ms, wrong_fraction): no other configuration is at least as fast
+// and as right, and better in one.
+std::vector<bool> front(const Table& t) {
+    std::vector<bool> on(t.rows.size(), true);
+    for (std::size_t i = 0; i < t.rows.size(); ++i)
+        for (std::size_t j = 0; j < t.rows.size() && on[i]; ++j) {
+            if (i == j) continue;
+            const double ti = median(t.rows[i].production_ms), tj = median(t.rows[j].production_ms);
+            const double ei = t.rows[i].verdict[0], ej = t.rows[j].verdict[0];
+            const bool no_worse = tj <= ti && ej <= ei, strictly = tj < ti || ej < ei;
+            on[i] = !(no_worse && (strictly || j < i));
+        }
+    return on;
+}
+
+report::ScatterPlot plot_of(const Table& t) {
+    report::ScatterPlot p;
+    p.title = fmt::format("sweep: error against production GPU time ({} configurations, {})", t.rows.size(),
+                          t.device.value("name", std::string("device")));
+    p.x_label = "production GPU ms (median of " + std::to_string(t.repeat) + ")";
+    p.y_label = "wrong_fraction";
+    const std::vector<bool> on = front(t);
+    double lo = 0, hi = 0;
+    for (std::size_t i = 0; i < t.rows.size(); ++i) {
+        report::PlotPoint q;
+        q.x = median(t.rows[i].production_ms);
+        q.y = t.rows[i].verdict[0];
+        q.on_front = on[i];
+        q.label = label_of(t, t.rows[i]);
+        p.points.push_back(q);
+        if (q.x > 0) {
+            lo = lo == 0 ? q.x : std::min(lo, q.x);
+            hi = std::max(hi, q.x);
+        }
+    }
+    p.log_x = lo > 0 && hi > 20 * lo;
+    return p;
+}
+
+std::string html_page(const Table& t, const std::string& svg, const std::string& csv_table) {
+    std::string h = R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>penumbra sweep</title>
+<style>body{font-family:sans-serif;margin:24px;max-width:1300px}table{border-collapse:collapse}
+td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}</style></head><body>
+<h1>penumbra sweep</h1>
+)";
+    h += fmt::format(
+        "<p>{} on {} ({}): {} configurations; GPU times are medians of {} renders. Production: the "
+        "shadow pass and V alone, as an engine draws it; diagnostic: the same with every depth-map "
+        "lookup penumbra reads back. Blue: the Pareto front of error against production time.</p>\n",
+        report::escape_markup(t.scenario), report::escape_markup(t.device.value("name", std::string())),
+        report::escape_markup(t.device.value("driver", std::string())), t.rows.size(), t.repeat);
+    h += svg + csv_table;
+    h += report::image_check_script();
+    h += "</body></html>\n";
+    return h;
+}
+
+std::string table_html(const Table& t) {
+    const std::vector<bool> on = front(t);
+    std::string h = "<h2>Configurations</h2>\n<table><tr>";
+    for (const auto& k : t.keys) h += "<th>" + report::escape_markup(k) + "</th>";
+    for (const auto& c : t.columns) h += "<th>" + report::escape_markup(c) + "</th>";
+    h += "<th>production ms</th><th>diagnostic ms</th><th>front</th></tr>\n";
+    for (std::size_t i = 0; i < t.rows.size(); ++i) {
+        const Row& r = t.rows[i];
+        h += "<tr>";
+        for (const auto& v : r.values) h += "<th>" + report::escape_markup(v) + "</th>";
+        for (double v : r.verdict) h += fmt::format("<td>{:.5f}</td>", v);
+        h += fmt::format("<td>{:.3f}</td><td>{:.3f}</td><td>{}</td></tr>\n", median(r.production_ms),
+                         median(r.diagnostic_ms), on[i] ? "&#9679;" : "");
+    }
+    return h + "</table>\n";
+}
+
+}  // namespace
+
+void write_sweep_outputs(OutputTransaction& out, const Table& t) {
+    out.write_text("sweep.csv", sweep_csv(t));
+    out.write_json("sweep.json", to_json(t));
+    const report::ScatterPlot plot = plot_of(t);
+    const std::string svg = report::plot_svg(plot, 900, 560);
+    out.write_text("pareto.svg", svg);
+    write_png(out, "pareto.png", 900, 560, report::plot_rgb(plot, 900, 560));
+    out.write_text("report.html", html_page(t, svg, table_html(t)));
+}
+
+}  // namespace penumbra::sweep
