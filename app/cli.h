@@ -64,5 +64,6 @@ Subcommand add_oracle_command(CLI::App& parent);
 Subcommand add_raster_command(CLI::App& parent);
 Subcommand add_validate_command(CLI::App& parent);
 Subcommand add_devices_command(CLI::App& parent);
+Subcommand add_stress_command(CLI::App& parent);
 
 }  // namespace penumbra::cli

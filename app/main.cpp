@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
         cli::add_raster_command(app),
         cli::add_validate_command(app),
         cli::add_devices_command(app),
+        cli::add_stress_command(app),
     };
 
     try {

@@ -265,6 +265,22 @@ window.addEventListener("load", function () {
 
 }  // namespace
 
+void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle,
+                     const metrics::FrameScore& score, std::size_t light) {
+    const int W = oracle.width, H = oracle.height;
+    const metrics::LightScore& l = score.lights[light];
+    std::vector<LegendEntry> legend;
+    for (auto c : metrics::kErrorClasses)
+        legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
+    legend.push_back({class_colour(PixelClass::correct), "correct"});
+    for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
+        legend.push_back({class_colour(c), std::string(to_string(c))});
+    int h = 0;
+    auto classes =
+        with_legend(class_image(oracle.lights[light], score.images[light], oracle.pixel_count()), W, H, legend, h);
+    write_png(out, name, W, h, classes);
+}
+
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report) {
     const int W = oracle.width, H = oracle.height;
@@ -281,17 +297,8 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
 
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
-        const metrics::LightScore& l = score.lights[li];
-        std::vector<LegendEntry> legend;
-        for (auto c : metrics::kErrorClasses)
-            legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
-        legend.push_back({class_colour(PixelClass::correct), "correct"});
-        for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
-            legend.push_back({class_colour(c), std::string(to_string(c))});
+        write_class_map(out, light_file(li, "classes"), oracle, score, li);
         int h = 0;
-        auto classes = with_legend(class_image(oracle.lights[li], e, n), W, H, legend, h);
-        write_png(out, light_file(li, "classes"), W, h, classes);
-
         const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
                                                        {kBrighter, "raster brighter than truth"},
                                                        {glm::vec3(0.06f), "within tolerance"},

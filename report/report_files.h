@@ -16,4 +16,8 @@ namespace penumbra::report {
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report);
 
+// One light's class map with its legend (the light<i>.classes.png of write_report) as `name`.
+void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle,
+                     const metrics::FrameScore& score, std::size_t light);
+
 }  // namespace penumbra::report
