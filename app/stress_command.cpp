@@ -71,6 +71,8 @@ int run_stress_command(const StressArgs& a, const TechniqueArgs& t) {
 
     const auto failures = stress::failure_lines(cases, result, gate);
     if (!a.quiet) {
+        for (const auto& r : result.cases)
+            for (const auto& w : r.judged.warnings) fmt::print(stderr, "warning: case {}: {}\n", r.name, w);
         std::size_t holds = 0;
         for (std::size_t k = 0; k < cases.size(); ++k) {
             const auto& r = result.cases[k];
