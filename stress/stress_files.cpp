@@ -58,6 +58,12 @@ std::string html_page(const std::vector<StressCase>& cases, const SuiteResult& r
             rows += "</tr>\n";
         }
     }
+    std::string highest;
+    for (const auto& [cls, best] : stress.at("highest_rates").items())
+        if (best.is_object())
+            highest += fmt::format("{}<b>{}</b>: {} light {} ({})", highest.empty() ? "" : "; ", escape_markup(cls),
+                                   escape_markup(best.at("case").get<std::string>()), best.at("light").get<int>(),
+                                   percent(best.at("rate")));
     return fmt::format(R"(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>penumbra stress</title>
 <style>
@@ -69,6 +75,7 @@ img {{ image-rendering: pixelated; }}
 <h1>penumbra stress</h1>
 <p>{} cases, {}x{} px, on {}; {:.1f} s. Oracle invariant: {} of {} cases hold. Suite {}.</p>
 <p>Technique: <code>{}</code></p>
+<p>Highest rate per class: {}</p>
 <p>Rates are fractions of scored pixels (docs/metrics.md); "at canonical" is the technique's wrong fraction on the
 canonical version (far and scale cases). The oracle invariant compares the case's oracle with its canonical
 version's outside uncertain pixels (docs/stress.md).</p>
@@ -83,7 +90,8 @@ version's outside uncertain pixels (docs/stress.md).</p>
                        stress.at("image").at("height").get<int>(), escape_markup(result.device), result.seconds,
                        result.cases.size() - stress.at("oracle_invariant_failures").get<std::size_t>(),
                        result.cases.size(), result.passed ? "passed" : "FAILED",
-                       escape_markup(stress.at("technique").dump()), rows, escape_markup(stress.at("version").get<std::string>()));
+                       escape_markup(stress.at("technique").dump()), highest, rows,
+                       escape_markup(stress.at("version").get<std::string>()));
 }
 
 }  // namespace

@@ -185,6 +185,21 @@ nlohmann::json stress_json(const std::vector<StressCase>& cases, const SuiteResu
         o["passed"] = r.passed(gate);
         list.push_back(std::move(o));
     }
+    // Where the rates explode, class by class: the case and light with the highest rate.
+    nlohmann::json highest = nlohmann::json::object();
+    for (const char* cls : {"acne", "peter_panning", "aliasing", "false_shadow", "false_lit", "wrong_fraction"}) {
+        nlohmann::json best = nullptr;
+        double top = 0;  // a class no case has stays null
+        for (const auto& c : list)
+            for (const auto& l : c.at("lights")) {
+                const nlohmann::json& v = std::string(cls) == "wrong_fraction" ? l.at(cls) : l.at("rates").at(cls);
+                if (v.is_number() && v.get<double>() > top) {
+                    top = v.get<double>();
+                    best = {{"case", c.at("name")}, {"light", l.at("index")}, {"rate", top}};
+                }
+            }
+        highest[cls] = best;
+    }
     return {{"version", version_string()},
             {"device", result.device},
             {"image", {{"width", case_options.width}, {"height", case_options.height}}},
@@ -195,6 +210,7 @@ nlohmann::json stress_json(const std::vector<StressCase>& cases, const SuiteResu
             {"oracle_invariant_failures", invariant_failures},
             {"passed", result.passed},
             {"seconds", result.seconds},
+            {"highest_rates", highest},
             {"cases", list}};
 }
 

@@ -20,7 +20,13 @@ check "stress.json has the six cases" test "$(grep -o '"oracle_invariant": true'
 check "stress.json has no oracle failure" grep -q '"oracle_invariant_failures": 0' "$tmp/a/stress.json"
 check "stress.json names differing pixels" grep -q '"differing_pixels": 0' "$tmp/a/stress.json"
 check "stress.json judges far cases at the origin too" grep -q '"lights_at_canonical"' "$tmp/a/stress.json"
-check "report.html has a row per case" test "$(grep -o '<b>[a-z_0-9.-]*</b>' "$tmp/a/report.html" | wc -l)" -eq 6
+check "stress.json says where the rates explode" python3 -c "
+import json, sys
+j = json.load(open('$tmp/a/stress.json'))
+h = j['highest_rates']['wrong_fraction']
+top = max(l['wrong_fraction'] for c in j['cases'] for l in c['lights'])
+sys.exit(0 if h['rate'] == top and h['case'] in [c['name'] for c in j['cases']] else 1)"
+check "report.html has a row per case" test "$(grep -o '<small>canonical: ' "$tmp/a/report.html" | wc -l)" -eq 6
 check "report.html embeds the class maps" grep -q 'data:image/png;base64,' "$tmp/a/report.html"
 check "junit has an oracle testcase per case" test "$(grep -c 'name="oracle invariant"' "$tmp/a.xml")" -eq 6
 if command -v xmllint >/dev/null; then
