@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // Bump when the oracle's results change for the same input, so old entries stop matching.
-constexpr const char* kOracleAlgorithm = "penumbra-oracle-3";
+constexpr const char* kOracleAlgorithm = "penumbra-oracle-4";
 constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '1'};
 
 class KeyBytes {

@@ -162,8 +162,8 @@ double Tracer::suspicious_hit_distance(const glm::dvec3& p, double cos_hit) cons
     return 64 * robust::kFloatEps * (glm::length(p) + max_vertex_norm_) / std::max(cos_hit, 1e-9);
 }
 
-void Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
-                         const glm::dvec3& n_ccw, SurfacePoint& s) const {
+void Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_org,
+                         const glm::dvec3& ray_dir, const glm::dvec3& n_ccw, SurfacePoint& s) const {
     // Rebuild the point from Embree's barycentrics and the double vertices: it lies on the
     // exact triangle whatever the float error of t.
     double b1 = std::clamp(u, 0.0, 1.0), b2 = std::clamp(v, 0.0, 1.0);
@@ -181,6 +181,17 @@ void Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const
     s.n = glm::normalize(n_ccw);
     if (glm::dot(s.n, ray_dir) > 0) s.n = -s.n;
     s.depth = t;
+    // The pixel's exact ray against the exact triangle's plane, where the ray does not graze it
+    // (docs/design.md, "One surface point per pixel"): Embree's float barycentrics err by
+    // eps x the triangle's size, metres on a triangle 10^7 m across (docs/stress.md, depth_range_1e7).
+    const double cos_ray = glm::dot(s.n, ray_dir);
+    if (std::abs(cos_ray) > 1e-6 * glm::length(ray_dir)) {
+        const double t_plane = glm::dot(s.n, v0 - ray_org) / cos_ray;
+        if (std::isfinite(t_plane) && t_plane > 0) {
+            s.p = ray_org + t_plane * ray_dir;
+            s.depth = t_plane;
+        }
+    }
 }
 
 ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p,
@@ -289,6 +300,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
             alignas(64) RTCRayHit16 rh;
             alignas(64) int valid[kPacket];
             glm::dvec3 ray_dir[kPacket];
+            glm::dvec3 ray_org[kPacket];
             int pixel[kPacket];
             for (int k = 0; k < kPacket; ++k) {
                 int x = bx + (k & 3), y = by + (k >> 2);
@@ -296,6 +308,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 pixel[k] = valid[k] ? y * W + x : -1;
                 PrimaryRay r = rays.at(x + 0.5, y + 0.5);
                 ray_dir[k] = r.direction;
+                ray_org[k] = r.origin;
                 set_lane(rh.ray, k, glm::vec3(r.origin), glm::vec3(r.direction), znear, zfar);
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                 local.primary += valid[k] != 0;
@@ -335,11 +348,11 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     u = one.hit.u;
                     v = one.hit.v;
                 }
-                primary_hit(prim, u, v, t, ray_dir[k], n_ccw, surf[k]);
+                primary_hit(prim, u, v, t, ray_org[k], ray_dir[k], n_ccw, surf[k]);
                 const int i = pixel[k];
                 frame.A[i] = 1.0f;
                 frame.prim[i] = prim;
-                frame.depth[i] = static_cast<float>(t);
+                frame.depth[i] = static_cast<float>(surf[k].depth);
                 frame.P[i] = glm::vec3(surf[k].p);
                 frame.N[i] = glm::vec3(surf[k].n);
                 if (surfaces) (*surfaces)[static_cast<std::size_t>(i)] = surf[k];

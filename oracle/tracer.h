@@ -154,8 +154,8 @@ class Tracer {
                             TraceCounters& counters) const;
     // Fills `s` (every field) from Embree's hit; `n_ccw` is normal_ccw(prim), computed once by
     // the caller.
-    void primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_dir,
-                     const glm::dvec3& n_ccw, SurfacePoint& s) const;
+    void primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_org,
+                     const glm::dvec3& ray_dir, const glm::dvec3& n_ccw, SurfacePoint& s) const;
     double suspicious_hit_distance(const glm::dvec3& p, double cos_hit) const;
 
     const Scenario& scenario_;

@@ -308,7 +308,9 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
     p.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
     p.image = glm::vec4(sc.width, sc.height, 1.0f / sc.width, 1.0f / sc.height);
-    p.light_pos = glm::vec4(glm::vec3(light.position - s_.origin), 0.0f);
+    const glm::dvec3 light_world =
+        t.precision == Precision::world_float32 ? glm::dvec3(glm::vec3(light.position)) : light.position;
+    p.light_pos = glm::vec4(glm::vec3(light_world - s_.origin), 0.0f);
     p.light_dir = glm::vec4(glm::vec3(light.direction), static_cast<float>(std::cos(light.outer_cone_rad)));
     p.bias = glm::vec4(t.bias.world, t.bias.normal_offset, t.bias.shader_depth, t.bias.constant);
     p.bias2 = glm::vec4(t.bias.slope, t.bias.clamp, depth_resolution(t.depth_format), 0.0f);
@@ -484,8 +486,14 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         const Light& light = lights[li];
         RasterLightStats& ls = stats.lights[li];
         ls = {};
-        ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, s_.origin,
-                                  t.shadow_distance);
+        if (t.precision == Precision::world_float32) {
+            ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution,
+                                      glm::dvec3(0.0), t.shadow_distance);
+            round_to_world_float32(ls.projection, s_.origin);
+        } else {
+            ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, s_.origin,
+                                      t.shadow_distance);
+        }
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
         const gpu::LookupParams p = light_params(t, light, ls.projection);
         std::memcpy(slots_[li].params.mapped, &p, sizeof(p));

@@ -155,6 +155,12 @@ void perspective_range(const glm::dvec3& pos, const Scene& scene, LightProjectio
 
 }  // namespace
 
+void round_to_world_float32(LightProjection& lp, const glm::dvec3& origin) {
+    glm::dmat4 to_world(1.0);
+    to_world[3] = glm::dvec4(origin, 1.0);
+    for (auto& m : lp.view_proj) m = glm::dmat4(glm::mat4(m)) * to_world;
+}
+
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis) {
     double far = -1e300;
     for (const auto& c : box_corners(box)) far = std::max(far, glm::dot(c - eye, axis));

@@ -37,4 +37,10 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
                           int image_height, Fit fit, int resolution, const glm::dvec3& origin,
                           double shadow_distance = 0);
 
+// Technique precision world_float32 (docs/raster.md, "precision"): `lp` was fitted with origin 0,
+// so its matrices map world positions; each is rounded to float32, as an engine keeps it, and
+// then re-expressed in double for positions relative to `origin` (the camera eye). The rounding
+// of the light's world-space translation, megametres from the origin, is kept.
+void round_to_world_float32(LightProjection& lp, const glm::dvec3& origin);
+
 }  // namespace penumbra::raster

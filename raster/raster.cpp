@@ -62,8 +62,12 @@ void prepare_scene(SceneOnGpu& s) {
 
     const Scene& scene = sc.scene;
     std::vector<float> pos(scene.positions.size() * 3);
+    const bool world_float32 = s.precision == Precision::world_float32;
     for (std::size_t i = 0; i < scene.positions.size(); ++i) {
-        glm::dvec3 p = scene.positions[i] - s.origin;  // double subtraction, then float: precision near the camera
+        // Double subtraction, then float: precision near the camera. world_float32 first rounds
+        // the world position to float, as an engine's vertex buffer holds it.
+        glm::dvec3 p =
+            world_float32 ? glm::dvec3(glm::vec3(scene.positions[i])) - s.origin : scene.positions[i] - s.origin;
         pos[3 * i] = static_cast<float>(p.x);
         pos[3 * i + 1] = static_cast<float>(p.y);
         pos[3 * i + 2] = static_cast<float>(p.z);
@@ -211,6 +215,16 @@ RasterResult RasterSession::render(const Technique& technique, const RenderOptio
     // The first render pays for the session: a cold run's set-up time includes the uploads.
     if (impl_->first_render) stats.setup_s = impl_->setup_s;
     impl_->first_render = false;
+    if (technique.precision != impl_->scene.precision) {
+        // The vertex buffer holds the positions as the technique rounds them: upload them again
+        // and redo the camera pass; the families' resources refer to the old buffers.
+        impl_->families.clear();
+        auto t0 = SteadyClock::now();
+        impl_->scene.precision = technique.precision;
+        prepare_scene(impl_->scene);
+        stats.setup_s += seconds_since(t0);
+        stats.camera_ms = s.camera_ms;
+    }
     const auto& registry = technique_families();
     auto entry =
         std::find_if(registry.begin(), registry.end(), [&](const FamilyEntry& f) { return f.accepts(technique); });

@@ -25,6 +25,10 @@ const char* to_string(Cull c) {
     static const char* const kNames[] = {"none", "back", "front"};
     return kNames[static_cast<int>(c)];
 }
+const char* to_string(Precision p) {
+    static const char* const kNames[] = {"camera_relative", "world_float32"};
+    return kNames[static_cast<int>(p)];
+}
 double depth_resolution(DepthFormat f) {
     switch (f) {
         case DepthFormat::d16: return std::ldexp(1.0, -16);
@@ -162,6 +166,8 @@ Technique parse_technique(const json& value, const std::string& label) {
         f.finish();
     }
     t.area_samples = static_cast<int>(o.integer("area_samples", 0, 0, 256));
+    t.precision =
+        pick(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
     o.finish();
     return t;
 }
@@ -212,7 +218,8 @@ json Technique::to_json() const {
              {"radius_texels", filter.radius_texels},
              {"bilinear_taps", filter.bilinear_taps},
              {"max_radius_texels", filter.max_radius_texels}}},
-           {"area_samples", area_samples}};
+           {"area_samples", area_samples},
+           {"precision", to_string(precision)}};
     if (!preset.empty()) j["preset"] = preset;
     return j;
 }

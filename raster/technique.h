@@ -14,6 +14,11 @@ enum class Fit { scene_sphere, scene_bounds, camera_frustum };
 enum class DepthFormat { d16, d24, d32 };
 enum class Cull { none, back, front };
 enum class FilterType { none, hw2x2, pcf, poisson, pcss };
+// How the raster path spends float precision (docs/raster.md, "precision"): camera_relative
+// subtracts the camera in double before anything is float; world_float32 keeps vertex and light
+// positions and the light matrices in world-space float32, as most engines do, so that a scene
+// far from the origin degrades as it does there (godot #72015).
+enum class Precision { camera_relative, world_float32 };
 
 struct Bias {
     double constant = 0;       // Vulkan depthBiasConstantFactor, units of the format's r
@@ -49,6 +54,7 @@ struct Technique {
     // N > 0 renders N maps from points spread over the light and averages their (filtered)
     // verdicts: "averaged hard shadows" (reference 001), the raster path's own slow reference.
     int area_samples = 0;
+    Precision precision = Precision::camera_relative;
 
     nlohmann::json to_json() const;  // every key, resolved
 };
@@ -91,5 +97,6 @@ const char* to_string(Fit f);
 const char* to_string(DepthFormat f);
 const char* to_string(Cull c);
 const char* to_string(FilterType f);
+const char* to_string(Precision p);
 
 }  // namespace penumbra::raster

@@ -25,10 +25,13 @@ namespace penumbra::raster {
 struct SceneOnGpu {
     const Scenario& scenario;
     const VulkanContext& ctx;
-    glm::dvec3 origin{0.0};  // world position of the frame (the camera eye)
+    glm::dvec3 origin{0.0};                            // world position of the frame (the camera eye)
+    Precision precision = Precision::camera_relative;  // of the uploaded positions (Technique::precision)
     std::uint32_t width = 0, height = 0;
     std::size_t pixels = 0;
-    GpuBuffer positions, indices, double_sided;  // float3 per vertex (camera-relative), uint3 per triangle, bits
+    // float3 per vertex (camera-relative; world_float32: rounded to float in world space first),
+    // uint3 per triangle, bits
+    GpuBuffer positions, indices, double_sided;
     std::uint32_t index_count = 0;
     GpuImage gbuffer_prim;  // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
     std::vector<float> A;   // 1 where a triangle covers the pixel

@@ -8,7 +8,7 @@ bash "$root/scripts/build.sh"
 
 cmake -S "$root" -B "$root/build-asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DPENUMBRA_WERROR=ON \
   -DPENUMBRA_SANITIZE=ON -DPENUMBRA_BUILD_BENCH=OFF >/dev/null
-ninja -C "$root/build-asan" common_tests oracle_tests raster_tests metrics_tests report_tests
+ninja -C "$root/build-asan" common_tests oracle_tests raster_tests metrics_tests report_tests stress_tests
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 (cd "$root/build-asan" && ctest -j2 --output-on-failure -L unit)
 

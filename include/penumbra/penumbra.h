@@ -24,3 +24,5 @@
 #include "pipeline/validate_files.h"
 #include "raster/raster.h"
 #include "raster/technique.h"
+#include "stress/stress_files.h"
+#include "stress/suite.h"

@@ -508,5 +508,58 @@ TEST_F(Raster, ALookupOutsideADirectionalMapIsLitBesideAPointLight) {
     EXPECT_EQ(dark, 0u) << "lookups outside the sun's map must read the lit border (hw2x2 " << r.stats.hw2x2 << ")";
 }
 
+// The whole scenario moved by t: the camera sees the same image.
+Scenario moved(Scenario sc, const glm::dvec3& t) {
+    Bounds b;
+    for (auto& p : sc.scene.positions) b.grow(p += t);
+    sc.scene.bounds = b;
+    sc.camera.eye += t;
+    for (auto& l : sc.lights) l.position += t;
+    return sc;
+}
+
+std::size_t differing_pixels(const raster::RasterResult& a, const raster::RasterResult& b) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.frame.lights[0].V.size(); ++i) n += a.frame.lights[0].V[i] != b.frame.lights[0].V[i];
+    return n;
+}
+
+// technique.precision (docs/raster.md): camera_relative is the default, and a session that
+// switches to world_float32 and back draws the same bits as before.
+TEST_F(Raster, CameraRelativePrecisionIsTheDefaultAndBitIdenticalAcrossPrecisionSwitches) {
+    Scenario sc = moved(perspective_scene(), {3e6, 0, -2e6});
+    raster::RasterSession session(sc, *ctx_);
+    const auto plain = session.render(raster::parse_technique(nlohmann::json::object(), "test"));
+    const auto relative = raster::parse_technique({{"precision", "camera_relative"}}, "test");
+    const auto world = raster::parse_technique({{"precision", "world_float32"}}, "test");
+    EXPECT_EQ(raster::parse_technique(nlohmann::json::object(), "test").to_json().at("precision"), "camera_relative");
+    const auto a = session.render(relative);
+    const auto w = session.render(world);
+    const auto b = session.render(relative);
+    for (const auto* r : {&a, &b}) {
+        EXPECT_EQ(r->frame.prim, plain.frame.prim);
+        EXPECT_EQ(r->frame.lights[0].V, plain.frame.lights[0].V);
+        EXPECT_EQ(r->frame.lights[0].lookups->ref_depth, plain.frame.lights[0].lookups->ref_depth);
+        EXPECT_EQ(r->frame.lights[0].lookups->stored_depth, plain.frame.lights[0].lookups->stored_depth);
+    }
+    EXPECT_GT(differing_pixels(a, w), 0u) << "3.6e6 m from the origin, float32 world positions must show";
+}
+
+// world_float32 renders as an engine with float32 world positions and matrices: the same as
+// camera_relative at the origin (but for a few pixels on edges), far from it visibly different,
+// while camera_relative far from the origin stays as it was at the origin (godot #72015).
+TEST_F(Raster, WorldFloat32PrecisionDiffersFarFromTheOriginAndNotAtIt) {
+    const nlohmann::json relative = {{"precision", "camera_relative"}}, world = {{"precision", "world_float32"}};
+    const Scenario near = perspective_scene(), far = moved(perspective_scene(), {1e7, 0, -1e7});
+    const auto near_rel = render(near, relative), near_world = render(near, world);
+    const auto far_rel = render(far, relative), far_world = render(far, world);
+    std::size_t surface = 0;
+    for (float a : near_rel.frame.A) surface += a != 0;
+    ASSERT_GT(surface, 50000u);
+    EXPECT_LT(differing_pixels(near_rel, near_world), surface / 200);
+    EXPECT_LT(differing_pixels(near_rel, far_rel), surface / 200);
+    EXPECT_GT(differing_pixels(far_rel, far_world), surface / 20);
+}
+
 }  // namespace
 }  // namespace penumbra

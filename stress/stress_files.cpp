@@ -1,0 +1,111 @@
+#include "stress/stress_files.h"
+
+#include <fmt/format.h>
+
+#include "report/report.h"
+#include "report/report_files.h"
+
+namespace penumbra::stress {
+
+namespace {
+
+using report::escape_markup;
+
+std::string percent(const nlohmann::json& v) {
+    return v.is_number() ? fmt::format("{:.2f}%", 100.0 * v.get<double>()) : "-";
+}
+
+std::string rate_cells(const nlohmann::json& light) {
+    std::string s = fmt::format("<td>{}</td>", percent(light.at("wrong_fraction")));
+    for (const char* k : {"acne", "peter_panning", "aliasing", "false_shadow", "false_lit"})
+        s += fmt::format("<td>{}</td>", percent(light.at("rates").at(k)));
+    return s;
+}
+
+std::string html_page(const std::vector<StressCase>& cases, const SuiteResult& result, const nlohmann::json& stress,
+                      const OutputTransaction& out) {
+    std::string rows;
+    for (std::size_t k = 0; k < result.cases.size(); ++k) {
+        const StressCase& c = cases[k];
+        const nlohmann::json& j = stress.at("cases")[k];
+        const CaseResult& r = result.cases[k];
+        const auto& lights = j.at("lights");
+        const std::size_t span = std::max<std::size_t>(1, lights.size());
+        const bool holds = r.invariant.holds();
+        for (std::size_t li = 0; li < span; ++li) {
+            rows += "<tr>";
+            if (li == 0)
+                rows += fmt::format(
+                    "<td rowspan=\"{0}\"><b>{1}</b><br><small>{2}</small><br><small>canonical: {3}</small></td>"
+                    "<td rowspan=\"{0}\" class=\"{4}\">{5}<br><small>{6} differ, {7} uncertain, {8} compared, {9} "
+                    "coverage differs</small></td>",
+                    span, escape_markup(c.name), escape_markup(c.stresses), escape_markup(c.canonical),
+                    holds ? "ok" : "bad", holds ? "holds" : "FAILS", r.invariant.differing, r.invariant.uncertain,
+                    r.invariant.compared, r.invariant.coverage_differs);
+            if (li < lights.size()) {
+                const auto& l = lights[li];
+                rows += fmt::format("<td>{} {}</td>", li, escape_markup(l.value("name", "")));
+                rows += rate_cells(l);
+                rows += j.contains("lights_at_canonical")
+                            ? fmt::format("<td>{}</td>", percent(j["lights_at_canonical"][li].at("wrong_fraction")))
+                            : "<td>-</td>";
+                const std::string png = fmt::format("{}.light{}.classes.png", c.name, li);
+                rows += fmt::format("<td><img src=\"data:image/png;base64,{}\" alt=\"{}\"></td>",
+                                    base64_encode(out.written_bytes(png)), escape_markup(png));
+            } else {
+                rows += "<td colspan=\"9\">no lights</td>";
+            }
+            rows += "</tr>\n";
+        }
+    }
+    std::string highest;
+    for (const auto& [cls, best] : stress.at("highest_rates").items())
+        if (best.is_object())
+            highest += fmt::format("{}<b>{}</b>: {} light {} ({})", highest.empty() ? "" : "; ", escape_markup(cls),
+                                   escape_markup(best.at("case").get<std::string>()), best.at("light").get<int>(),
+                                   percent(best.at("rate")));
+    return fmt::format(R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>penumbra stress</title>
+<style>
+body {{ font-family: sans-serif; background: #111; color: #ddd; margin: 1.5em; }}
+table {{ border-collapse: collapse; }} td, th {{ border: 1px solid #333; padding: 4px 6px; vertical-align: top; }}
+th {{ background: #222; }} .ok {{ color: #6d6; }} .bad {{ color: #f55; font-weight: bold; }} small {{ color: #999; }}
+img {{ image-rendering: pixelated; }}
+</style></head><body>
+<h1>penumbra stress</h1>
+<p>{} cases, {}x{} px, on {}; {:.1f} s. Oracle invariant: {} of {} cases hold. Suite {}.</p>
+<p>Technique: <code>{}</code></p>
+<p>Highest rate per class: {}</p>
+<p>Rates are fractions of scored pixels (docs/metrics.md); "at canonical" is the technique's wrong fraction on the
+canonical version (far and scale cases). The oracle invariant compares the case's oracle with its canonical
+version's outside uncertain pixels (docs/stress.md).</p>
+<table>
+<tr><th>case</th><th>oracle invariant</th><th>light</th><th>wrong</th><th>acne</th><th>peter-panning</th>
+<th>aliasing</th><th>false shadow</th><th>false lit</th><th>wrong at canonical</th><th>class map</th></tr>
+{}</table>
+<p><small>penumbra {}</small></p>
+</body></html>
+)",
+                       result.cases.size(), stress.at("image").at("width").get<int>(),
+                       stress.at("image").at("height").get<int>(), escape_markup(result.device), result.seconds,
+                       result.cases.size() - stress.at("oracle_invariant_failures").get<std::size_t>(),
+                       result.cases.size(), result.passed ? "passed" : "FAILED",
+                       escape_markup(stress.at("technique").dump()), highest, rows,
+                       escape_markup(stress.at("version").get<std::string>()));
+}
+
+}  // namespace
+
+void write_stress_outputs(OutputTransaction& out, const std::vector<StressCase>& cases, const SuiteResult& result,
+                          const nlohmann::json& stress) {
+    for (std::size_t k = 0; k < result.cases.size(); ++k) {
+        const CaseResult& r = result.cases[k];
+        for (std::size_t li = 0; li < r.judged.score.lights.size(); ++li)
+            report::write_class_map(out, fmt::format("{}.light{}.classes.png", cases[k].name, li), r.oracle->frame, li,
+                                    r.judged.score.images[li], r.judged.score.lights[li]);
+    }
+    out.write_json("stress.json", stress);
+    out.write_text("report.html", html_page(cases, result, stress, out));
+}
+
+}  // namespace penumbra::stress
