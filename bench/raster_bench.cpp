@@ -27,28 +27,6 @@ namespace {
 using namespace penumbra;
 using bench::median;
 
-void add_terrain(Scene& s, int grid) {
-    const double extent = 16.0;
-    std::uint32_t base = static_cast<std::uint32_t>(s.positions.size());
-    for (int j = 0; j <= grid; ++j)
-        for (int i = 0; i <= grid; ++i) {
-            double x = -extent / 2 + extent * i / grid, z = -extent / 2 + extent * j / grid;
-            glm::dvec3 p(x, -0.05 + 0.04 * std::sin(3.1 * x) * std::cos(2.3 * z), z);
-            s.positions.push_back(p);
-            s.bounds.grow(p);
-        }
-    for (int j = 0; j < grid; ++j)
-        for (int i = 0; i < grid; ++i) {
-            std::uint32_t a = base + j * (grid + 1) + i, b = a + 1, c = a + grid + 1, d = c + 1;
-            s.triangles.push_back({a, c, b});
-            s.triangles.push_back({b, c, d});
-            for (int k = 0; k < 2; ++k) {
-                s.double_sided.push_back(1);
-                s.triangle_node.push_back(0);
-            }
-        }
-}
-
 // The anchor: the same triangles into a depth-only target of the same size and format from the
 // same light matrix, vertex shader only, no colour target, no bias: what an engine's bare depth
 // pass costs on this device. The shadow pass also writes the triangle id per texel (for the
@@ -145,7 +123,7 @@ int main(int argc, char** argv) {
     try {
         Scenario sc = load_scenario(args->scenario);
         sc.lights.resize(1);  // the directional light: one map per run
-        if (args->terrain_grid > 0) add_terrain(sc.scene, args->terrain_grid);
+        if (args->terrain_grid > 0) bench::add_terrain(sc.scene, args->terrain_grid);
         raster::ContextOptions co;
         co.device = args->device;
         raster::VulkanContext ctx(co);

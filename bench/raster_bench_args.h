@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "common/scene.h"
 #include "tests/data_dir.h"
 
 namespace penumbra::bench {
@@ -45,6 +47,30 @@ inline std::optional<RasterBenchArgs> parse_raster_bench_args(int argc, char** a
         }
     }
     return args;
+}
+
+// A 16 m wavy terrain of grid x grid quads (2 grid^2 triangles) under the scene, to load the
+// rasteriser (--terrain-grid 1024: 2.1M triangles).
+inline void add_terrain(Scene& s, int grid) {
+    const double extent = 16.0;
+    std::uint32_t base = static_cast<std::uint32_t>(s.positions.size());
+    for (int j = 0; j <= grid; ++j)
+        for (int i = 0; i <= grid; ++i) {
+            double x = -extent / 2 + extent * i / grid, z = -extent / 2 + extent * j / grid;
+            glm::dvec3 p(x, -0.05 + 0.04 * std::sin(3.1 * x) * std::cos(2.3 * z), z);
+            s.positions.push_back(p);
+            s.bounds.grow(p);
+        }
+    for (int j = 0; j < grid; ++j)
+        for (int i = 0; i < grid; ++i) {
+            std::uint32_t a = base + j * (grid + 1) + i, b = a + 1, c = a + grid + 1, d = c + 1;
+            s.triangles.push_back({a, c, b});
+            s.triangles.push_back({b, c, d});
+            for (int k = 0; k < 2; ++k) {
+                s.double_sided.push_back(1);
+                s.triangle_node.push_back(0);
+            }
+        }
 }
 
 inline double median(std::vector<double> v) {

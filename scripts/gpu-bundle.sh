@@ -26,7 +26,7 @@ if [[ -z $out ]]; then
 fi
 
 binaries=(tests/raster_tests tests/verdict_tests tests/tune_tests bench/raster_bench bench/raster_session_bench
-    bench/receiver_plane_probe bench/class_counts bench/tune_bench)
+    bench/receiver_plane_probe bench/class_counts bench/tune_bench bench/sweep_bench)
 for b in "${binaries[@]}"; do
     if [[ ! -x $build/$b ]]; then
         echo "gpu-bundle: $build/$b is missing: build first (scripts/build.sh)" >&2
@@ -121,6 +121,14 @@ step receiver_plane_probe "$here/bin/receiver_plane_probe" "${device_args[@]}"
 step class_counts "$here/bin/class_counts" "${device_args[@]}" "$here/data/default/scenario.json" \
     "$here/data/soft/scenario.json"
 step tune_bench "$here/bin/tune_bench" "${device_args[@]}" --repeat 7 --grid 16 --budget 25
+sweep=(--vary resolution=1024,2048,4096,8192)
+step sweep_default "$here/bin/sweep_bench" "${device_args[@]}" "${sweep[@]}" --vary filter.type=none,hw2x2,poisson
+step sweep_default_pcf "$here/bin/sweep_bench" "${device_args[@]}" --set filter.type=pcf "${sweep[@]}" \
+    --vary filter.size=3,5
+step sweep_soft_pcss "$here/bin/sweep_bench" "${device_args[@]}" --scenario "$here/data/soft/scenario.json" \
+    "${sweep[@]}" --vary filter.type=pcf,pcss
+step sweep_terrain_2m "$here/bin/sweep_bench" "${device_args[@]}" --terrain-grid 1024 "${sweep[@]}" \
+    --vary filter.type=none,hw2x2,pcf,poisson
 step tune_bench_all_lights "$here/bin/tune_bench" "${device_args[@]}" --repeat 7 --all-lights --grid 16 --budget 25
 
 echo

@@ -7,6 +7,7 @@
 
 #include "common/errors.h"
 #include "common/json_reader.h"
+#include "common/stopwatch.h"
 #include "metrics/metric_table.h"
 
 namespace penumbra::sweep {
@@ -154,8 +155,10 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
     t.repeat = options.repeat;
     t.device = {{"name", ctx.info().name}, {"driver", ctx.info().driver}};
     t.shard = shard;
+    const auto t0 = SteadyClock::now();
     auto oracle = std::make_shared<const OracleRun>(oracle_for(scenario, options.validate));
     raster::RasterSession session(scenario, ctx);
+    t.setup_s = seconds_since(t0);
     ValidateOptions diagnostic = options.validate;
     diagnostic.render.lookups = true;
     diagnostic.render.reuse_maps = false;  // a timing: every pass is drawn
@@ -166,6 +169,7 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
     std::vector<const metrics::Metric*> metrics;
     for (const auto& c : t.columns) metrics.push_back(metrics::find_metric(c));
     for (const Config& c : configs) {
+        const auto tc = SteadyClock::now();
         Row row;
         row.index = c.index;
         row.values = c.values;
@@ -189,6 +193,7 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
                 }
             row.verdict.push_back(weight > 0 ? sum / weight : 0.0);
         }
+        row.seconds = seconds_since(tc);
         t.rows.push_back(std::move(row));
         if (options.progress) options.progress(t.rows.back(), t.rows.size(), configs.size());
     }
@@ -206,7 +211,8 @@ nlohmann::json to_json(const Table& t) {
                         {"verdict", verdict},
                         {"lights", r.lights},
                         {"production_ms", r.production_ms},
-                        {"diagnostic_ms", r.diagnostic_ms}});
+                        {"diagnostic_ms", r.diagnostic_ms},
+                        {"seconds", r.seconds}});
     }
     nlohmann::json j = {{"scenario", t.scenario}, {"keys", t.keys},     {"columns", t.columns},  {"total", t.total},
                         {"repeat", t.repeat},     {"device", t.device}, {"configurations", rows}};
@@ -223,6 +229,7 @@ Table table_from_json(const nlohmann::json& j, const std::string& label) {
         t.total = j.at("total").get<std::size_t>();
         t.repeat = j.at("repeat").get<int>();
         t.device = j.at("device");
+        t.setup_s = j.value("setup_s", 0.0);
         if (j.contains("shard")) t.shard = {j["shard"].at("k").get<int>(), j["shard"].at("n").get<int>()};
         for (const auto& r : j.at("configurations")) {
             Row row;
@@ -233,6 +240,7 @@ Table table_from_json(const nlohmann::json& j, const std::string& label) {
             row.lights = r.at("lights");
             row.production_ms = r.at("production_ms").get<std::vector<double>>();
             row.diagnostic_ms = r.at("diagnostic_ms").get<std::vector<double>>();
+            row.seconds = r.value("seconds", 0.0);
             t.rows.push_back(std::move(row));
         }
     } catch (const nlohmann::json::exception& e) {

@@ -62,6 +62,7 @@ struct Row {
     nlohmann::json lights;              // per light, report.json's light objects
     std::vector<double> production_ms;  // per repeat: shadow + lookup (+ mask) GPU ms, V only
     std::vector<double> diagnostic_ms;  // per repeat: the same passes with the lookups
+    double seconds = 0;                 // wall clock of this configuration: verdict and timings
 };
 
 struct Table {
@@ -72,6 +73,7 @@ struct Table {
     int repeat = 1;
     nlohmann::json device;  // name, driver
     Shard shard;
+    double setup_s = 0;     // wall clock: the oracle (or its cache) and the session
     std::vector<Row> rows;  // by index
 };
 

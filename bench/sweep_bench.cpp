@@ -1,0 +1,84 @@
+// sweep's cost and its table on a device without penumbra's command line (the GPU bundle):
+// one set-up (oracle from the cache or traced, the session) + N configurations, each a verdict
+// (a diagnostic render with lookups + the metrics) and --repeat timed renders of each kind.
+// Prints the set-up and per-configuration wall clock, then sweep.csv on stdout.
+// Run: build/bench/sweep_bench [--scenario FILE] [--terrain-grid N] [--device D] [--repeat 3]
+//      [--set KEY=V ...] --vary KEY=V1,V2,... [--vary ...]
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "bench/raster_bench_args.h"
+#include "common/scenario.h"
+#include "sweep/sweep.h"
+
+int main(int argc, char** argv) {
+    using namespace penumbra;
+    std::filesystem::path scenario_file = test::data_dir() / "default/scenario.json";
+    std::string device;
+    int repeat = 3, terrain = 0;
+    std::vector<std::string> vary, sets;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (i + 1 >= argc) {
+            std::fprintf(stderr, "sweep_bench: %s needs a value\n", a.c_str());
+            return 2;
+        }
+        const std::string v = argv[++i];
+        if (a == "--scenario")
+            scenario_file = v;
+        else if (a == "--device")
+            device = v;
+        else if (a == "--repeat")
+            repeat = std::max(1, std::atoi(v.c_str()));
+        else if (a == "--terrain-grid")
+            terrain = std::max(1, std::atoi(v.c_str()));
+        else if (a == "--vary")
+            vary.push_back(v);
+        else if (a == "--set")
+            sets.push_back(v);
+        else {
+            std::fprintf(stderr,
+                         "usage: sweep_bench [--scenario F] [--terrain-grid N] [--device D] [--repeat N] [--set K=V] "
+                         "--vary K=V,...\n");
+            return 2;
+        }
+    }
+    try {
+        Scenario sc = load_scenario(scenario_file);
+        if (terrain > 0) bench::add_terrain(sc.scene, terrain);
+        std::vector<sweep::Axis> axes;
+        std::vector<std::string> keys;
+        for (const auto& v : vary) {
+            axes.push_back(sweep::parse_axis(v));
+            keys.push_back(axes.back().key);
+        }
+        nlohmann::json base = sc.technique;
+        for (const auto& s : sets) raster::apply_override(base, s);
+        const auto configs = sweep::expand(base, axes, sc.lights);
+        raster::ContextOptions co;
+        co.device = device;
+        raster::VulkanContext ctx(co);
+        sweep::SweepOptions options;
+        options.repeat = repeat;
+        options.validate.oracle.progress = false;
+        options.progress = [](const sweep::Row& r, std::size_t done, std::size_t of) {
+            std::fprintf(stderr, "[%zu/%zu] %.2f s\n", done, of, r.seconds);
+        };
+        const sweep::Table t =
+            sweep::run_sweep(sc, scenario_file.string(), keys, configs, configs.size(), {}, options, ctx);
+        double sum = 0;
+        for (const auto& r : t.rows) sum += r.seconds;
+        std::printf("# device: %s (%s); %zu triangles, %dx%d px, %zu lights; repeat %d\n", ctx.info().name.c_str(),
+                    ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height, sc.lights.size(),
+                    repeat);
+        std::printf("# set-up %.2f s (oracle %s + session); %zu configurations %.2f s, %.3f s each\n", t.setup_s,
+                    "from the cache or traced", t.rows.size(), sum, sum / static_cast<double>(t.rows.size()));
+        std::fputs(sweep::sweep_csv(t).c_str(), stdout);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "sweep_bench: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}
