@@ -14,7 +14,7 @@ packages=(
   python3 assimp-testmodels
   chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
   clang libclang-rt-14-dev  # tests: the libFuzzer targets (tests/fuzz, docs/testing.md)
-  nodejs  # tests/engines: real engines in chromium (npm, with Debian's nodejs the npm package, installs what its package-lock.json pins)
+  nodejs  # tests/engines: real engines in chromium (npm installs what its package-lock.json pins; below)
 )
 
 # tests/engines' npm packages, exactly as its lockfile pins them (from the npm registry), once
@@ -22,11 +22,20 @@ packages=(
 engine_packages() {
   local dir
   dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/engines"
-  command -v npm >/dev/null || { echo "install-deps: no npm: tests/engines will fail (apt-get install npm)"; return 0; }
+  # Debian's nodejs comes without npm (a package of its own); a Node.js from elsewhere brings its own.
+  if ! command -v npm >/dev/null; then
+    echo "install-deps: installing Debian's npm for tests/engines"
+    "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends npm >/dev/null ||
+      { echo "install-deps: npm did not install: tests/engines will fail"; return 0; }
+  fi
   cmp -s "$dir/package-lock.json" "$dir/node_modules/.penumbra-lock" && return 0
   (cd "$dir" && npm ci --no-audit --no-fund --ignore-scripts >/dev/null && cp package-lock.json node_modules/.penumbra-lock)
   echo "install-deps: tests/engines npm packages installed"
 }
+
+sudo_cmd=()
+if [[ $(id -u) -ne 0 ]]; then sudo_cmd=(sudo); fi
+export DEBIAN_FRONTEND=noninteractive
 
 missing=()
 for p in "${packages[@]}"; do
@@ -38,10 +47,7 @@ if ((${#missing[@]} == 0)); then
   exit 0
 fi
 
-sudo_cmd=()
-if [[ $(id -u) -ne 0 ]]; then sudo_cmd=(sudo); fi
 echo "install-deps: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update -qq
 "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 engine_packages
