@@ -323,10 +323,10 @@ class Search {
     }
 
     void run(bool receiver_plane) {
-        // Brackets are first narrowed to a tenth of a decade (a factor 1.26), the winner's knobs
+        // Brackets are first narrowed to a fifth of a decade (a factor 1.58), the winner's knobs
         // then to `precision`: most evaluations go to where the optimum is.
         const double fine = std::log10(1.0 + opt_.precision);
-        const double coarse = std::max(fine, 0.1);
+        const double coarse = std::max(fine, 0.2);
         Setting zero;
         zero.receiver_plane = receiver_plane;
         const Evaluation* e0 = eval(zero);
