@@ -7,7 +7,7 @@ include(CMakePackageConfigHelpers)
 
 set(penumbra_modules penumbra_common penumbra_tinygltf penumbra_image_io penumbra_oracle penumbra_raster
   penumbra_metrics penumbra_report penumbra_report_files penumbra_pipeline penumbra_pipeline_files
-  penumbra_stress penumbra_stress_files)
+  penumbra_stress penumbra_stress_files penumbra_tune penumbra_tune_files penumbra_sweep penumbra_sweep_files)
 add_library(penumbra_library SHARED)
 foreach(module ${penumbra_modules})
   target_sources(penumbra_library PRIVATE $<TARGET_OBJECTS:${module}>)
@@ -35,7 +35,9 @@ set(penumbra_public_headers
   raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h raster/vk_check.h
   raster/vulkan_context.h
   report/report.h
-  stress/cases.h stress/stress_files.h stress/suite.h)
+  stress/cases.h stress/stress_files.h stress/suite.h
+  sweep/sweep.h sweep/sweep_files.h
+  tune/tune.h tune/tune_files.h tune/tune_report.h)
 foreach(header ${penumbra_public_headers})
   get_filename_component(dir ${header} DIRECTORY)
   install(FILES ${PROJECT_SOURCE_DIR}/${header} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/penumbra/${dir})

@@ -26,3 +26,5 @@
 #include "raster/technique.h"
 #include "stress/stress_files.h"
 #include "stress/suite.h"
+#include "sweep/sweep_files.h"
+#include "tune/tune_files.h"
