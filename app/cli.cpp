@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "common/errors.h"
 #include "common/json_reader.h"
 #include "common/memory_estimate.h"
 #include "pipeline/validate.h"
@@ -84,6 +85,14 @@ raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArg
     std::string label;
     nlohmann::json j = technique_json(scenario, t, label);
     return raster::parse_technique(j, label, scenario.lights);
+}
+
+int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet) {
+    if (!gate) return kExitSuccess;
+    for (const auto& o : gate->outcomes)
+        if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
+    if (!quiet) fmt::print("gate: {} ({} checks)\n", gate->passed ? "passed" : "FAILED", gate->outcomes.size());
+    return gate->passed ? kExitSuccess : kExitGateFailed;
 }
 
 }  // namespace penumbra::cli

@@ -7,10 +7,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/scenario.h"
+#include "metrics/gate.h"
 #include "oracle/oracle.h"
 #include "raster/technique.h"
 
@@ -52,6 +54,10 @@ void add_technique(CLI::App* cmd, TechniqueArgs& t);
 // The technique JSON from those sources, in order (not yet parsed).
 nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, std::string& label);
 raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArgs& t);
+
+// Prints each failed check of the gate (stderr) and, unless quiet, the gate's line; returns the
+// exit code it gives (0 without a gate).
+int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet);
 
 // A registered subcommand: run() is called when CLI11 selected `app`. Arguments live in state
 // the closure owns, so a subcommand's options stay private to its file.

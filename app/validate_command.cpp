@@ -72,14 +72,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
                        metrics::summary_line(r.score.lights[li]));
         fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
     }
-    if (r.gate) {
-        for (const auto& o : r.gate->outcomes)
-            if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
-        if (!c.quiet)
-            fmt::print("gate: {} ({} checks)\n", r.gate->passed ? "passed" : "FAILED", r.gate->outcomes.size());
-        if (!r.gate->passed) return kExitGateFailed;
-    }
-    return kExitSuccess;
+    return gate_exit_code(r.gate, c.quiet);
 }
 
 }  // namespace

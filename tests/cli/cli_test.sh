@@ -2,11 +2,6 @@
 # End-to-end checks of the penumbra command line: exit codes, messages, no partial output,
 # bit-identical results whatever the thread count. Usage: cli_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
-run() {  # run OUT_DIR ARGS... -> sets rc, err
-    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-    rc=$?
-    err=$(cat "$tmp/stderr")
-}
 
 # A good run writes exactly the promised files.
 run oracle "$src/data/default/scenario.json" --out "$tmp/a" --threads 1 -q

@@ -3,11 +3,6 @@
 # raster frame scored as an engine's, exit codes and messages for bad frames, no partial output.
 # Usage: compare_cli_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
-run() {
-    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-    rc=$?
-    err=$(cat "$tmp/stderr")
-}
 fail_detail() { echo "(rc $rc: $(head -c 400 "$tmp/stderr"))"; }
 export PENUMBRA_CACHE_DIR=$tmp/cache
 sed "s#\"scene.glb\"#\"$src/data/default/scene.glb\"#; s/\"width\": 1280, \"height\": 720/\"width\": 160, \"height\": 90/" \

@@ -19,6 +19,11 @@ check() {  # check NAME CONDITION...
         echo "FAIL: $name$(declare -F fail_detail >/dev/null && echo " $(fail_detail)")"
     fi
 }
+run() {  # run ARGS... -> runs penumbra; sets rc, err
+    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
+    rc=$?
+    err=$(cat "$tmp/stderr")
+}
 fails() { ! "$@"; }
 # The page opens in headless Chromium with every image decoded and no console message (pages
 # carry report::image_check_script()).

@@ -2,11 +2,6 @@
 # `penumbra stress` end to end on a reduced suite (docs/stress.md): the files, the oracle
 # invariant, the gate's exit codes, JUnit, bad input. Usage: stress_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
-run() {  # run ARGS... -> sets rc, err
-    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-    rc=$?
-    err=$(cat "$tmp/stderr")
-}
 fail_detail() { echo "(rc $rc: $(head -c 400 <<<"$err"))"; }
 cases=grazing_89.99,far_1e7,scale_1e4,contact_wedge_1deg,needles,spot_179
 

@@ -4,11 +4,6 @@
 # report in headless Chromium, and bad input (exit 2 naming it, before any work, nothing
 # written). Usage: sweep_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
-run() {  # run ARGS... -> sets rc, err
-    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-    rc=$?
-    err=$(cat "$tmp/stderr")
-}
 fail_detail() { echo "(rc $rc: $(head -c 400 <<<"$err"))"; }
 export PENUMBRA_CACHE_DIR="$tmp/cache"
 sed -e 's/"width": 1280/"width": 240/' -e 's/"height": 720/"height": 136/' \

@@ -3,11 +3,6 @@
 # determinism across thread counts, --gate, and bad input (exit 2 naming it, nothing written).
 # Usage: tune_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
-run() {  # run ARGS... -> sets rc, err
-    "$bin" "$@" >"$tmp/stdout" 2>"$tmp/stderr"
-    rc=$?
-    err=$(cat "$tmp/stderr")
-}
 fail_detail() { echo "(rc $rc: $(head -c 400 <<<"$err"))"; }
 export PENUMBRA_CACHE_DIR="$tmp/cache"
 cp "$src/data/default/scene.glb" "$tmp/"
