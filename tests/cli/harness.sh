@@ -1,7 +1,7 @@
-# Sourced by the CLI test scripts (cli_test.sh, hostile_input.sh, tune_test.sh): their two arguments, a
-# temporary folder removed at exit, and check(), which counts and names each failure. A script
-# may define fail_detail() to add context to a failure line (e.g. the exit code and stderr).
-# End a script with `finish`.
+# Sourced by the CLI test scripts (tests/cli/*.sh): their two arguments, a temporary folder
+# removed at exit, run() (penumbra with stdout and stderr kept; sets rc and err), check(), which
+# counts and names each failure, fails() and html_check(). A script may define fail_detail() to
+# add context to a failure line (e.g. the exit code and stderr). End a script with `finish`.
 set -uo pipefail
 bin=$1
 src=$2
