@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 
 #include "common/errors.h"
@@ -66,7 +65,7 @@ unsigned char srgb_byte(float linear) {
 }  // namespace
 
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
-               const std::vector<ExrChannelView>& channels) {
+               const std::vector<ExrChannelView>& channels, ExrCompression compression) {
     const fs::path tmp = out.stage(name);
     OIIO::ImageSpec spec(width, height, static_cast<int>(channels.size()), OIIO::TypeDesc::FLOAT);
     spec.channelnames.clear();
@@ -77,8 +76,7 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
         spec.channelformats.push_back(storage_type(c.storage));
         pixel_bytes += storage_bytes(c.storage);
     }
-    const char* compression = std::getenv("PENUMBRA_EXR_COMPRESSION");  // TEMPORARY: measuring
-    spec.attribute("compression", compression ? compression : "zip");
+    spec.attribute("compression", compression == ExrCompression::zip ? "zip" : "none");
     // OIIO stamps the write time unless told a date; a fixed one keeps files bit-identical.
     spec.attribute("DateTime", "1970:01:01 00:00:00");
     auto file = OIIO::ImageOutput::create("openexr");
@@ -88,8 +86,8 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
     };
     if (!file || !file->open(tmp.string(), spec)) fail();
     // Interleave a strip of scanlines at a time, in each channel's stored format (OIIO's
-    // TypeUnknown convention), and hand it to OpenEXR, which compresses the strip's 16-line
-    // zip blocks on its own threads: memory stays at one strip, not a second copy of the frame.
+    // TypeUnknown convention), and hand it to OpenEXR: memory stays at one strip, not a second
+    // copy of the frame.
     constexpr int kStripRows = 256;
     std::vector<unsigned char> strip(static_cast<std::size_t>(std::min(kStripRows, std::max(height, 1))) * width *
                                      pixel_bytes);

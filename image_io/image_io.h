@@ -34,12 +34,17 @@ struct ExrChannelView {
     std::size_t stride = 1;
 };
 
+enum class ExrCompression {
+    zip,   // deflate, 16 scanlines per block: about 5x smaller, ~3 CPU-s per 250 MB on the dev VM
+    none,  // uncompressed: for large frames whose write time matters (docs/oracle.md section 9)
+};
+
 // A zip-compressed EXR of float and uint channels, bit-identical from run to run.
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
                const std::vector<ExrChannel>& channels);
 // The same from views, written in strips of scanlines: no copy of the whole image is made.
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
-               const std::vector<ExrChannelView>& channels);
+               const std::vector<ExrChannelView>& channels, ExrCompression compression = ExrCompression::zip);
 // 8-bit sRGB-encoded RGB image, linear input in [0, 1] per channel, row-major.
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const std::vector<float>& rgb);
 

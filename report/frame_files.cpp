@@ -3,8 +3,6 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "common/preview.h"
 #include "common/stopwatch.h"
@@ -17,8 +15,7 @@ namespace {
 // Views of the frame's own arrays (no copies). Masks and flags (A, U, lightable: 0 or 1) are
 // stored as half, which holds them exactly in half the bytes.
 std::vector<ExrChannelView> oracle_channels(const OracleFrame& f) {
-    const bool half = std::getenv("PENUMBRA_EXR_FLOAT_FLAGS") == nullptr;  // TEMPORARY: measuring
-    const ExrStorage flag = half ? ExrStorage::half : ExrStorage::f32;
+    const ExrStorage flag = ExrStorage::half;
     std::vector<ExrChannelView> ch;
     ch.push_back({"A", flag, f.A.data(), 1});
     ch.push_back({"prim", ExrStorage::u32, f.prim.data(), 1});
@@ -78,11 +75,9 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 
 double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
     auto t0 = SteadyClock::now();
-    write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f));
-    double exr_s = seconds_since(t0);
+    // Uncompressed: zip took 3 CPU-seconds of a 2048^2 frame's 4-5 s run (docs/oracle.md section 9).
+    write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
     write_png(out, "oracle.png", f.width, f.height, oracle_preview(f));
-    if (std::getenv("PENUMBRA_WRITE_TIMES"))
-        std::fprintf(stderr, "exr %.3f s, png %.3f s\n", exr_s, seconds_since(t0) - exr_s);  // TEMPORARY
     return seconds_since(t0);
 }
 
