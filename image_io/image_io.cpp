@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "common/errors.h"
 
@@ -36,30 +38,39 @@ unsigned char srgb_byte_exact(float linear) {
     return static_cast<unsigned char>(std::lround(s * 255.0f));
 }
 
-// The same by table: code k starts at the smallest float whose exact code is k (found once by
-// bisection over the float bit patterns of [0, 1], where the code does not decrease), so a
-// value's code is the number of thresholds at or below it: 8 comparisons instead of a powf.
-unsigned char srgb_byte(float linear) {
-    static const std::array<float, 256> start = [] {
-        std::array<float, 256> t{};
+// The same by table. Code k starts at the smallest float whose exact code is k (found once by
+// bisection over the float bit patterns of [0, 1], where the code does not decrease). A value's
+// upper 16 bits pick the code at the start of its bucket; a bucket spans less than one code
+// step (2^-7 relative where the code grows by at most 255 * 1.055 / 2.4 per unit), so at most
+// one more threshold can lie inside it.
+struct SrgbTable {
+    std::array<float, 257> start{};  // start[256] = +inf
+    std::vector<unsigned char> bucket = std::vector<unsigned char>((0x3F800000u >> 16) + 1);
+    SrgbTable() {
         for (int k = 1; k < 256; ++k) {
             std::uint32_t lo = 0, hi = 0x3F800000u;  // bit patterns of 0.0f and 1.0f
             while (lo < hi) {
                 const std::uint32_t mid = lo + (hi - lo) / 2;
-                float v;
-                std::memcpy(&v, &mid, 4);
-                if (srgb_byte_exact(v) >= k)
+                if (srgb_byte_exact(std::bit_cast<float>(mid)) >= k)
                     hi = mid;
                 else
                     lo = mid + 1;
             }
-            std::memcpy(&t[k], &lo, 4);
+            start[k] = std::bit_cast<float>(lo);
         }
-        return t;
-    }();
-    const float v = std::clamp(linear, 0.0f, 1.0f);  // NaN stays NaN: code 0, as the exact one
-    if (!(v >= 0.0f)) return srgb_byte_exact(linear);
-    return static_cast<unsigned char>(std::upper_bound(start.begin() + 1, start.end(), v) - start.begin() - 1);
+        start[256] = std::numeric_limits<float>::infinity();
+        for (std::size_t b = 0; b < bucket.size(); ++b)
+            bucket[b] = srgb_byte_exact(std::bit_cast<float>(std::uint32_t(b << 16)));
+    }
+};
+
+unsigned char srgb_byte(float linear) {
+    static const SrgbTable table;
+    const float v = std::clamp(linear, 0.0f, 1.0f);
+    if (!(v >= 0.0f)) return srgb_byte_exact(linear);  // NaN
+    unsigned code = table.bucket[std::bit_cast<std::uint32_t>(v) >> 16];
+    while (v >= table.start[code + 1]) ++code;
+    return static_cast<unsigned char>(code);
 }
 
 }  // namespace
@@ -88,7 +99,7 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
     // Interleave a strip of scanlines at a time, in each channel's stored format (OIIO's
     // TypeUnknown convention), and hand it to OpenEXR: memory stays at one strip, not a second
     // copy of the frame.
-    constexpr int kStripRows = 256;
+    constexpr int kStripRows = 16;  // a strip of a 2048-wide frame stays in cache while it is interleaved
     std::vector<unsigned char> strip(static_cast<std::size_t>(std::min(kStripRows, std::max(height, 1))) * width *
                                      pixel_bytes);
     for (int y0 = 0; y0 < height; y0 += kStripRows) {
@@ -137,6 +148,7 @@ void write_png(OutputTransaction& out, const std::string& name, int width, int h
     // A preview: zlib's fastest level is 3-4x faster than the default (6) and the file only
     // slightly larger.
     spec.attribute("png:compressionLevel", 1);
+    spec.attribute("png:filter", 0x10);  // libpng's PNG_FILTER_SUB alone, not a trial of all five per row
     auto file = OIIO::ImageOutput::create("png");
     if (!file || !file->open(tmp.string(), spec) || !file->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
         !file->close())
