@@ -386,6 +386,7 @@ int main(int argc, char** argv) {
     int size = 2048, repeat = 3, bare = 1, inside_out = 0;
     std::string scenes = "terrain,spheres", thread_list = "1,2", keep;
     std::string penumbra = PENUMBRA_BINARY;
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);  // line by line, also into a file: the runs are long
     for (int i = 1; i + 1 < argc; i += 2) {
         std::string a = argv[i], v = argv[i + 1];
         if (a == "--size")
