@@ -21,8 +21,7 @@ static_assert(kRoundRays == kPacket);
 struct FilterContext {
     RTCIntersectContext embree;
     const Tracer* tracer = nullptr;
-    glm::dvec3 p{0.0}, dir{0.0};           // true (double) origin and direction
-    const glm::dvec3* lane_dir = nullptr;  // packets: lane k's direction (the ray's id is k), else `dir`
+    glm::dvec3 p{0.0}, dir{0.0};  // true (double) origin and direction
     std::uint32_t self_prim = kNoPrimitive;
     bool ambiguous = false;
 };
@@ -48,11 +47,9 @@ void shadow_filter(const RTCFilterFunctionNArguments* args) {
 // Single-sided triangles seen from behind are culled for the camera, as a rasteriser would.
 void camera_cull_filter(const RTCFilterFunctionNArguments* args) {
     auto* ctx = reinterpret_cast<FilterContext*>(args->context);
-    for (unsigned i = 0; i < args->N; ++i) {
-        if (!args->valid[i]) continue;
-        const glm::dvec3& dir = ctx->lane_dir ? ctx->lane_dir[RTCRayN_id(args->ray, args->N, i)] : ctx->dir;
-        if (ctx->tracer->culled_for_camera(RTCHitN_primID(args->hit, args->N, i), dir)) args->valid[i] = 0;
-    }
+    for (unsigned i = 0; i < args->N; ++i)
+        if (args->valid[i] && ctx->tracer->culled_for_camera(RTCHitN_primID(args->hit, args->N, i), ctx->dir))
+            args->valid[i] = 0;
 }
 
 void set_ray(RTCRay& r, const glm::vec3& o, const glm::vec3& d, float tnear, float tfar) {
@@ -311,56 +308,34 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 if (valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
                     __builtin_prefetch(&tris_[rh.hit.primID[k]]);
 
-            // Single-sided triangles seen from behind are culled for the camera, as a rasteriser
-            // would: lanes whose first hit is such a back face are traced again together, in one
-            // packet whose every candidate hit goes through the culling filter. (One scalar ray
-            // per lane cost twice as much on a field of inside-out spheres.)
-            alignas(64) int cull_valid[kPacket];
-            glm::dvec3 n_ccw[kPacket];
-            bool any_culled = false;
-            for (int k = 0; k < kPacket; ++k) {
-                cull_valid[k] = 0;
-                if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
-                const std::uint32_t prim = rh.hit.primID[k];
-                n_ccw[k] = normal_ccw(prim);
-                // culled_for_camera, the facing test first: it needs no memory.
-                if (glm::dot(n_ccw[k], ray_dir[k]) > 0 && !double_sided_[prim]) {
-                    cull_valid[k] = -1;
-                    any_culled = true;
-                }
-            }
-            if (any_culled) {
-                FilterContext ctx;
-                rtcInitIntersectContext(&ctx.embree);
-                ctx.embree.filter = &camera_cull_filter;
-                ctx.tracer = this;
-                ctx.lane_dir = ray_dir;
-                alignas(64) RTCRayHit16 again;
-                for (int k = 0; k < kPacket; ++k) {
-                    if (!cull_valid[k]) continue;
-                    set_lane(again.ray, k, glm::vec3(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]),
-                             glm::vec3(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]), znear, zfar);
-                    again.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-                    ++local.culled;
-                }
-                rtcIntersect16(cull_valid, scene_.get(), &ctx.embree, &again);
-                for (int k = 0; k < kPacket; ++k) {
-                    if (!cull_valid[k]) continue;
-                    rh.hit.geomID[k] = again.hit.geomID[k];
-                    rh.hit.primID[k] = again.hit.primID[k];
-                    rh.ray.tfar[k] = again.ray.tfar[k];
-                    rh.hit.u[k] = again.hit.u[k];
-                    rh.hit.v[k] = again.hit.v[k];
-                    if (again.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID) n_ccw[k] = normal_ccw(again.hit.primID[k]);
-                }
-            }
-
             for (int k = 0; k < kPacket; ++k) {
                 surf[k].hit = false;
                 if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
-                const std::uint32_t prim = rh.hit.primID[k];
-                const double t = rh.ray.tfar[k], u = rh.hit.u[k], v = rh.hit.v[k];
-                primary_hit(prim, u, v, t, ray_dir[k], n_ccw[k], surf[k]);
+                std::uint32_t prim = rh.hit.primID[k];
+                double t = rh.ray.tfar[k], u = rh.hit.u[k], v = rh.hit.v[k];
+                glm::dvec3 n_ccw = normal_ccw(prim);
+                // culled_for_camera, the facing test first: it needs no memory.
+                if (glm::dot(n_ccw, ray_dir[k]) > 0 && !double_sided_[prim]) {
+                    // Rare: re-trace this ray alone, culling the backs of single-sided surfaces.
+                    FilterContext ctx;
+                    rtcInitIntersectContext(&ctx.embree);
+                    ctx.embree.filter = &camera_cull_filter;
+                    ctx.tracer = this;
+                    ctx.dir = ray_dir[k];
+                    RTCRayHit one{};
+                    set_ray(one.ray, glm::vec3(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]),
+                            glm::vec3(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]), znear, zfar);
+                    one.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                    rtcIntersect1(scene_.get(), &ctx.embree, &one);
+                    ++local.culled;  // counted apart from the shadow rays re-judged in double
+                    if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                    prim = one.hit.primID;
+                    n_ccw = normal_ccw(prim);
+                    t = one.ray.tfar;
+                    u = one.hit.u;
+                    v = one.hit.v;
+                }
+                primary_hit(prim, u, v, t, ray_dir[k], n_ccw, surf[k]);
                 const int i = pixel[k];
                 frame.A[i] = 1.0f;
                 frame.prim[i] = prim;

@@ -302,9 +302,9 @@ TEST(Oracle, SingleSidedSurfacesAreCulledForTheCameraOnly) {
     EXPECT_EQ(res.frame.lights[0].V[centre], 0.0f);
     EXPECT_NEAR(res.frame.lights[0].occluder_m[centre], 1.0, 1e-6);
 
-    // Every pixel whose first hit is the back face is traced again past it (in packets, each lane
-    // with its own direction under perspective) and finds the ground; those re-traces are counted
-    // apart from the shadow rays re-judged in double, of which there are none here.
+    // Every pixel whose first hit is the back face is traced again past it, under either
+    // projection, and finds the ground; those re-traces are counted apart from the shadow rays
+    // re-judged in double, of which there are none here.
     for (bool perspective : {false, true}) {
         if (perspective) sc.camera = test::look_at({0.3, 5, 0.2}, {0, 0, 0}, 70, {0, 0, -1});
         res = run_oracle(sc);
