@@ -75,7 +75,7 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 
 double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
     auto t0 = SteadyClock::now();
-    // Uncompressed: zip took 3 CPU-seconds of a 2048^2 frame's 4-5 s run (docs/oracle.md section 9).
+    // Uncompressed: zip costs ~3 CPU-seconds for a 2048^2 frame, more than tracing it (docs/oracle.md section 9).
     write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
     write_png(out, "oracle.png", f.width, f.height, oracle_preview(f));
     return seconds_since(t0);
