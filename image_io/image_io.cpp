@@ -66,8 +66,8 @@ struct SrgbTable {
 
 unsigned char srgb_byte(float linear) {
     static const SrgbTable table;
-    const float v = std::clamp(linear, 0.0f, 1.0f);
-    if (!(v >= 0.0f)) return srgb_byte_exact(linear);  // NaN
+    const float v = std::min(linear, 1.0f);
+    if (!(v > 0.0f)) return srgb_byte_exact(linear);  // 0, -0 (whose bits index no bucket), negatives, NaN
     unsigned code = table.bucket[std::bit_cast<std::uint32_t>(v) >> 16];
     while (v >= table.start[code + 1]) ++code;
     return static_cast<unsigned char>(code);
