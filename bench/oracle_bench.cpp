@@ -1,66 +1,265 @@
-// Oracle trace speed against a bare Embree loop on the same scene, same rays, same run.
+// The whole `penumbra oracle` run against bare Embree on the same geometry, same rays, same run.
 //
-// Scene: a 2.36M-triangle terrain (1086 x 1086 quads) under a low sun, seen at 2048 x 2048.
-// The bare loop traces the same primary rays (rtcIntersect16) and one shadow ray per pixel
-// that faces the light, from o + t d plus a fixed 1e-3 epsilon along the normal: what a
-// quick Embree renderer does. It runs twice: with closest-hit shadow rays (rtcIntersect16, what
-// the oracle needs for occluder distances) and with any-hit ones (rtcOccluded16).
-// Prints Mrays/s for each and the oracle's ratio; best of --repeat runs. --bare 0 runs the
-// oracle alone (for profilers and scaling checks).
+// Two scenes, each written as a .glb and a scenario.json into a temporary folder:
+// - terrain: a 2.36M-triangle terrain (1086 x 1086 quads) under a low sun, perspective view;
+// - spheres: a 32 x 32 field of UV spheres (48 x 25 segments, 2.36M triangles in all) floating
+//   0.5 m above a plane, orthographic top view, one oblique directional light.
+// Both at 2048 x 2048. For each scene and thread count (1 and 2):
+// - the oracle: `penumbra oracle SCENARIO --out DIR --threads N -q` as a child process (the
+//   real command, file writes included): wall time, peak resident memory, and the phases it
+//   reports in oracle.json (load, build, trace, boundary, write);
+// - bare Embree: read the .glb's bytes; build (float vertices relative to the eye copied into
+//   Embree's buffers, rtcCommitScene); trace the same primary rays and one closest-hit shadow
+//   ray per pixel that faces the light (rtcIntersect16 both, float o + t d + 1e-3 n origins:
+//   the fixed epsilon an oracle must not use), no outputs. Embree's peak allocation is read
+//   through its memory monitor.
+// Prints the median of --repeat runs (and the range) for every phase and the ratios the
+// goals are stated in (docs/oracle.md section 9).
 #include <embree3/rtcore.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "common/camera.h"
 #include "common/stopwatch.h"
-#include "oracle/oracle.h"
 
 namespace {
 
+namespace fs = std::filesystem;
 using namespace penumbra;
+using json = nlohmann::json;
 
-Scenario terrain_scenario(int grid, int size) {
-    Scenario s;
-    s.label = "bench";
-    s.width = s.height = size;
+struct Mesh {
+    std::vector<float> positions;  // xyz
+    std::vector<std::uint32_t> indices;
+    void vertex(double x, double y, double z) {
+        positions.push_back(float(x));
+        positions.push_back(float(y));
+        positions.push_back(float(z));
+    }
+    std::uint32_t vertex_count() const { return static_cast<std::uint32_t>(positions.size() / 3); }
+};
+
+// The scene files and what the bare loop needs to know without parsing the scenario.
+struct BenchScene {
+    std::string name;
+    fs::path scenario;
+    Camera camera;
+    glm::dvec3 light_direction;  // the direction light travels
+    int size = 0;
+};
+
+Mesh terrain_mesh(int grid) {
     const double extent = 100.0;
     auto height = [](double x, double z) {
         return 0.8 * std::sin(0.35 * x) * std::cos(0.27 * z) + 0.25 * std::sin(1.7 * x + 0.5) * std::sin(1.3 * z) +
                3.0 * std::exp(-((x - 5) * (x - 5) + (z + 5) * (z + 5)) / 40.0);
     };
-    Scene& sc = s.scene;
+    Mesh m;
     for (int j = 0; j <= grid; ++j)
         for (int i = 0; i <= grid; ++i) {
             double x = extent * (double(i) / grid - 0.5), z = extent * (0.5 - double(j) / grid);
-            sc.positions.emplace_back(x, height(x, z), z);
+            m.vertex(x, height(x, z), z);
         }
     for (int j = 0; j < grid; ++j)
         for (int i = 0; i < grid; ++i) {
             std::uint32_t a = j * (grid + 1) + i, b = a + 1, c = a + grid + 2, d = a + grid + 1;
-            sc.triangles.push_back({a, b, c});
-            sc.triangles.push_back({a, c, d});
+            m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
         }
-    sc.double_sided.assign(sc.triangles.size(), 0);
-    sc.triangle_node.assign(sc.triangles.size(), 0);
-    look_at_basis({0, 22, 55}, {0, 0, 0}, {0, 1, 0}, s.camera);
-    s.camera.yfov_rad = 50 * M_PI / 180;
-    s.camera.znear = 0.1;
-    Light sun;
-    sun.type = LightType::directional;
-    sun.direction = glm::normalize(glm::dvec3(0.6, -0.35, -0.3));
-    sun.origin = "sun";
-    s.lights = {sun};
+    return m;
+}
+
+// `count` x `count` UV spheres of radius 0.3 m on a 1 m grid, their lowest point 0.5 m above a
+// ground plane at y = 0; counter-clockwise seen from outside, or clockwise (`inside_out`: the
+// camera then sees the spheres' back faces, which the oracle culls as a rasteriser would).
+Mesh sphere_field_mesh(int count, int segments, int rings, bool inside_out) {
+    Mesh m;
+    const double r = 0.3, half = count / 2.0 + 1;
+    m.vertex(-half, 0, half);
+    m.vertex(half, 0, half);
+    m.vertex(half, 0, -half);
+    m.vertex(-half, 0, -half);
+    m.indices.insert(m.indices.end(), {0, 1, 2, 0, 2, 3});
+    for (int sj = 0; sj < count; ++sj)
+        for (int si = 0; si < count; ++si) {
+            const double cx = si - count / 2.0 + 0.5, cz = sj - count / 2.0 + 0.5, cy = 0.5 + r;
+            const std::uint32_t top = m.vertex_count();
+            m.vertex(cx, cy + r, cz);
+            for (int j = 1; j < rings; ++j) {
+                double theta = M_PI * j / rings;
+                for (int i = 0; i < segments; ++i) {
+                    double phi = 2 * M_PI * i / segments;
+                    m.vertex(cx + r * std::sin(theta) * std::cos(phi), cy + r * std::cos(theta),
+                             cz - r * std::sin(theta) * std::sin(phi));
+                }
+            }
+            const std::uint32_t bottom = m.vertex_count();
+            m.vertex(cx, cy - r, cz);
+            auto ring = [&](int j, int i) { return top + 1 + (j - 1) * segments + (i % segments); };
+            for (int i = 0; i < segments; ++i) m.indices.insert(m.indices.end(), {top, ring(1, i), ring(1, i + 1)});
+            for (int j = 1; j + 1 < rings; ++j)
+                for (int i = 0; i < segments; ++i) {
+                    std::uint32_t a = ring(j, i), b = ring(j + 1, i), c = ring(j + 1, i + 1), d = ring(j, i + 1);
+                    m.indices.insert(m.indices.end(), {a, b, c, a, c, d});
+                }
+            for (int i = 0; i < segments; ++i)
+                m.indices.insert(m.indices.end(), {bottom, ring(rings - 1, i + 1), ring(rings - 1, i)});
+        }
+    if (inside_out)
+        for (std::size_t t = 6; t < m.indices.size(); t += 3) std::swap(m.indices[t + 1], m.indices[t + 2]);
+    return m;
+}
+
+// A one-mesh, one-primitive .glb (glTF 2.0 binary container: 12-byte header, JSON chunk, BIN chunk).
+void write_glb(const fs::path& file, const Mesh& m) {
+    const std::size_t pos_bytes = m.positions.size() * 4, idx_bytes = m.indices.size() * 4;
+    float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+    for (std::size_t i = 0; i < m.positions.size(); ++i) {
+        lo[i % 3] = std::min(lo[i % 3], m.positions[i]);
+        hi[i % 3] = std::max(hi[i % 3], m.positions[i]);
+    }
+    json j = {
+        {"asset", {{"version", "2.0"}}},
+        {"scene", 0},
+        {"scenes", {{{"nodes", {0}}}}},
+        {"nodes", {{{"mesh", 0}}}},
+        {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}}}}}}},
+        {"accessors",
+         {{{"bufferView", 0},
+           {"componentType", 5126},
+           {"count", m.vertex_count()},
+           {"type", "VEC3"},
+           {"min", {lo[0], lo[1], lo[2]}},
+           {"max", {hi[0], hi[1], hi[2]}}},
+          {{"bufferView", 1}, {"componentType", 5125}, {"count", m.indices.size()}, {"type", "SCALAR"}}}},
+        {"bufferViews",
+         {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", pos_bytes}},
+          {{"buffer", 0}, {"byteOffset", pos_bytes}, {"byteLength", idx_bytes}}}},
+        {"buffers", {{{"byteLength", pos_bytes + idx_bytes}}}},
+    };
+    std::string text = j.dump();
+    text.resize((text.size() + 3) / 4 * 4, ' ');
+    const auto json_len = static_cast<std::uint32_t>(text.size()),
+               bin_len = static_cast<std::uint32_t>(pos_bytes + idx_bytes);
+    const std::uint32_t header[3] = {0x46546C67u, 2u, 12 + 8 + json_len + 8 + bin_len};
+    const std::uint32_t json_head[2] = {json_len, 0x4E4F534Au}, bin_head[2] = {bin_len, 0x004E4942u};
+    std::ofstream f(file, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(header), 12);
+    f.write(reinterpret_cast<const char*>(json_head), 8);
+    f.write(text.data(), json_len);
+    f.write(reinterpret_cast<const char*>(bin_head), 8);
+    f.write(reinterpret_cast<const char*>(m.positions.data()), static_cast<std::streamsize>(pos_bytes));
+    f.write(reinterpret_cast<const char*>(m.indices.data()), static_cast<std::streamsize>(idx_bytes));
+    if (!f) throw std::runtime_error("cannot write " + file.string());
+}
+
+BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bool inside_out) {
+    BenchScene s;
+    s.name = name;
+    s.size = size;
+    fs::create_directories(dir / name);
+    json cam;
+    glm::dvec3 eye, target, up;
+    if (name == "terrain") {
+        write_glb(dir / name / "scene.glb", terrain_mesh(1086));
+        eye = {0, 22, 55}, target = {0, 0, 0}, up = {0, 1, 0};
+        s.light_direction = glm::normalize(glm::dvec3(0.6, -0.35, -0.3));
+        s.camera.type = ProjectionType::perspective;
+        s.camera.yfov_rad = 50 * M_PI / 180;
+        s.camera.znear = 0.1;
+        cam = {{"type", "perspective"}, {"yfov_deg", 50}, {"znear", 0.1}};
+    } else {
+        write_glb(dir / name / "scene.glb", sphere_field_mesh(32, 48, 25, inside_out));
+        eye = {0, 20, 0}, target = {0, 0, 0}, up = {0, 0, -1};
+        s.light_direction = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
+        s.camera.type = ProjectionType::orthographic;
+        s.camera.xmag = s.camera.ymag = 16.5;
+        s.camera.znear = 0;
+        cam = {{"type", "orthographic"}, {"xmag", 16.5}, {"ymag", 16.5}, {"znear", 0}};
+    }
+    look_at_basis(eye, target, up, s.camera);
+    cam["eye"] = {eye.x, eye.y, eye.z};
+    cam["target"] = {target.x, target.y, target.z};
+    cam["up"] = {up.x, up.y, up.z};
+    const glm::dvec3& d = s.light_direction;
+    json scenario = {{"scene", "scene.glb"},
+                     {"image", {{"width", size}, {"height", size}}},
+                     {"camera", cam},
+                     {"lights", {{{"type", "directional"}, {"direction", {d.x, d.y, d.z}}}}}};
+    s.scenario = dir / name / "scenario.json";
+    std::ofstream(s.scenario) << scenario.dump(1);
     return s;
 }
 
-// One lane of a 16-wide ray packet, reset for a new query.
+// ---- the oracle, as the command a user runs ----
+
+struct OracleRun {
+    double wall = 0, load = 0, build = 0, trace = 0, boundary = 0, write = 0;
+    double peak_mib = 0;
+    std::uint64_t primary = 0, shadow = 0, retraced = 0;
+};
+
+OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const fs::path& out, int threads) {
+    fs::remove_all(out);
+    const std::string th = std::to_string(threads);
+    auto t0 = SteadyClock::now();
+    pid_t pid = fork();
+    if (pid == 0) {
+        execl(penumbra.c_str(), penumbra.c_str(), "oracle", s.scenario.c_str(), "--out", out.c_str(), "--threads",
+              th.c_str(), "-q", static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    int status = 0;
+    rusage usage{};
+    wait4(pid, &status, 0, &usage);
+    OracleRun r;
+    r.wall = seconds_since(t0);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+        throw std::runtime_error(penumbra + " oracle " + s.scenario.string() + " failed");
+    r.peak_mib = usage.ru_maxrss / 1024.0;
+    json j = json::parse(std::ifstream(out / "oracle.json"));
+    const json& sec = j.at("seconds");
+    r.load = sec.at("load");
+    r.build = sec.at("build");
+    r.trace = sec.at("trace");
+    r.boundary = sec.at("boundary");
+    r.write = sec.at("write");
+    r.primary = j.at("rays").at("primary");
+    r.shadow = j.at("rays").at("shadow");
+    r.retraced = j.at("rays").at("verified_retraces");
+    return r;
+}
+
+// ---- bare Embree ----
+
+struct BareRun {
+    double load = 0, build = 0, trace = 0;
+    double embree_peak_mib = 0;  // Embree's own allocations, peak (BVH, buffers)
+    std::uint64_t rays = 0;
+};
+
+std::atomic<std::int64_t> g_embree_bytes{0}, g_embree_peak{0};
+bool embree_memory_monitor(void*, ssize_t bytes, bool) {
+    std::int64_t now = g_embree_bytes += bytes, peak = g_embree_peak;
+    while (now > peak && !g_embree_peak.compare_exchange_weak(peak, now)) {
+    }
+    return true;
+}
+
 void set_lane(RTCRayHit16& rh, int k, const glm::vec3& o, const glm::vec3& d, float tnear) {
     rh.ray.org_x[k] = o.x;
     rh.ray.org_y[k] = o.y;
@@ -77,34 +276,47 @@ void set_lane(RTCRayHit16& rh, int k, const glm::vec3& o, const glm::vec3& d, fl
     rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
 }
 
-struct BareResult {
-    double seconds;
-    std::uint64_t rays;
-};
+BareRun bare_embree(const BenchScene& s, int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    BareRun out;
+    // Load: the file's bytes; the .glb written above has positions then indices in its BIN chunk.
+    auto t0 = SteadyClock::now();
+    std::vector<char> bytes(fs::file_size(s.scenario.parent_path() / "scene.glb"));
+    std::ifstream(s.scenario.parent_path() / "scene.glb", std::ios::binary)
+        .read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.load = seconds_since(t0);
+    std::uint32_t json_len = 0;
+    std::memcpy(&json_len, bytes.data() + 12, 4);
+    json gltf = json::parse(bytes.data() + 20, bytes.data() + 20 + json_len);
+    const char* bin = bytes.data() + 20 + json_len + 8;
+    const std::size_t nv = gltf["accessors"][0]["count"], nt = std::size_t(gltf["accessors"][1]["count"]) / 3;
+    const float* pos = reinterpret_cast<const float*>(bin);
+    const auto* idx = reinterpret_cast<const unsigned*>(bin + std::size_t(gltf["bufferViews"][1]["byteOffset"]));
 
-BareResult bare_loop(const Scenario& s, bool closest_hit) {
-    RTCDevice device = rtcNewDevice("verbose=0");
+    t0 = SteadyClock::now();
+    g_embree_bytes = g_embree_peak = 0;
+    RTCDevice device = rtcNewDevice(("verbose=0,threads=" + std::to_string(threads)).c_str());
+    rtcSetDeviceMemoryMonitorFunction(device, embree_memory_monitor, nullptr);
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(
-        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, s.scene.positions.size()));
-    auto* ib = static_cast<unsigned*>(
-        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, s.scene.triangles.size()));
-    for (std::size_t i = 0; i < s.scene.positions.size(); ++i)
-        for (int c = 0; c < 3; ++c) vb[3 * i + c] = static_cast<float>(s.scene.positions[i][c] - s.camera.eye[c]);
-    for (std::size_t i = 0; i < s.scene.triangles.size(); ++i)
-        for (int c = 0; c < 3; ++c) ib[3 * i + c] = s.scene.triangles[i][c];
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, nv));
+    auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, nt));
+    for (std::size_t i = 0; i < nv; ++i)
+        for (int c = 0; c < 3; ++c) vb[3 * i + c] = static_cast<float>(double(pos[3 * i + c]) - s.camera.eye[c]);
+    std::memcpy(ib, idx, nt * 12);
     rtcCommitGeometry(g);
     rtcAttachGeometry(scene, g);
     rtcReleaseGeometry(g);
     rtcCommitScene(scene);
+    out.build = seconds_since(t0);
 
-    const int W = s.width, H = s.height, tile = 16;
+    const int W = s.size, H = s.size, tile = 16;
     const int tiles_x = W / tile, tiles_y = H / tile;
-    const glm::vec3 L = glm::vec3(-s.lights[0].direction);
+    const glm::vec3 L = glm::vec3(-s.light_direction);
+    const float znear = static_cast<float>(s.camera.znear);
     std::atomic<std::uint64_t> rays{0};
-    auto t0 = SteadyClock::now();
+    t0 = SteadyClock::now();
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 4), [&](const tbb::blocked_range<int>& r) {
         std::uint64_t local = 0;
         RTCIntersectContext ctx;
@@ -120,7 +332,7 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
                     for (int k = 0; k < 16; ++k) {
                         PrimaryRay pr = camera_rays.at(bx + (k & 3) + 0.5, by + (k >> 2) + 0.5);
                         valid[k] = -1;
-                        set_lane(rh, k, glm::vec3(0.0f), glm::vec3(pr.direction), float(s.camera.znear));
+                        set_lane(rh, k, glm::vec3(pr.origin), glm::vec3(pr.direction), znear);
                     }
                     rtcIntersect16(valid, scene, &ctx, &rh);
                     local += 16;
@@ -129,82 +341,141 @@ BareResult bare_loop(const Scenario& s, bool closest_hit) {
                     for (int k = 0; k < 16; ++k) {
                         svalid[k] = 0;
                         if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+                        glm::vec3 o(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]);
                         glm::vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
                         glm::vec3 n = glm::normalize(glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]));
                         if (glm::dot(n, d) > 0) n = -n;
                         if (glm::dot(n, L) <= 0) continue;
-                        glm::vec3 o = rh.ray.tfar[k] * d + 1e-3f * n;  // the fixed epsilon an oracle must not use
                         svalid[k] = -1;
-                        set_lane(sh, k, o, L, 0.0f);
+                        set_lane(sh, k, o + rh.ray.tfar[k] * d + 1e-3f * n, L, 0.0f);
                         ++local;
                     }
-                    if (closest_hit)
-                        rtcIntersect16(svalid, scene, &ctx, &sh);
-                    else
-                        rtcOccluded16(svalid, scene, &ctx, &sh.ray);
+                    rtcIntersect16(svalid, scene, &ctx, &sh);
                 }
         }
         rays += local;
     });
-    double seconds = seconds_since(t0);
+    out.trace = seconds_since(t0);
+    out.rays = rays;
+    out.embree_peak_mib = g_embree_peak / (1024.0 * 1024.0);
     rtcReleaseScene(scene);
     rtcReleaseDevice(device);
-    return {seconds, rays};
+    return out;
 }
+
+// Median and range of one quantity over the repeats.
+struct Spread {
+    std::vector<double> v;
+    double median() const {
+        auto s = v;
+        std::sort(s.begin(), s.end());
+        return s.empty() ? 0 : s[s.size() / 2];
+    }
+    std::string text(const char* fmt) const {
+        char buf[96];
+        auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+        std::string f = std::string(fmt) + " (" + fmt + "-" + fmt + ")";
+        std::snprintf(buf, sizeof buf, f.c_str(), median(), *lo, *hi);
+        return buf;
+    }
+};
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    int size = 2048, grid = 1086, repeat = 3, threads = 0, bare = 1;
+    int size = 2048, repeat = 3, bare = 1, inside_out = 0;
+    std::string scenes = "terrain,spheres", thread_list = "1,2", keep;
+    std::string penumbra = PENUMBRA_BINARY;
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);  // line by line, also into a file: the runs are long
     for (int i = 1; i + 1 < argc; i += 2) {
-        std::string a = argv[i];
-        int v = std::atoi(argv[i + 1]);
+        std::string a = argv[i], v = argv[i + 1];
         if (a == "--size")
-            size = v;
-        else if (a == "--grid")
-            grid = v;
+            size = std::stoi(v);
         else if (a == "--repeat")
-            repeat = std::max(1, v);
+            repeat = std::max(1, std::stoi(v));
         else if (a == "--threads")
-            threads = v;
+            thread_list = v;
+        else if (a == "--scenes")
+            scenes = v;
         else if (a == "--bare")
-            bare = v;
-    }
-    Scenario s = terrain_scenario(grid, size);
-    OracleSettings settings;
-    settings.threads = threads;
-    std::printf("scene: %zu triangles, %dx%d pixels, 1 directional light, %d threads\n", s.scene.triangle_count(), size,
-                size, threads > 0 ? threads : int(std::thread::hardware_concurrency()));
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
-                              threads > 0 ? threads : std::thread::hardware_concurrency());
-    double best_oracle = 1e30, best_closest = 1e30, best_any = 1e30, boundary = 0;
-    std::uint64_t oracle_rays = 0, bare_rays = 0, retraced = 0, boundary_rays = 0;
-    for (int r = 0; r < repeat; ++r) {
-        OracleResult o = run_oracle(s, settings);
-        oracle_rays = o.stats.primary_rays + o.stats.shadow_rays + o.stats.verified_retraces;
-        retraced = o.stats.verified_retraces;
-        boundary_rays = o.stats.boundary_rays;
-        if (o.stats.trace_s < best_oracle) {
-            best_oracle = o.stats.trace_s;
-            boundary = o.stats.boundary_s;
+            bare = std::stoi(v);
+        else if (a == "--penumbra")
+            penumbra = v;
+        else if (a == "--inside-out")
+            inside_out = std::stoi(v);
+        else if (a == "--keep")
+            keep = v;
+        else {
+            std::fprintf(stderr,
+                         "usage: oracle_bench [--scenes terrain,spheres] [--threads 1,2] [--repeat 3] [--size 2048] "
+                         "[--bare 0|1] [--inside-out 0|1] [--penumbra PATH] [--keep DIR]\n");
+            return 2;
         }
-        if (!bare) continue;
-        BareResult c = bare_loop(s, true), a = bare_loop(s, false);
-        bare_rays = c.rays;
-        best_closest = std::min(best_closest, c.seconds);
-        best_any = std::min(best_any, a.seconds);
     }
-    double m_oracle = oracle_rays / best_oracle * 1e-6, m_closest = bare_rays / best_closest * 1e-6,
-           m_any = bare_rays / best_any * 1e-6;
-    std::printf("oracle trace:            %7.3f s  %8.2f Mrays/s  (%llu rays, %llu re-traced in double)\n", best_oracle,
-                m_oracle, (unsigned long long)oracle_rays, (unsigned long long)retraced);
-    if (bare) {
-        std::printf("bare loop, closest hit:  %7.3f s  %8.2f Mrays/s  ratio oracle/bare = %.3f\n", best_closest,
-                    m_closest, m_oracle / m_closest);
-        std::printf("bare loop, any hit:      %7.3f s  %8.2f Mrays/s  ratio oracle/bare = %.3f\n", best_any, m_any,
-                    m_oracle / m_any);
+    auto split = [](const std::string& s) {
+        std::vector<std::string> out;
+        for (std::size_t a = 0, b; a <= s.size(); a = b + 1) {
+            b = s.find(',', a);
+            if (b == std::string::npos) b = s.size();
+            if (b > a) out.push_back(s.substr(a, b - a));
+        }
+        return out;
+    };
+    fs::path dir =
+        keep.empty() ? fs::temp_directory_path() / ("oracle_bench." + std::to_string(getpid())) : fs::path(keep);
+    fs::create_directories(dir);
+    std::printf("penumbra: %s\nfiles: %s\n", penumbra.c_str(), dir.c_str());
+    for (const std::string& name : split(scenes)) {
+        BenchScene s = make_scene(dir, name, size, inside_out != 0);
+        std::printf("\n== %s: %.0f MB .glb, %dx%d, 1 directional light ==\n", name.c_str(),
+                    fs::file_size(dir / name / "scene.glb") / 1e6, size, size);
+        for (const std::string& ts : split(thread_list)) {
+            const int threads = std::stoi(ts);
+            Spread wall, load, build, trace, boundary, write, peak, b_load, b_build, b_trace, b_peak, whole_ratio,
+                trace_ratio, mem_ratio;
+            OracleRun o;
+            BareRun b;
+            for (int r = 0; r < repeat; ++r) {
+                o = run_penumbra(penumbra, s, dir / name / "out", threads);
+                wall.v.push_back(o.wall);
+                load.v.push_back(o.load);
+                build.v.push_back(o.build);
+                trace.v.push_back(o.trace);
+                boundary.v.push_back(o.boundary);
+                write.v.push_back(o.write);
+                peak.v.push_back(o.peak_mib);
+                if (!bare) continue;
+                b = bare_embree(s, threads);
+                b_load.v.push_back(b.load);
+                b_build.v.push_back(b.build);
+                b_trace.v.push_back(b.trace);
+                b_peak.v.push_back(b.embree_peak_mib);
+                whole_ratio.v.push_back(o.wall / (b.load + b.build + b.trace));
+                // Same rays: the oracle's primary and shadow rays (its re-traces are extra work).
+                trace_ratio.v.push_back((double(o.primary + o.shadow) / o.trace) / (double(b.rays) / b.trace));
+                const double channels_mib = double(size) * size * (9 + 6) * 4 / (1024.0 * 1024.0);
+                mem_ratio.v.push_back(o.peak_mib / (b.embree_peak_mib + channels_mib));
+            }
+            const std::uint64_t shadow = o.shadow;
+            std::printf("-- %d thread%s, median (min-max) of %d --\n", threads, threads > 1 ? "s" : "", repeat);
+            std::printf("oracle  whole %s s  peak %s MiB\n", wall.text("%.2f").c_str(), peak.text("%.0f").c_str());
+            std::printf("        load %s  build %s  trace %s  boundary %s  write %s s\n", load.text("%.2f").c_str(),
+                        build.text("%.2f").c_str(), trace.text("%.2f").c_str(), boundary.text("%.2f").c_str(),
+                        write.text("%.2f").c_str());
+            std::printf("        rays: %llu primary, %llu shadow, %llu re-traced in double (%.2f%% of shadow rays)\n",
+                        (unsigned long long)o.primary, (unsigned long long)shadow, (unsigned long long)o.retraced,
+                        shadow ? 100.0 * o.retraced / shadow : 0.0);
+            if (!bare) continue;
+            std::printf("bare    load %s  build %s  trace %s s (%llu rays)  Embree peak %s MiB\n",
+                        b_load.text("%.3f").c_str(), b_build.text("%.2f").c_str(), b_trace.text("%.2f").c_str(),
+                        (unsigned long long)b.rays, b_peak.text("%.0f").c_str());
+            std::printf("ratios  whole oracle / bare load+build+trace %s (goal <= 2)\n",
+                        whole_ratio.text("%.2f").c_str());
+            std::printf("        trace rays/s oracle / bare %s (goal >= 0.7)\n", trace_ratio.text("%.2f").c_str());
+            std::printf("        peak memory / (Embree peak + frame channels) %s (goal <= 1.5)\n",
+                        mem_ratio.text("%.2f").c_str());
+        }
     }
-    std::printf("oracle boundary phase:   %7.3f s  (%llu bisection rays; not in the trace phase)\n", boundary,
-                (unsigned long long)boundary_rays);
+    if (keep.empty()) fs::remove_all(dir);
     return 0;
 }

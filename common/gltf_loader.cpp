@@ -402,6 +402,15 @@ struct Flattener {
         std::uint32_t base = static_cast<std::uint32_t>(scene.positions.size());
         if (scene.positions.size() + local.size() > std::numeric_limits<std::uint32_t>::max())
             fail(ctx, element, "scene has more than 2^32 vertices");
+        // Grow geometrically but in one step per primitive: a push_back per vertex into a
+        // vector of millions re-copies it and faults in fresh pages at every doubling.
+        auto make_room = [](auto& v, std::size_t more) {
+            if (v.size() + more > v.capacity()) v.reserve(std::max(v.size() + more, 2 * v.capacity()));
+        };
+        make_room(scene.positions, local.size());
+        make_room(scene.triangles, tris.size());
+        make_room(scene.double_sided, tris.size());
+        make_room(scene.triangle_node, tris.size());
         for (std::size_t i = 0; i < local.size(); ++i) {
             glm::dvec3 w = glm::dvec3(world * glm::dvec4(local[i], 1.0));
             for (int c = 0; c < 3; ++c)

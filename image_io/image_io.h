@@ -2,6 +2,7 @@
 // OutputTransaction, so it appears only when the transaction commits.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -18,9 +19,33 @@ struct ExrChannel {
     std::vector<std::uint32_t> u32;
 };
 
+// How a channel is stored in the file.
+enum class ExrStorage {
+    f32,   // 32-bit float
+    u32,   // 32-bit unsigned int
+    half,  // 16-bit float, for masks and flags whose values (0, 1) half holds exactly
+};
+
+// A channel read in place from the caller's memory (no copy): pixel i's value is at
+// `data + i * stride` (in elements: a float or uint32 each). `half` channels read floats.
+struct ExrChannelView {
+    std::string name;
+    ExrStorage storage = ExrStorage::f32;
+    const void* data = nullptr;
+    std::size_t stride = 1;
+};
+
+enum class ExrCompression {
+    zip,   // deflate, 16 scanlines per block: about 5x smaller, ~3 CPU-s per 250 MB on the dev VM
+    none,  // uncompressed: for large frames whose write time matters (docs/oracle.md section 9)
+};
+
 // A zip-compressed EXR of float and uint channels, bit-identical from run to run.
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
                const std::vector<ExrChannel>& channels);
+// The same from views, written in strips of scanlines: no copy of the whole image is made.
+void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
+               const std::vector<ExrChannelView>& channels, ExrCompression compression = ExrCompression::zip);
 // 8-bit sRGB-encoded RGB image, linear input in [0, 1] per channel, row-major.
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const std::vector<float>& rgb);
 

@@ -67,7 +67,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     t0 = SteadyClock::now();
     const int tiles_x = (frame.width + kTile - 1) / kTile, tiles_y = (frame.height + kTile - 1) / kTile;
     const int tile_count = tiles_x * tiles_y;
-    std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0};
+    std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0}, culled{0};
     std::atomic<int> tiles_done{0};
     const auto& lights = tracer.lights();
     const bool any_area =
@@ -84,6 +84,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
         primary += c.primary;
         shadow += c.shadow;
         retraced += c.retraced;
+        culled += c.culled;
         int done = tiles_done += static_cast<int>(r.size());
         if (progress) {
             int pct = static_cast<int>(100.0 * done / tile_count);
@@ -100,6 +101,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     stats.primary_rays = primary;
     stats.shadow_rays = shadow;
     stats.verified_retraces = retraced;
+    stats.culled_retraces = culled;
 
     // ---- area lights: adaptive sampling, one light after the other (each is parallel inside) ----
     t0 = SteadyClock::now();

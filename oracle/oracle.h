@@ -48,7 +48,8 @@ struct OracleStats {
     std::uint64_t primary_rays = 0;
     std::uint64_t shadow_rays = 0;
     std::uint64_t boundary_rays = 0;      // bisection rays locating shadow boundaries
-    std::uint64_t verified_retraces = 0;  // rays re-traced with double-precision hit checks
+    std::uint64_t verified_retraces = 0;  // shadow rays re-traced with double-precision hit checks
+    std::uint64_t culled_retraces = 0;    // primary rays traced again past a single-sided back face
     double build_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;
     int threads = 0;
     std::string embree_version;

@@ -36,7 +36,7 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
                                {"max_rays", settings.area_max_rays},
                                {"uniform_rays", settings.area_uniform_rays}};
     double trace_total = s.trace_s + s.area_s + s.boundary_s;
-    std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces;
+    std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces + s.culled_retraces;
     nlohmann::json j = {
         {"scenario", scenario.file.string()},
         {"scene", scenario.scene_file.string()},
@@ -47,7 +47,8 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
          {{"primary", s.primary_rays},
           {"shadow", s.shadow_rays},
           {"boundary", s.boundary_rays},
-          {"verified_retraces", s.verified_retraces}}},
+          {"verified_retraces", s.verified_retraces},
+          {"culled_retraces", s.culled_retraces}}},
         {"mrays_per_s", trace_total > 0 ? rays / trace_total * 1e-6 : 0.0},
         {"seconds",
          {{"load", timings.load_s},

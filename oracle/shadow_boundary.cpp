@@ -10,6 +10,9 @@
 //    in the light-lateral metric.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
 // silhouette) are not seen; pixels farther from every seen boundary report inf.
+#include <tbb/parallel_for.h>
+
+#include <atomic>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <limits>
@@ -44,6 +47,72 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     std::uint64_t rays = 0;
 
     // ---- 1. boundary points between straddling pixel pairs ----
+    // Rows are searched in parallel (the bisection rays are most of this phase's time); the
+    // points are then taken in row-major order, as a serial loop would, so the output does not
+    // depend on the thread count.
+    struct Straddle {
+        int i, j;
+        glm::dvec3 seed;
+    };
+    std::vector<std::vector<Straddle>> rows(static_cast<std::size_t>(H));
+    std::atomic<std::uint64_t> ray_count{0};
+    tbb::parallel_for(tbb::blocked_range<int>(0, H, 8), [&](const tbb::blocked_range<int>& range) {
+        std::uint64_t local_rays = 0;
+        for (int y = range.begin(); y != range.end(); ++y) {
+            std::vector<Straddle>& row = rows[static_cast<std::size_t>(y)];
+            for (int x = 0; x < W; ++x) {
+                const int i = y * W + x;
+                if (img.lightable[i] == 0) continue;
+                for (int dir = 0; dir < 2; ++dir) {
+                    int xj = x + (dir == 0), yj = y + (dir == 1);
+                    if (xj >= W || yj >= H) continue;
+                    const int j = yj * W + xj;
+                    if (img.lightable[j] == 0 || img.V[i] == img.V[j]) continue;
+                    std::uint32_t pi = frame.prim[i], pj = frame.prim[j];
+                    glm::dvec3 a(frame.P[i]), b(frame.P[j]);
+                    glm::dvec3 seed;
+                    if (same_plane(tr, pi, pj)) {
+                        // Bisect on the exact plane of the triangle: points projected onto it in double.
+                        glm::dvec3 n = glm::normalize(tr.normal_ccw(pi));
+                        const glm::dvec3& v0 = tr.vertex(pi, 0);
+                        auto on_plane = [&](const glm::dvec3& q) { return q - glm::dot(q - v0, n) * n; };
+                        glm::dvec3 n_lit = glm::dot(n, direction_to_light(light, a)) > 0 ? n : -n;
+                        glm::dvec3 vabs = glm::max(glm::abs(tr.vertex(pi, 0)),
+                                                   glm::max(glm::abs(tr.vertex(pi, 1)), glm::abs(tr.vertex(pi, 2))));
+                        float va = img.V[i];
+                        a = on_plane(a);
+                        b = on_plane(b);
+                        for (int s = 0; s < steps; ++s) {
+                            SurfacePoint m;
+                            m.hit = true;
+                            m.p = on_plane(0.5 * (a + b));
+                            m.n = n_lit;
+                            m.error = robust::surface_error_bound(m.p, vabs);
+                            ShadowSetup setup;
+                            setup_shadow(light, m, setup);
+                            float vm = 0.0f;
+                            if (setup.lightable) {
+                                vm = tr.trace_shadow_verified(setup, m.p, kNoPrimitive).blocked ? 0.0f : 1.0f;
+                                ++local_rays;
+                            }
+                            (vm == va ? a : b) = m.p;
+                        }
+                        seed = 0.5 * (a + b);
+                    } else {
+                        // A crease or a silhouette: accept the midpoint only where the surface is
+                        // continuous (similar normals, no depth jump).
+                        glm::dvec3 ni(frame.N[i]), nj(frame.N[j]);
+                        double gap = glm::length(b - a);
+                        if (glm::dot(ni, nj) < 0.9 || std::abs(glm::dot(ni, b - a)) > 0.1 * gap) continue;
+                        seed = 0.5 * (a + b);
+                    }
+                    row.push_back({i, j, seed});
+                }
+            }
+        }
+        ray_count += local_rays;
+    });
+    rays = ray_count;
     std::vector<glm::dvec3> seeds;
     std::vector<int> nearest(frame.pixel_count(), -1);
     std::vector<double> best(frame.pixel_count(), std::numeric_limits<double>::infinity());
@@ -55,59 +124,13 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
             nearest[i] = s;
         }
     };
-    for (int y = 0; y < H; ++y) {
-        for (int x = 0; x < W; ++x) {
-            const int i = y * W + x;
-            if (img.lightable[i] == 0) continue;
-            for (int dir = 0; dir < 2; ++dir) {
-                int xj = x + (dir == 0), yj = y + (dir == 1);
-                if (xj >= W || yj >= H) continue;
-                const int j = yj * W + xj;
-                if (img.lightable[j] == 0 || img.V[i] == img.V[j]) continue;
-                std::uint32_t pi = frame.prim[i], pj = frame.prim[j];
-                glm::dvec3 a(frame.P[i]), b(frame.P[j]);
-                glm::dvec3 seed;
-                if (same_plane(tr, pi, pj)) {
-                    // Bisect on the exact plane of the triangle: points projected onto it in double.
-                    glm::dvec3 n = glm::normalize(tr.normal_ccw(pi));
-                    const glm::dvec3& v0 = tr.vertex(pi, 0);
-                    auto on_plane = [&](const glm::dvec3& q) { return q - glm::dot(q - v0, n) * n; };
-                    glm::dvec3 n_lit = glm::dot(n, direction_to_light(light, a)) > 0 ? n : -n;
-                    glm::dvec3 vabs = glm::max(glm::abs(tr.vertex(pi, 0)),
-                                               glm::max(glm::abs(tr.vertex(pi, 1)), glm::abs(tr.vertex(pi, 2))));
-                    float va = img.V[i];
-                    a = on_plane(a);
-                    b = on_plane(b);
-                    for (int s = 0; s < steps; ++s) {
-                        SurfacePoint m;
-                        m.hit = true;
-                        m.p = on_plane(0.5 * (a + b));
-                        m.n = n_lit;
-                        m.error = robust::surface_error_bound(m.p, vabs);
-                        ShadowSetup setup;
-                        setup_shadow(light, m, setup);
-                        float vm = 0.0f;
-                        if (setup.lightable) {
-                            vm = tr.trace_shadow_verified(setup, m.p, kNoPrimitive).blocked ? 0.0f : 1.0f;
-                            ++rays;
-                        }
-                        (vm == va ? a : b) = m.p;
-                    }
-                    seed = 0.5 * (a + b);
-                } else {
-                    // A crease or a silhouette: accept the midpoint only where the surface is
-                    // continuous (similar normals, no depth jump).
-                    glm::dvec3 ni(frame.N[i]), nj(frame.N[j]);
-                    double gap = glm::length(b - a);
-                    if (glm::dot(ni, nj) < 0.9 || std::abs(glm::dot(ni, b - a)) > 0.1 * gap) continue;
-                    seed = 0.5 * (a + b);
-                }
-                seeds.push_back(seed);
-                consider(i, static_cast<int>(seeds.size() - 1));
-                consider(j, static_cast<int>(seeds.size() - 1));
-            }
+    for (const auto& row : rows)
+        for (const Straddle& st : row) {
+            seeds.push_back(st.seed);
+            consider(st.i, static_cast<int>(seeds.size() - 1));
+            consider(st.j, static_cast<int>(seeds.size() - 1));
         }
-    }
+    rows = {};
 
     // ---- 2. propagate the nearest boundary point across the surface pixels ----
     auto sweep = [&](int x, int y, const int(*offsets)[2]) {
@@ -131,8 +154,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
 
     // ---- 3. distances, and ambiguity within float error of a boundary ----
     const Camera& cam = tr.scenario().camera;
-    for (std::size_t i = 0; i < frame.pixel_count(); ++i) {
-        if (img.lightable[i] == 0 || nearest[i] < 0) continue;
+    tbb::parallel_for(std::size_t(0), frame.pixel_count(), [&](std::size_t i) {
+        if (img.lightable[i] == 0 || nearest[i] < 0) return;
         double dist = std::sqrt(best[i]);
         img.boundary_m[i] = static_cast<float>(dist);
         // The receiver point carries a float error of ~eps |P|, stretched along the surface by
@@ -143,7 +166,7 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         double cos_view = std::max(std::abs(glm::dot(n, view)), 1.0 / 64);
         double ambiguity = 64 * robust::kFloatEps * (glm::length(p) + glm::length(seeds[nearest[i]])) / cos_view;
         if (dist <= ambiguity) img.U[i] = 1.0f;
-    }
+    });
     return rays;
 }
 

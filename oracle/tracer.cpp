@@ -340,7 +340,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                             glm::vec3(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]), znear, zfar);
                     one.hit.geomID = RTC_INVALID_GEOMETRY_ID;
                     rtcIntersect1(scene_.get(), &ctx.embree, &one);
-                    ++local.retraced;
+                    ++local.culled;  // counted apart from the shadow rays re-judged in double
                     if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     prim = one.hit.primID;
                     n_ccw = normal_ccw(prim);
@@ -399,6 +399,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     counters.primary += local.primary;
     counters.shadow += local.shadow;
     counters.retraced += local.retraced;
+    counters.culled += local.culled;
 }
 
 }  // namespace penumbra::oracle_detail

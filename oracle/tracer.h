@@ -108,6 +108,7 @@ struct ShadowAnswer {
 
 struct TraceCounters {
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
+    std::uint64_t culled = 0;  // primary rays traced again past a single-sided triangle's back
 };
 
 // One round of kRoundRays shadow rays from a receiver to points spread over an area light.

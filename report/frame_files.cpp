@@ -12,31 +12,27 @@ namespace penumbra::report {
 
 namespace {
 
-std::vector<ExrChannel> oracle_channels(const OracleFrame& f) {
-    const std::size_t n = f.pixel_count();
-    std::vector<ExrChannel> ch;
-    auto add = [&](std::string name, std::vector<float> data) { ch.push_back({std::move(name), std::move(data), {}}); };
-    add("A", f.A);
-    ch.push_back({"prim", {}, f.prim});
-    add("depth", f.depth);
+// Views of the frame's own arrays (no copies). Masks and flags (A, U, lightable: 0 or 1) are
+// stored as half, which holds them exactly in half the bytes.
+std::vector<ExrChannelView> oracle_channels(const OracleFrame& f) {
+    const ExrStorage flag = ExrStorage::half;
+    std::vector<ExrChannelView> ch;
+    ch.push_back({"A", flag, f.A.data(), 1});
+    ch.push_back({"prim", ExrStorage::u32, f.prim.data(), 1});
+    ch.push_back({"depth", ExrStorage::f32, f.depth.data(), 1});
     for (int c = 0; c < 3; ++c) {
-        std::vector<float> p(n), nn(n);
-        for (std::size_t i = 0; i < n; ++i) {
-            p[i] = f.P[i][c];
-            nn[i] = f.N[i][c];
-        }
-        add(std::string("P.") + "XYZ"[c], std::move(p));
-        add(std::string("N.") + "XYZ"[c], std::move(nn));
+        ch.push_back({std::string("P.") + "XYZ"[c], ExrStorage::f32, &f.P.data()->x + c, 3});
+        ch.push_back({std::string("N.") + "XYZ"[c], ExrStorage::f32, &f.N.data()->x + c, 3});
     }
     for (std::size_t li = 0; li < f.lights.size(); ++li) {
         const OracleLightImage& img = f.lights[li];
         std::string prefix = fmt::format("light{}.", li);
-        add(prefix + "V", img.V);
-        add(prefix + "E", img.E);
-        add(prefix + "U", img.U);
-        add(prefix + "lightable", img.lightable);
-        add(prefix + "occluder_m", img.occluder_m);
-        add(prefix + "boundary_m", img.boundary_m);
+        ch.push_back({prefix + "V", ExrStorage::f32, img.V.data(), 1});
+        ch.push_back({prefix + "E", ExrStorage::f32, img.E.data(), 1});
+        ch.push_back({prefix + "U", flag, img.U.data(), 1});
+        ch.push_back({prefix + "lightable", flag, img.lightable.data(), 1});
+        ch.push_back({prefix + "occluder_m", ExrStorage::f32, img.occluder_m.data(), 1});
+        ch.push_back({prefix + "boundary_m", ExrStorage::f32, img.boundary_m.data(), 1});
     }
     return ch;
 }
@@ -79,7 +75,8 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 
 double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
     auto t0 = SteadyClock::now();
-    write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f));
+    // Uncompressed: zip costs ~3 CPU-seconds for a 2048^2 frame, more than tracing it (docs/oracle.md section 9).
+    write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
     write_png(out, "oracle.png", f.width, f.height, oracle_preview(f));
     return seconds_since(t0);
 }

@@ -301,6 +301,24 @@ TEST(Oracle, SingleSidedSurfacesAreCulledForTheCameraOnly) {
     EXPECT_TRUE(res.frame.prim[centre] == ground || res.frame.prim[centre] == ground + 1);
     EXPECT_EQ(res.frame.lights[0].V[centre], 0.0f);
     EXPECT_NEAR(res.frame.lights[0].occluder_m[centre], 1.0, 1e-6);
+
+    // Every pixel whose first hit is the back face is traced again past it, under either
+    // projection, and finds the ground; those re-traces are counted apart from the shadow rays
+    // re-judged in double, of which there are none here.
+    for (bool perspective : {false, true}) {
+        if (perspective) sc.camera = test::look_at({0.3, 5, 0.2}, {0, 0, 0}, 70, {0, 0, -1});
+        res = run_oracle(sc);
+        std::size_t seen_ground = 0;
+        for (std::size_t i = 0; i < res.frame.pixel_count(); ++i) {
+            ASSERT_TRUE(res.frame.prim[i] == kNoPrimitive || res.frame.prim[i] == ground ||
+                        res.frame.prim[i] == ground + 1)
+                << "pixel " << i << " sees the back face";
+            seen_ground += res.frame.prim[i] != kNoPrimitive;
+        }
+        EXPECT_GT(seen_ground, 0u);
+        EXPECT_GT(res.stats.culled_retraces, 300u) << (perspective ? "perspective" : "orthographic");
+        EXPECT_EQ(res.stats.verified_retraces, 0u);
+    }
 }
 
 // The distance to the nearest shadow boundary, across the light direction: for a straight edge
