@@ -34,6 +34,7 @@ struct Axis {
             hi = std::ceil(hi);
         } else {
             lo = std::min(lo, 0.0);
+            hi += 0.05 * (hi - lo);  // the largest point off the frame's edge
         }
         if (hi - lo < 1e-12) hi = lo + 1;
     }
@@ -82,25 +83,32 @@ std::vector<const PlotPoint*> front_by_x(const ScatterPlot& p) {
     return f;
 }
 
-// Which points get their label printed: the chosen one first, then front points, skipping any
+// Which points get their label printed: the chosen one first, then front points, then the rest, skipping any
 // whose label box would overlap one already placed (a crowded front stays readable).
-std::vector<bool> labelled(const ScatterPlot& p, const Frame& f) {
-    std::vector<bool> on(p.points.size(), false);
+std::vector<double> labelled(const ScatterPlot& p, const Frame& f) {
+    // The label's left edge per point (NaN: not printed): right of the point, or left of it
+    // where it would leave the frame.
+    std::vector<double> at(p.points.size(), std::nan(""));
     std::vector<std::array<double, 4>> boxes;  // x0, y0, x1, y1
     auto place = [&](std::size_t i) {
         const PlotPoint& q = p.points[i];
         if (q.label.empty()) return;
-        const double x0 = f.px(q.x) + 8, y0 = f.py(q.y) - 16, x1 = x0 + 6.5 * q.label.size(), y1 = y0 + 14;
+        const double w = kGlyphAdvance * static_cast<double>(q.label.size());
+        double x0 = f.px(q.x) + 8;
+        if (x0 + w > f.width - 4) x0 = f.px(q.x) - 8 - w;
+        const double y0 = f.py(q.y) - 16, x1 = x0 + w, y1 = y0 + 14;
         for (const auto& b : boxes)
             if (x0 < b[2] && b[0] < x1 && y0 < b[3] && b[1] < y1) return;
         boxes.push_back({x0, y0, x1, y1});
-        on[i] = true;
+        at[i] = x0;
     };
     for (std::size_t i = 0; i < p.points.size(); ++i)
         if (p.points[i].chosen) place(i);
     for (std::size_t i = 0; i < p.points.size(); ++i)
         if (p.points[i].on_front && !p.points[i].chosen) place(i);
-    return on;
+    for (std::size_t i = 0; i < p.points.size(); ++i)
+        if (!p.points[i].on_front && !p.points[i].chosen) place(i);
+    return at;
 }
 
 std::string hex(glm::vec3 c) {
@@ -183,7 +191,7 @@ std::string plot_svg(const ScatterPlot& p, int width, int height) {
                          "\n",
                          f.px(*p.x_limit), kTop, height - kBottom, hex(kChosen), f.px(*p.x_limit) + 4, kTop + 12,
                          escape_markup(p.x_limit_label));
-    const std::vector<bool> label = labelled(p, f);
+    const std::vector<double> label = labelled(p, f);
     for (std::size_t i = 0; i < p.points.size(); ++i) {
         const PlotPoint& q = p.points[i];
         const glm::vec3 c = q.chosen ? kChosen : q.on_front ? kFront : kOther;
@@ -198,16 +206,19 @@ std::string plot_svg(const ScatterPlot& p, int width, int height) {
             s += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="10" fill="none" stroke="{}" stroke-width="2"/>)"
                              "\n",
                              f.px(q.x), f.py(q.y), hex(kChosen));
-        if (label[i])
+        if (!std::isnan(label[i]))
             s += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="10" fill="{}">{}</text>)"
                              "\n",
-                             f.px(q.x) + 8, f.py(q.y) - 6, hex(c), escape_markup(q.label));
+                             label[i], f.py(q.y) - 6, hex(c), escape_markup(q.label));
     }
-    s += fmt::format(R"(<text x="{}" y="{}" fill="{}">● Pareto front</text>)"
-                     R"(<text x="{}" y="{}" fill="{}">◉ chosen</text>)"
-                     R"(<text x="{}" y="{}" fill="{}">● other</text>)"
+    const bool any_chosen = std::any_of(p.points.begin(), p.points.end(), [](const auto& q) { return q.chosen; });
+    s += fmt::format(R"(<text x="{}" y="{}" fill="{}">● Pareto front</text>)", width - kRight - 270, kTop - 8,
+                     hex(kFront));
+    if (any_chosen)
+        s += fmt::format(R"(<text x="{}" y="{}" fill="{}">◉ chosen</text>)", width - kRight - 160, kTop - 8,
+                         hex(kChosen));
+    s += fmt::format(R"(<text x="{}" y="{}" fill="{}">● other</text>)"
                      "\n</svg>\n",
-                     width - kRight - 270, kTop - 8, hex(kFront), width - kRight - 160, kTop - 8, hex(kChosen),
                      width - kRight - 80, kTop - 8, hex(kOther));
     return s;
 }
@@ -233,27 +244,33 @@ std::vector<float> plot_rgb(const ScatterPlot& p, int width, int height) {
     const auto front = front_by_x(p);
     for (std::size_t k = 1; k < front.size(); ++k)
         c.line(f.px(front[k - 1]->x), f.py(front[k - 1]->y), f.px(front[k]->x), f.py(front[k]->y), kFront);
-    for (const auto& q : p.points)
-        if (!q.on_front && !q.chosen) c.dot(f.px(q.x), f.py(q.y), 2.5, kOther);
+    const std::vector<double> label = labelled(p, f);
+    for (std::size_t i = 0; i < p.points.size(); ++i) {
+        const PlotPoint& q = p.points[i];
+        if (q.on_front || q.chosen) continue;
+        c.dot(f.px(q.x), f.py(q.y), 2.5, kOther);
+        if (!std::isnan(label[i])) c.text(label[i], f.py(q.y) - 12, q.label, kOther);
+    }
     if (p.x_limit) {
         const double x = f.px(*p.x_limit);
         for (int y = kTop; y < height - kBottom; y += 10) c.line(x, y, x, y + 5, kChosen);
         c.text(x + 4, kTop + 4, p.x_limit_label, kChosen);
     }
-    const std::vector<bool> label = labelled(p, f);
     for (std::size_t i = 0; i < p.points.size(); ++i) {
         const PlotPoint& q = p.points[i];
         if (!q.on_front && !q.chosen) continue;
         const glm::vec3 col = q.chosen ? kChosen : kFront;
         c.dot(f.px(q.x), f.py(q.y), q.chosen ? 5 : 3.5, col);
         if (q.chosen) c.dot(f.px(q.x), f.py(q.y), 9, col, true);
-        if (label[i]) c.text(f.px(q.x) + 8, f.py(q.y) - 12, q.label, col);
+        if (!std::isnan(label[i])) c.text(label[i], f.py(q.y) - 12, q.label, col);
     }
     const int lx = width - kRight - 300;
     c.dot(lx, kTop - 14, 3.5, kFront);
     c.text(lx + 8, kTop - 17, "pareto front", kInk);
-    c.dot(lx + 110, kTop - 14, 5, kChosen);
-    c.text(lx + 118, kTop - 17, "chosen", kInk);
+    if (std::any_of(p.points.begin(), p.points.end(), [](const auto& q) { return q.chosen; })) {
+        c.dot(lx + 110, kTop - 14, 5, kChosen);
+        c.text(lx + 118, kTop - 17, "chosen", kInk);
+    }
     c.dot(lx + 180, kTop - 14, 2.5, kOther);
     c.text(lx + 188, kTop - 17, "other", kInk);
     return c.rgb;
