@@ -38,6 +38,25 @@ OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
     return settings;
 }
 
+void add_verdict_options(CLI::App* cmd, VerdictArgs& v) {
+    cmd->add_option("--cache", v.cache_dir,
+                    "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
+    cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
+    cmd->add_option("--tolerance", v.tolerance, "tau: |error| above this plus the oracle's E is wrong")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+    add_sampling(cmd, v.sampling);
+}
+
+ValidateOptions validate_options(const Common& c, const VerdictArgs& v) {
+    ValidateOptions o;
+    o.oracle = oracle_settings(c, v.sampling);
+    o.use_cache = !v.no_cache;
+    o.cache_dir = v.cache_dir;
+    o.tolerance = v.tolerance;
+    return o;
+}
+
 Scenario load_for_command(const std::filesystem::path& scenario_file, const Common& c) {
     ScenarioOptions so;
     so.allow_external_paths = c.allow_external_paths;

@@ -14,6 +14,7 @@
 #include "common/scenario.h"
 #include "metrics/gate.h"
 #include "oracle/oracle.h"
+#include "pipeline/validate.h"
 #include "raster/technique.h"
 
 namespace penumbra::cli {
@@ -42,6 +43,19 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
 
 // Refuses, before any large allocation, a run the memory budget cannot hold (exit 2).
 void check_run_memory(const Scenario& s, const Common& c, bool oracle, const raster::Technique* t, bool metrics);
+
+// How a verdict is reached, as validate, tune, sweep and compare take it: the oracle's cache,
+// its area-light sampling and tau.
+struct VerdictArgs {
+    std::filesystem::path cache_dir;
+    bool no_cache = false;
+    double tolerance = 1.0 / 255.0;
+    SamplingArgs sampling;
+};
+// --cache, --no-cache, --tolerance and the sampling options.
+void add_verdict_options(CLI::App* cmd, VerdictArgs& v);
+// The pipeline's options from them (the oracle's progress shown unless quiet).
+ValidateOptions validate_options(const Common& c, const VerdictArgs& v);
 
 // The technique's three sources: the scenario or --technique file, --preset, --set.
 struct TechniqueArgs {

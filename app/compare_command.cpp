@@ -31,10 +31,7 @@ struct CompareArgs {
     int band_px = 1;
     std::filesystem::path gate_file;
     std::filesystem::path junit_file;
-    std::filesystem::path cache_dir;
-    bool no_cache = false;
-    double tolerance = 1.0 / 255.0;
-    SamplingArgs sampling;
+    VerdictArgs verdict;
 };
 
 int run_compare_command(const std::filesystem::path& scenario_file, const Common& c, const CompareArgs& a) {
@@ -67,10 +64,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
     check_engine_frame(scenario, frame);
 
     CompareOptions options;
-    options.validate.oracle = oracle_settings(c, a.sampling);
-    options.validate.use_cache = !a.no_cache;
-    options.validate.cache_dir = a.cache_dir;
-    options.validate.tolerance = a.tolerance;
+    options.validate = validate_options(c, a.verdict);
     if (a.texel_m > 0) options.texel_footprint_m = static_cast<float>(a.texel_m);
     if (a.shadow_map > 0) options.shadow_map_resolution = a.shadow_map;
     if (a.bias_m >= 0) options.bias_reach_m = static_cast<float>(a.bias_m);
@@ -152,13 +146,7 @@ Subcommand add_compare_command(CLI::App& parent) {
         ->check(CLI::Range(0, 16));
     cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")");
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file");
-    cmd->add_option("--cache", v.cache_dir,
-                    "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
-    cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
-    cmd->add_option("--tolerance", v.tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
-    add_sampling(cmd, v.sampling);
+    add_verdict_options(cmd, v.verdict);
     return {cmd, [a] { return run_compare_command(a->scenario, a->common, a->compare); }};
 }
 

@@ -18,14 +18,11 @@ struct SweepArgs {
     std::filesystem::path scenario;
     Common common;
     TechniqueArgs technique;
-    SamplingArgs sampling;
     std::vector<std::string> vary;
     std::filesystem::path configs;
     std::string shard = "1/1";
     int repeat = 3;
-    double tolerance = 1.0 / 255.0;
-    std::filesystem::path cache_dir;
-    bool no_cache = false;
+    VerdictArgs verdict;
 };
 
 int run_sweep_command(const SweepArgs& a) {
@@ -59,11 +56,8 @@ int run_sweep_command(const SweepArgs& a) {
         if (static_cast<int>(cfg.index % static_cast<std::size_t>(shard.n)) == shard.k - 1) mine.push_back(cfg);
 
     sweep::SweepOptions options;
-    options.validate.oracle = oracle_settings(c, a.sampling);
+    options.validate = validate_options(c, a.verdict);
     options.validate.oracle.progress = false;
-    options.validate.use_cache = !a.no_cache;
-    options.validate.cache_dir = a.cache_dir;
-    options.validate.tolerance = a.tolerance;
     options.repeat = a.repeat;
     if (!c.quiet)
         options.progress = [&](const sweep::Row& r, std::size_t done, std::size_t of) {
@@ -114,12 +108,7 @@ Subcommand add_sweep_command(CLI::App& parent) {
     cmd->add_option("--configs", a->configs, "JSON array of presets or technique objects, instead of --vary");
     cmd->add_option("--shard", a->shard, "K/N: run the K-th of N slices of the configurations (default 1/1)");
     cmd->add_option("--repeat", a->repeat, "GPU timings per configuration, median and min reported (default 3)");
-    cmd->add_option("--tolerance", a->tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
-    cmd->add_option("--cache", a->cache_dir, "Oracle cache folder (as for validate; shards may share it)");
-    cmd->add_flag("--no-cache", a->no_cache, "Trace the oracle and keep nothing");
-    add_sampling(cmd, a->sampling);
+    add_verdict_options(cmd, a->verdict);
     return {cmd, [a] { return run_sweep_command(*a); }};
 }
 

@@ -20,16 +20,13 @@ struct TuneArgs {
     std::vector<std::filesystem::path> scenarios, holdout;
     Common common;
     TechniqueArgs technique;
-    SamplingArgs sampling;
     std::string knobs = "constant,slope";
     double max_acne = 0.001;
     int budget = 80;
     double precision = 0.05;
     std::string minimize = "rates.peter_panning", then = "peter_panning_gap.p95";
     double tie = 0.01;
-    double tolerance = 1.0 / 255.0;
-    std::filesystem::path cache_dir;
-    bool no_cache = false;
+    VerdictArgs verdict;
     bool gate = false;
     bool visibility_only = false;
 };
@@ -66,10 +63,7 @@ int run_tune_command(const TuneArgs& a) {
             check_run_memory(s, c, true, &start, true);
         }
 
-    options.validate.oracle = oracle_settings(c, a.sampling);
-    options.validate.use_cache = !a.no_cache;
-    options.validate.cache_dir = a.cache_dir;
-    options.validate.tolerance = a.tolerance;
+    options.validate = validate_options(c, a.verdict);
     options.validate.oracle.progress = false;
     if (!c.quiet)
         options.progress = [&](const tune::Evaluation& e, std::size_t i) {
@@ -164,12 +158,7 @@ Subcommand add_tune_command(CLI::App& parent) {
     cmd->add_flag("--visibility-only", a->visibility_only,
                   "Evaluate from V alone, classified from the oracle's geometry (faster on GPUs; docs/tune.md)");
     cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne");
-    cmd->add_option("--tolerance", a->tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
-    cmd->add_option("--cache", a->cache_dir, "Oracle cache folder (as for validate)");
-    cmd->add_flag("--no-cache", a->no_cache, "Trace the oracle and keep nothing");
-    add_sampling(cmd, a->sampling);
+    add_verdict_options(cmd, a->verdict);
     return {cmd, [a] { return run_tune_command(*a); }};
 }
 

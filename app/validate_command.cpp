@@ -19,11 +19,8 @@ namespace {
 struct ValidateArgs {
     std::filesystem::path gate_file;
     std::filesystem::path junit_file;
-    std::filesystem::path cache_dir;
-    bool no_cache = false;
     bool frames = false;
-    double tolerance = 1.0 / 255.0;
-    SamplingArgs sampling;
+    VerdictArgs verdict;
 };
 
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
@@ -39,12 +36,8 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
                             v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
     check_run_memory(scenario, c, true, &technique, true);
 
-    ValidateOptions options;
-    options.oracle = oracle_settings(c, v.sampling);
-    options.use_cache = !v.no_cache;
-    options.cache_dir = v.cache_dir;
+    ValidateOptions options = validate_options(c, v.verdict);
     options.keep_oracle_frame = v.frames;
-    options.tolerance = v.tolerance;
     options.device = t.device;
     OutputTransaction out(c.out);
     const ValidateResult r = validate(scenario, technique, gate, options);
@@ -93,14 +86,8 @@ Subcommand add_validate_command(CLI::App& parent) {
     add_technique(cmd, a->technique);
     cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")");
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file");
-    cmd->add_option("--cache", v.cache_dir,
-                    "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
-    cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
     cmd->add_flag("--frames", v.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
-    cmd->add_option("--tolerance", v.tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
-    add_sampling(cmd, v.sampling);
+    add_verdict_options(cmd, v.verdict);
     return {cmd, [a] { return run_validate_command(a->scenario, a->common, a->technique, a->validate); }};
 }
 
