@@ -81,8 +81,8 @@ struct Evaluation {
 struct TuneOptions {
     std::vector<Knob> knobs = {Knob::constant, Knob::slope};
     Objective objective;
-    int budget = 80;           // most evaluations
-    double precision = 0.05;   // bisection stops when the bracket's ratio is below 1 + precision
+    int budget = 80;          // most evaluations
+    double precision = 0.05;  // bisection stops when the bracket's ratio is below 1 + precision
     // What an evaluation reads back (docs/tune.md, "Evidence"): the depth-map lookups the classes
     // rest on (true), or V alone, classified from the oracle's geometry with each light's texel
     // footprint from one lookup render at the start (false: several times faster on GPUs, where

@@ -76,7 +76,8 @@ TEST(TuneSearch, TwoKnobsReachTheGridOptimumWithATenthOfItsEvaluations) {
         EXPECT_LE(s.evaluations.size() * 10, g.evaluations.size() + 9);
         EXPECT_LE(s.evaluations[*s.winner].minimized, 1.02 * g.evaluations[*g.winner].minimized)
             << levels << " levels: search " << s.evaluations[*s.winner].minimized << " grid "
-            << g.evaluations[*g.winner].minimized << "\n" << trail(s);
+            << g.evaluations[*g.winner].minimized << "\n"
+            << trail(s);
     }
 }
 
