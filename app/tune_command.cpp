@@ -31,14 +31,6 @@ struct TuneArgs {
     bool visibility_only = false;
 };
 
-std::string describe(const tune::Setting& s, std::span<const tune::Knob> knobs) {
-    std::string text;
-    for (tune::Knob k : knobs)
-        text += k == tune::Knob::receiver_plane ? fmt::format(" receiver_plane={}", s.receiver_plane)
-                                                : fmt::format(" {}={:.4g}", tune::to_string(k), s[k]);
-    return text;
-}
-
 int run_tune_command(const TuneArgs& a) {
     const auto t0 = SteadyClock::now();
     const Common& c = a.common;
@@ -67,8 +59,8 @@ int run_tune_command(const TuneArgs& a) {
     options.validate.oracle.progress = false;
     if (!c.quiet)
         options.progress = [&](const tune::Evaluation& e, std::size_t i) {
-            fmt::print(stderr, "tune: [{}/{}]{}: worst acne {:.5f}, {} {:.5f}{}\n", i + 1, options.budget,
-                       describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
+            fmt::print(stderr, "tune: [{}/{}] {}: worst acne {:.5f}, {} {:.5f}{}\n", i + 1, options.budget,
+                       tune::describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
                        e.feasible ? "" : " (acne too high)");
         };
 
@@ -79,11 +71,12 @@ int run_tune_command(const TuneArgs& a) {
     for (const auto& f : a.scenarios) report.scenario_files.push_back(f.string());
     for (const auto& f : a.holdout) report.holdout_files.push_back(f.string());
     report.start = start;
-    report.result = tune::tune(scenarios, start, options, ctx);
+    tune::Evaluator evaluator(scenarios, start, options, ctx);
+    report.result = tune::tune(evaluator, options);
     options.progress = nullptr;
     report.options = options;
     const tune::TuneResult& res = report.result;
-    report.tuned = tune::revalidate(scenarios, start, res.recommended, options.validate, ctx);
+    report.tuned = tune::revalidate(evaluator, start, res.recommended, options.validate);
     report.holdout = tune::revalidate(holdout, start, res.recommended, options.validate, ctx);
     report.units = tune::api_units(report.tuned);
     report.seconds = seconds_since(t0);
@@ -103,9 +96,9 @@ int run_tune_command(const TuneArgs& a) {
                 return s / static_cast<double>(res.evaluations.size());
             }(),
             res.budget_exhausted ? "; the budget ran out" : "");
-        fmt::print("{}:{}: worst acne {:.5f}, {} {:.5f}, {} {:.4g}\n",
+        fmt::print("{}: {}: worst acne {:.5f}, {} {:.5f}, {} {:.4g}\n",
                    res.winner ? "recommended" : "no setting meets the acne limit; best reachable",
-                   describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
+                   tune::describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
                    options.objective.then, e.then);
         if (!report.units.empty()) {
             const auto& u = report.units.front();

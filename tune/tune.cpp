@@ -66,6 +66,16 @@ const char* to_string(Knob k) {
     return kKnobNames[index_of(k)];
 }
 
+std::string describe(const Setting& s, std::span<const Knob> knobs) {
+    std::string text;
+    for (Knob k : knobs) {
+        if (!text.empty()) text += " ";
+        text += k == Knob::receiver_plane ? fmt::format("receiver_plane={}", s.receiver_plane)
+                                          : fmt::format("{}={:.4g}", to_string(k), s[k]);
+    }
+    return text;
+}
+
 double median_at_surface(const std::vector<float>& v, const std::vector<float>& A, bool positive) {
     std::vector<float> x;
     for (std::size_t i = 0; i < v.size(); ++i)
@@ -477,7 +487,12 @@ TuneResult tune(std::span<const Scenario> scenarios, const raster::Technique& ba
                 const raster::VulkanContext& ctx) {
     if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
     Evaluator ev(scenarios, base, options, ctx);
-    TuneResult r = search([&](const Setting& s) { return ev.evaluate(s); }, options, base.bias.receiver_plane);
+    return tune(ev, options);
+}
+
+TuneResult tune(Evaluator& ev, const TuneOptions& options) {
+    if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
+    TuneResult r = search([&](const Setting& s) { return ev.evaluate(s); }, options, ev.base().bias.receiver_plane);
     recommend(r, ev, options);
     return r;
 }

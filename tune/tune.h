@@ -48,6 +48,9 @@ struct Setting {
     bool operator==(const Setting&) const = default;
 };
 
+// "constant=1.55e+04 slope=3.05 receiver_plane=true": the tuned knobs' values, for people.
+std::string describe(const Setting& s, std::span<const Knob> knobs);
+
 // The technique `base` with the tuned knobs of `s` in place (the others are base's own).
 raster::Technique apply_setting(const raster::Technique& base, std::span<const Knob> knobs, const Setting& s,
                                 double footprint_m);
@@ -111,6 +114,8 @@ class Evaluator {
     double footprint_m() const { return footprint_m_; }  // the reference footprint (world knob's unit)
     const raster::Technique& base() const { return base_; }
     std::span<const Knob> knobs() const { return options_.knobs; }
+    // The scenes with their oracle and warm session, for re-validating on the same ones.
+    std::span<TuneScene> scenes() { return scenes_; }
 
   private:
     raster::Technique base_;
@@ -145,7 +150,9 @@ TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool r
 // log-spaced over the range), for the benchmark.
 TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels, bool receiver_plane = false);
 
-// The search on real scenarios: an Evaluator, search(), and the recommended technique.
+// The search on real scenarios: search() over the evaluator, and the recommended technique.
+TuneResult tune(Evaluator& ev, const TuneOptions& options);
+// The same with an evaluator made for the call.
 TuneResult tune(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
                 const raster::VulkanContext& ctx);
 TuneResult grid_search(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,

@@ -13,18 +13,6 @@
 namespace penumbra::tune {
 namespace {
 
-std::string setting_label(const Setting& s, std::span<const Knob> knobs) {
-    std::string l;
-    for (Knob k : knobs) {
-        if (!l.empty()) l += " ";
-        if (k == Knob::receiver_plane)
-            l += s.receiver_plane ? "rp" : "";
-        else
-            l += fmt::format("{}={:.3g}", to_string(k), s[k]);
-    }
-    return l;
-}
-
 report::ScatterPlot pareto_plot(const TuneReport& r) {
     const TuneResult& res = r.result;
     const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
@@ -52,7 +40,7 @@ report::ScatterPlot pareto_plot(const TuneReport& r) {
         q.y = e.minimized;
         q.on_front = std::find(res.front.begin(), res.front.end(), i) != res.front.end();
         q.chosen = i == chosen;
-        q.label = setting_label(e.setting, r.options.knobs);
+        q.label = describe(e.setting, r.options.knobs);
         p.points.push_back(q);
     }
     return p;
@@ -121,7 +109,7 @@ td,th{border:1px solid #ccc;padding:4px 8px;text-align:left}.fail{color:#b00}</s
         h += fmt::format(
             "<p>Recommended: <b>{}</b> (evaluation {} of {}), {} = {:.5f}, worst acne {:.5f} "
             "&le; {}.</p>\n",
-            report::escape_markup(setting_label(res.evaluations[chosen].setting, r.options.knobs)), chosen,
+            report::escape_markup(describe(res.evaluations[chosen].setting, r.options.knobs)), chosen,
             res.evaluations.size(), report::escape_markup(r.options.objective.minimize),
             res.evaluations[chosen].minimized, res.evaluations[chosen].worst_acne, r.options.objective.max_acne);
     else
@@ -129,7 +117,7 @@ td,th{border:1px solid #ccc;padding:4px 8px;text-align:left}.fail{color:#b00}</s
             "<p class=\"fail\">No setting met acne &le; {}; the best reachable: <b>{}</b>, worst acne "
             "{:.5f}.</p>\n",
             r.options.objective.max_acne,
-            report::escape_markup(setting_label(res.evaluations[chosen].setting, r.options.knobs)),
+            report::escape_markup(describe(res.evaluations[chosen].setting, r.options.knobs)),
             res.evaluations[chosen].worst_acne);
     h += "<h2>Acne against peter-panning</h2>\n" + svg;
     h += units_table(r);

@@ -56,20 +56,38 @@ nlohmann::json revalidation_json(std::span<const Revalidation> rs, std::span<con
 
 }  // namespace
 
+namespace {
+
+Revalidation revalidate_one(const Scenario& s, raster::RasterSession& session,
+                            const std::shared_ptr<const OracleRun>& oracle, const raster::Technique& before,
+                            const raster::Technique& after, const ValidateOptions& options) {
+    const metrics::Gate no_gate;
+    Revalidation r;
+    r.scenario = &s;
+    r.before = validate(s, before, no_gate, options, &session, oracle);
+    r.after = validate(s, after, no_gate, options, &session, oracle);
+    return r;
+}
+
+}  // namespace
+
 std::vector<Revalidation> revalidate(std::span<const Scenario> scenarios, const raster::Technique& before,
                                      const raster::Technique& after, const ValidateOptions& options,
                                      const raster::VulkanContext& ctx) {
     std::vector<Revalidation> out;
-    const metrics::Gate no_gate;
     for (const Scenario& s : scenarios) {
         raster::RasterSession session(s, ctx);
-        auto oracle = std::make_shared<const OracleRun>(oracle_for(s, options));
-        Revalidation r;
-        r.scenario = &s;
-        r.before = validate(s, before, no_gate, options, &session, oracle);
-        r.after = validate(s, after, no_gate, options, &session, oracle);
-        out.push_back(std::move(r));
+        out.push_back(revalidate_one(s, session, std::make_shared<const OracleRun>(oracle_for(s, options)), before,
+                                     after, options));
     }
+    return out;
+}
+
+std::vector<Revalidation> revalidate(Evaluator& ev, const raster::Technique& before, const raster::Technique& after,
+                                     const ValidateOptions& options) {
+    std::vector<Revalidation> out;
+    for (TuneScene& scene : ev.scenes())
+        out.push_back(revalidate_one(*scene.scenario, *scene.session, scene.oracle, before, after, options));
     return out;
 }
 

@@ -38,6 +38,9 @@ struct Revalidation {
 std::vector<Revalidation> revalidate(std::span<const Scenario> scenarios, const raster::Technique& before,
                                      const raster::Technique& after, const ValidateOptions& options,
                                      const raster::VulkanContext& ctx);
+// The same on the scenes the search used: their oracle and warm session, not made again.
+std::vector<Revalidation> revalidate(Evaluator& ev, const raster::Technique& before, const raster::Technique& after,
+                                     const ValidateOptions& options);
 
 // The bias of `r.after` in API units, per light (the lookups of its re-validation give the depths).
 std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations);
