@@ -1,5 +1,5 @@
 # penumbra::penumbra, the installable library: every module in one shared library whose own
-# dependencies (Embree, TBB, OpenImageIO, xxHash, the Vulkan loader, fmt, tinygltf) stay private, so a
+# dependencies (Embree, TBB, OpenEXR, libpng, xxHash, the Vulkan loader, fmt, tinygltf) stay private, so a
 # consumer needs only the headers its public types use (GLM, nlohmann-json, Vulkan's headers).
 # Warnings and sanitizer flags are private to the build. docs/library.md shows how to use it.
 include(GNUInstallDirs)
@@ -16,7 +16,7 @@ set_target_properties(penumbra_library PROPERTIES
   OUTPUT_NAME penumbra EXPORT_NAME penumbra
   VERSION ${PROJECT_VERSION} SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
 target_link_libraries(penumbra_library
-  PRIVATE embree TBB::tbb PkgConfig::OIIO PkgConfig::XXHASH Vulkan::Vulkan fmt::fmt
+  PRIVATE embree TBB::tbb PkgConfig::OPENEXR PkgConfig::PNG ${CMAKE_DL_LIBS} PkgConfig::XXHASH Vulkan::Vulkan fmt::fmt
   PUBLIC glm::glm nlohmann_json::nlohmann_json Vulkan::Headers)
 # The public headers keep the source tree's module folders under include/penumbra/, so that
 # they include each other as they do in the tree ("common/scenario.h").

@@ -1,34 +1,40 @@
 #include "image_io/image_io.h"
 
 #include <Imath/half.h>
-#include <OpenImageIO/imageio.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfThreading.h>
 #include <fmt/format.h>
+#include <png.h>
 
 #include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
-#include <cstring>
+#include <csetjmp>
+#include <cstdio>
 #include <limits>
+#include <memory>
+#include <mutex>
+#include <thread>
 
 #include "common/errors.h"
+#include "image_io/oiio_plugin.h"
 
 namespace penumbra {
 namespace fs = std::filesystem;
 
 namespace {
 
-std::size_t storage_bytes(ExrStorage s) {
-    return s == ExrStorage::half ? 2 : 4;
-}
-
-OIIO::TypeDesc storage_type(ExrStorage s) {
+Imf::PixelType pixel_type(ExrStorage s) {
     switch (s) {
-        case ExrStorage::u32: return OIIO::TypeDesc::UINT;
-        case ExrStorage::half: return OIIO::TypeDesc::HALF;
+        case ExrStorage::u32: return Imf::UINT;
+        case ExrStorage::half: return Imf::HALF;
         case ExrStorage::f32: break;
     }
-    return OIIO::TypeDesc::FLOAT;
+    return Imf::FLOAT;
 }
 
 // The sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1], as an 8-bit code.
@@ -78,54 +84,50 @@ unsigned char srgb_byte(float linear) {
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
                const std::vector<ExrChannelView>& channels, ExrCompression compression) {
     const fs::path tmp = out.stage(name);
-    OIIO::ImageSpec spec(width, height, static_cast<int>(channels.size()), OIIO::TypeDesc::FLOAT);
-    spec.channelnames.clear();
-    spec.channelformats.clear();
-    std::size_t pixel_bytes = 0;
-    for (const ExrChannelView& c : channels) {
-        spec.channelnames.push_back(c.name);
-        spec.channelformats.push_back(storage_type(c.storage));
-        pixel_bytes += storage_bytes(c.storage);
-    }
-    spec.attribute("compression", compression == ExrCompression::zip ? "zip" : "none");
-    // OIIO stamps the write time unless told a date; a fixed one keeps files bit-identical.
-    spec.attribute("DateTime", "1970:01:01 00:00:00");
-    auto file = OIIO::ImageOutput::create("openexr");
-    auto fail = [&] {
-        throw EnvironmentError(fmt::format("{}: cannot write EXR: {}", (out.dir() / name).string(),
-                                           file ? file->geterror() : OIIO::geterror()));
-    };
-    if (!file || !file->open(tmp.string(), spec)) fail();
-    // Interleave a strip of scanlines at a time, in each channel's stored format (OIIO's
-    // TypeUnknown convention), and hand it to OpenEXR: memory stays at one strip, not a second
-    // copy of the frame.
-    constexpr int kStripRows = 16;  // a strip of a 2048-wide frame stays in cache while it is interleaved
-    std::vector<unsigned char> strip(static_cast<std::size_t>(std::min(kStripRows, std::max(height, 1))) * width *
-                                     pixel_bytes);
-    for (int y0 = 0; y0 < height; y0 += kStripRows) {
-        const int y1 = std::min(height, y0 + kStripRows);
-        const std::size_t first = static_cast<std::size_t>(y0) * width, last = static_cast<std::size_t>(y1) * width;
-        std::size_t offset = 0;
-        for (const ExrChannelView& c : channels) {
-            unsigned char* dst = strip.data() + offset;
-            const std::size_t bytes = storage_bytes(c.storage);
-            offset += bytes;
-            if (c.storage == ExrStorage::half) {
-                const float* src = static_cast<const float*>(c.data);
-                for (std::size_t i = first; i < last; ++i, dst += pixel_bytes) {
-                    const Imath::half h(src[i * c.stride]);
-                    const std::uint16_t bits = h.bits();
-                    std::memcpy(dst, &bits, 2);
+    // OpenEXR's pool compresses line blocks in parallel; it is created once, like OIIO did.
+    static std::once_flag threads_once;
+    std::call_once(threads_once, [] {
+        Imf::setGlobalThreadCount(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+    });
+    try {
+        Imf::Header header(width, height);
+        header.compression() = compression == ExrCompression::zip ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
+        for (const ExrChannelView& c : channels) header.channels().insert(c.name, Imf::Channel(pixel_type(c.storage)));
+        Imf::OutputFile file(tmp.c_str(), header);
+        // OpenEXR reads float and uint channels where they lie (strided views, no copy). A
+        // half channel must be handed over as half: converted a strip of scanlines at a time
+        // (Imath's round to nearest even), so memory stays at one strip.
+        constexpr int kStripRows = 64;
+        const std::size_t w = static_cast<std::size_t>(width);
+        std::size_t half_channels = 0;
+        for (const ExrChannelView& c : channels) half_channels += c.storage == ExrStorage::half;
+        std::vector<Imath::half> strip(half_channels * kStripRows * w);
+        for (int y0 = 0; y0 < height; y0 += kStripRows) {
+            const int rows = std::min(kStripRows, height - y0);
+            Imf::FrameBuffer frame;
+            std::size_t h = 0;
+            for (const ExrChannelView& c : channels) {
+                const std::size_t x_stride = 4 * c.stride;
+                auto* base = static_cast<char*>(const_cast<void*>(c.data));
+                if (c.storage != ExrStorage::half) {
+                    frame.insert(c.name, Imf::Slice(pixel_type(c.storage), base, x_stride, x_stride * w));
+                    continue;
                 }
-            } else {
-                const auto* src = static_cast<const unsigned char*>(c.data);
-                for (std::size_t i = first; i < last; ++i, dst += pixel_bytes)
-                    std::memcpy(dst, src + 4 * i * c.stride, 4);
+                Imath::half* dst = strip.data() + h++ * kStripRows * w;
+                const float* src = static_cast<const float*>(c.data) + static_cast<std::size_t>(y0) * w * c.stride;
+                for (std::size_t i = 0; i < static_cast<std::size_t>(rows) * w; ++i)
+                    dst[i] = Imath::half(src[i * c.stride]);
+                // The slice's origin is pixel (0, 0): this strip's buffer shifted back by y0 rows.
+                frame.insert(c.name,
+                             Imf::Slice(Imf::HALF, reinterpret_cast<char*>(dst - static_cast<std::ptrdiff_t>(y0) * w),
+                                        sizeof(Imath::half), sizeof(Imath::half) * w));
             }
+            file.setFrameBuffer(frame);
+            file.writePixels(rows);
         }
-        if (!file->write_scanlines(y0, y1, 0, OIIO::TypeUnknown, strip.data())) fail();
+    } catch (const std::exception& e) {
+        throw EnvironmentError(fmt::format("{}: cannot write EXR: {}", (out.dir() / name).string(), e.what()));
     }
-    if (!file->close()) fail();
 }
 
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
@@ -140,51 +142,65 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
     write_exr(out, name, width, height, views);
 }
 
+namespace {
+
+// libpng reports errors by longjmp; this frame holds nothing that needs destroying.
+bool write_png_file(FILE* file, int width, int height, const unsigned char* rgb, char (&error)[256]) {
+    png_structp png = png_create_write_struct(
+        PNG_LIBPNG_VER_STRING, error,
+        [](png_structp p, png_const_charp message) {
+            std::snprintf(static_cast<char*>(png_get_error_ptr(p)), 256, "%s", message);
+            png_longjmp(p, 1);
+        },
+        nullptr);
+    if (!png) return false;
+    png_infop info = png_create_info_struct(png);
+    if (!info || setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        return false;
+    }
+    png_init_io(png, file);
+    // A preview: zlib's fastest level is 3-4x faster than the default (6) and the file only
+    // slightly larger; the SUB filter alone, not a trial of all five per row.
+    png_set_compression_level(png, 1);
+    png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < height; ++y) png_write_row(png, rgb + static_cast<std::size_t>(y) * width * 3);
+    png_write_end(png, info);
+    png_destroy_write_struct(&png, &info);
+    return true;
+}
+
+}  // namespace
+
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const std::vector<float>& rgb) {
     const fs::path tmp = out.stage(name);
     std::vector<unsigned char> bytes(rgb.size());
     for (std::size_t i = 0; i < rgb.size(); ++i) bytes[i] = srgb_byte(rgb[i]);
-    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-    // A preview: zlib's fastest level is 3-4x faster than the default (6) and the file only
-    // slightly larger.
-    spec.attribute("png:compressionLevel", 1);
-    spec.attribute("png:filter", 0x10);  // libpng's PNG_FILTER_SUB alone, not a trial of all five per row
-    auto file = OIIO::ImageOutput::create("png");
-    if (!file || !file->open(tmp.string(), spec) || !file->write_image(OIIO::TypeDesc::UINT8, bytes.data()) ||
-        !file->close())
-        throw EnvironmentError(fmt::format("{}: cannot write PNG: {}", (out.dir() / name).string(),
-                                           file ? file->geterror() : OIIO::geterror()));
+    char error[256] = "cannot open the file";
+    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(tmp.c_str(), "wb"), &std::fclose);
+    bool ok = file && write_png_file(file.get(), width, height, bytes.data(), error);
+    if (ok && std::fclose(file.release()) != 0) {
+        ok = false;
+        std::snprintf(error, sizeof error, "%s", "cannot finish writing the file");
+    }
+    if (!ok) throw EnvironmentError(fmt::format("{}: cannot write PNG: {}", (out.dir() / name).string(), error));
 }
 
 ImageFile read_image(const fs::path& file) {
     std::error_code ec;
     if (!fs::is_regular_file(file, ec)) throw InputError(fmt::format("{}: no such image file", file.string()));
-    auto in = OIIO::ImageInput::open(file.string());
-    if (!in)
-        throw InputError(fmt::format("{}: not an image OpenImageIO can read: {}", file.string(), OIIO::geterror()));
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.deep) throw InputError(fmt::format("{}: a deep image; expected a flat image", file.string()));
-    if (spec.depth > 1) throw InputError(fmt::format("{}: a volume image; expected a 2D image", file.string()));
     ImageFile img;
-    img.width = spec.width;
-    img.height = spec.height;
-    img.format = in->format_name();
-    img.bits = static_cast<int>(spec.format.size() * 8);
-    img.floating = spec.format.is_floating_point();
-    const int nc = spec.nchannels;
-    const std::size_t n = static_cast<std::size_t>(img.width) * img.height;
-    if (nc <= 0 || n == 0) throw InputError(fmt::format("{}: an empty image", file.string()));
-    std::vector<float> data(n * nc);
-    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data()))
-        throw InputError(fmt::format("{}: cannot read the pixels: {}", file.string(), in->geterror()));
-    in->close();
-    img.channel_names.resize(nc);
-    img.channels.assign(nc, std::vector<float>(n));
-    for (int c = 0; c < nc; ++c) {
-        img.channel_names[c] = c < static_cast<int>(spec.channelnames.size()) ? spec.channelnames[c] : "";
-        for (std::size_t i = 0; i < n; ++i) img.channels[c][i] = data[i * nc + c];
+    std::string error;
+    switch (oiio_plugin().read(file.c_str(), &img, &error)) {
+        case OiioReadStatus::ok: return img;
+        case OiioReadStatus::bad_input: throw InputError(fmt::format("{}: {}", file.string(), error));
+        case OiioReadStatus::failed: break;
     }
-    return img;
+    throw EnvironmentError(fmt::format("{}: {}", file.string(), error));
 }
 
 }  // namespace penumbra

@@ -1,5 +1,5 @@
 // compare's input files: the engine's shadow image and depth buffer, read through image_io/
-// (OpenImageIO), with every check that names the file and what was expected (docs/compare.md).
+// (OpenImageIO, in its plugin), with every check that names the file and what was expected (docs/compare.md).
 #pragma once
 
 #include <filesystem>

@@ -1,5 +1,5 @@
 // validate's files (docs/outputs.md). Apart from validate.h, in its own library, so that what
-// only scores (the tests of the verdict, tune's loop) does not link OpenImageIO (image_io/).
+// only scores (the tests of the verdict, tune's loop) does not link the image libraries (image_io/).
 #pragma once
 
 #include "common/output_files.h"

@@ -1,6 +1,6 @@
 // The oracle's and the rasterizer's files: oracle.exr, oracle.png, oracle.json and raster.exr,
 // raster.png, raster.json (docs/outputs.md). Here rather than in the oracle and raster
-// libraries, so that those libraries and their tests do not link OpenImageIO (image_io/).
+// libraries, so that those libraries and their tests do not link the image libraries (image_io/).
 #pragma once
 
 #include "common/output_files.h"

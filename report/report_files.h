@@ -1,6 +1,6 @@
 // The files of validate with images in them: errors.exr, the PNG maps and report.html (which
 // embeds them). Apart from report.h, so that what only scores (the pipeline's validate(), the
-// tests of the verdict) does not link OpenImageIO (image_io/).
+// tests of the verdict) does not link the image libraries (image_io/).
 #pragma once
 
 #include "common/frames.h"

@@ -39,8 +39,12 @@ PY
 # penumbra::compare through the package: penumbra's own raster frame as an engine's image, the
 # same verdict in-process as `penumbra compare` gives.
 "$exe" raster "$scenario" --out "$tmp/raster" -q || fail "penumbra raster failed"
-"$tmp/consumer/consumer" "$scenario" --compare "$tmp/raster/raster.exr" >"$tmp/compare.json" ||
-  fail "the consumer's compare failed"
+[[ -f $tmp/prefix/lib/penumbra/penumbra_oiio.so ]] || fail "no image-reading plugin installed (lib/penumbra/penumbra_oiio.so)"
+# The installed libpenumbra.so reads the image through the installed plugin beside it, not the build tree's.
+LD_DEBUG=files "$tmp/consumer/consumer" "$scenario" --compare "$tmp/raster/raster.exr" >"$tmp/compare.json" \
+  2>"$tmp/ld.log" || fail "the consumer's compare failed"
+grep -q "file=$(realpath "$tmp")/prefix/lib/penumbra/penumbra_oiio.so " "$tmp/ld.log" ||
+  fail "the consumer did not load the installed plugin: $(grep -o 'file=[^ ]*penumbra_oiio[^ ]*' "$tmp/ld.log" | head -1)"
 "$exe" compare "$scenario" --image "$tmp/raster/raster.exr" --out "$tmp/cmp" --no-cache -q || fail "penumbra compare failed"
 python3 - "$tmp/compare.json" "$tmp/cmp/report.json" <<'PY'
 import json, sys

@@ -1,0 +1,75 @@
+#include "image_io/oiio_plugin.h"
+
+#include <dlfcn.h>
+#include <fmt/format.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <mutex>
+#include <vector>
+
+#include "common/errors.h"
+
+namespace penumbra {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Where the plugin may be, first match wins: $PENUMBRA_OIIO_PLUGIN; beside the module that holds
+// this code (an installed bin/penumbra finds ../lib/penumbra/, an installed libpenumbra.so finds
+// penumbra/ next to it); the build tree; the install prefix.
+std::vector<fs::path> candidates() {
+    std::vector<fs::path> paths;
+    if (const char* env = std::getenv("PENUMBRA_OIIO_PLUGIN"); env && *env) paths.emplace_back(env);
+    Dl_info info{};
+    if (dladdr(reinterpret_cast<void*>(&oiio_plugin), &info) && info.dli_fname && *info.dli_fname) {
+        std::error_code ec;
+        fs::path self = fs::canonical(fs::path(info.dli_fname), ec);
+        if (ec) self = fs::canonical("/proc/self/exe", ec);
+        if (!ec) {
+            const fs::path dir = self.parent_path();
+            paths.push_back(dir / "penumbra" / PENUMBRA_OIIO_PLUGIN_NAME);
+            paths.push_back(dir / ".." / PENUMBRA_INSTALL_LIBDIR / "penumbra" / PENUMBRA_OIIO_PLUGIN_NAME);
+        }
+    }
+    paths.emplace_back(PENUMBRA_OIIO_PLUGIN_BUILD_PATH);
+    paths.emplace_back(PENUMBRA_OIIO_PLUGIN_INSTALL_PATH);
+    return paths;
+}
+
+OiioPlugin load() {
+    std::string tried;
+    for (const fs::path& p : candidates()) {
+        std::error_code ec;
+        if (!fs::is_regular_file(p, ec)) {
+            tried += "\n  " + p.string() + " (absent)";
+            continue;
+        }
+        // Never closed: OIIO keeps threads and caches for the life of the process.
+        void* handle = dlopen(p.c_str(), RTLD_NOW | RTLD_LOCAL);
+        if (!handle) {
+            tried += fmt::format("\n  {} ({})", p.string(), dlerror());
+            continue;
+        }
+        OiioPlugin plugin;
+        plugin.read = reinterpret_cast<OiioReadFn>(dlsym(handle, "penumbra_oiio_read"));
+        if (plugin.read) return plugin;
+        tried += "\n  " + p.string() + " (no penumbra_oiio_read)";
+    }
+    throw EnvironmentError(
+        fmt::format("cannot read images: OpenImageIO's plugin {} was not found or did not load; looked at:{}",
+                    PENUMBRA_OIIO_PLUGIN_NAME, tried));
+}
+
+}  // namespace
+
+const OiioPlugin& oiio_plugin() {
+    // Not std::call_once's static: a failed load throws, and the next call tries again.
+    static std::mutex mutex;
+    static OiioPlugin plugin;
+    std::lock_guard lock(mutex);
+    if (!plugin.read) plugin = load();
+    return plugin;
+}
+
+}  // namespace penumbra

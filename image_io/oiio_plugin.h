@@ -1,0 +1,30 @@
+// Reading images goes through OpenImageIO in a plugin that is loaded on the first read: OIIO
+// brings ~260 shared libraries whose relocation costs every process ~0.25 s at start-up
+// (docs/oracle.md section 9), and most runs only write EXR and PNG, which image_io does with
+// OpenEXR and libpng directly.
+#pragma once
+
+#include <string>
+
+#include "image_io/image_io.h"
+
+namespace penumbra {
+
+enum class OiioReadStatus : int {
+    ok,
+    bad_input,  // the file is not an image OIIO reads as a flat 2D picture (an InputError)
+    failed,     // OIIO failed for another reason
+};
+
+// The plugin's one entry point, `penumbra_oiio_read`: fills `image` or writes `error`.
+using OiioReadFn = OiioReadStatus (*)(const char* path, ImageFile* image, std::string* error);
+
+struct OiioPlugin {
+    OiioReadFn read = nullptr;
+};
+
+// Loads the plugin on first use (thread-safe). Throws EnvironmentError naming where it looked
+// when it cannot be found or loaded.
+const OiioPlugin& oiio_plugin();
+
+}  // namespace penumbra
