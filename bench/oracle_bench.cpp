@@ -7,7 +7,7 @@
 // Both at 2048 x 2048. For each scene and thread count (1 and 2):
 // - the oracle: `penumbra oracle SCENARIO --out DIR --threads N -q` as a child process (the
 //   real command, file writes included): wall time, peak resident memory, and the phases it
-//   reports in oracle.json (load, build, trace, boundary, write);
+//   reports in oracle.json (load, build, frame, trace, boundary, write);
 // - bare Embree: read the .glb's bytes; build (float vertices relative to the eye copied into
 //   Embree's buffers, rtcCommitScene); trace the same primary rays and one closest-hit shadow
 //   ray per pixel that faces the light (rtcIntersect16 both, float o + t d + 1e-3 n origins:
@@ -208,7 +208,7 @@ BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bo
 // ---- the oracle, as the command a user runs ----
 
 struct OracleRun {
-    double wall = 0, load = 0, build = 0, trace = 0, boundary = 0, write = 0;
+    double wall = 0, load = 0, build = 0, frame = 0, trace = 0, boundary = 0, write = 0;
     double peak_mib = 0;
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
 };
@@ -235,6 +235,7 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
     const json& sec = j.at("seconds");
     r.load = sec.at("load");
     r.build = sec.at("build");
+    r.frame = sec.value("frame", 0.0);  // older binaries did not time it
     r.trace = sec.at("trace");
     r.boundary = sec.at("boundary");
     r.write = sec.at("write");
@@ -431,8 +432,8 @@ int main(int argc, char** argv) {
                     fs::file_size(dir / name / "scene.glb") / 1e6, size, size);
         for (const std::string& ts : split(thread_list)) {
             const int threads = std::stoi(ts);
-            Spread wall, load, build, trace, boundary, write, peak, b_load, b_build, b_trace, b_peak, whole_ratio,
-                trace_ratio, mem_ratio;
+            Spread wall, load, build, frame, trace, boundary, write, peak, b_load, b_build, b_trace, b_peak,
+                whole_ratio, trace_ratio, mem_ratio;
             OracleRun o;
             BareRun b;
             for (int r = 0; r < repeat; ++r) {
@@ -442,6 +443,7 @@ int main(int argc, char** argv) {
                 build.v.push_back(o.build);
                 trace.v.push_back(o.trace);
                 boundary.v.push_back(o.boundary);
+                frame.v.push_back(o.frame);
                 write.v.push_back(o.write);
                 peak.v.push_back(o.peak_mib);
                 if (!bare) continue;
@@ -459,9 +461,9 @@ int main(int argc, char** argv) {
             const std::uint64_t shadow = o.shadow;
             std::printf("-- %d thread%s, median (min-max) of %d --\n", threads, threads > 1 ? "s" : "", repeat);
             std::printf("oracle  whole %s s  peak %s MiB\n", wall.text("%.2f").c_str(), peak.text("%.0f").c_str());
-            std::printf("        load %s  build %s  trace %s  boundary %s  write %s s\n", load.text("%.2f").c_str(),
-                        build.text("%.2f").c_str(), trace.text("%.2f").c_str(), boundary.text("%.2f").c_str(),
-                        write.text("%.2f").c_str());
+            std::printf("        load %s  build %s  frame %s  trace %s  boundary %s  write %s s\n",
+                        load.text("%.2f").c_str(), build.text("%.2f").c_str(), frame.text("%.2f").c_str(),
+                        trace.text("%.2f").c_str(), boundary.text("%.2f").c_str(), write.text("%.2f").c_str());
             std::printf("        rays: %llu primary, %llu shadow, %llu re-traced in double (%.2f%% of shadow rays)\n",
                         (unsigned long long)o.primary, (unsigned long long)shadow, (unsigned long long)o.retraced,
                         shadow ? 100.0 * o.retraced / shadow : 0.0);

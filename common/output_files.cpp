@@ -25,6 +25,7 @@ OutputTransaction::~OutputTransaction() {
 }
 
 fs::path OutputTransaction::stage(const std::string& name) {
+    std::lock_guard lock(stage_mutex_);
     std::error_code ec;
     if (!fs::exists(dir_, ec)) {
         if (!fs::create_directories(dir_, ec) || ec)

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -18,7 +19,8 @@ class OutputTransaction {
     OutputTransaction& operator=(const OutputTransaction&) = delete;
 
     // A temporary path in the folder for `name`, renamed to `name` on commit: for writers
-    // elsewhere (image_io/image_io.h writes EXR and PNG files through it).
+    // elsewhere (image_io/image_io.h writes EXR and PNG files through it). Thread-safe, so that
+    // files can be written side by side.
     std::filesystem::path stage(const std::string& name);
     void write_json(const std::string& name, const nlohmann::json& value);
     void write_text(const std::string& name, const std::string& text);
@@ -34,6 +36,7 @@ class OutputTransaction {
     bool created_dir_ = false;
     bool committed_ = false;
     std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // temp, final
+    std::mutex stage_mutex_;  // guards files_ and the folder's creation in stage()
 };
 
 // Checks, before any work starts, that a result file such as --junit can be written once the

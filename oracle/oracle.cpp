@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -23,20 +24,23 @@ void allocate(OracleFrame& frame, const Scenario& scenario, std::size_t lights) 
     frame.width = scenario.width;
     frame.height = scenario.height;
     const std::size_t n = frame.pixel_count();
-    frame.A.assign(n, 0.0f);
-    frame.prim.assign(n, kNoPrimitive);
-    frame.depth.assign(n, 0.0f);
-    frame.P.assign(n, glm::vec3(0.0f));
-    frame.N.assign(n, glm::vec3(0.0f));
     frame.lights.resize(lights);
+    // Filling a fresh channel is mostly the kernel's first-touch page faults and zeroing
+    // (0.14 s for the 240 MB of a 2048^2 frame); channels are separate mappings, so the
+    // threads fault them in side by side.
+    std::vector<std::function<void()>> fills = {
+        [&] { frame.A.assign(n, 0.0f); }, [&] { frame.prim.assign(n, kNoPrimitive); },
+        [&] { frame.depth.assign(n, 0.0f); }, [&] { frame.P.assign(n, glm::vec3(0.0f)); },
+        [&] { frame.N.assign(n, glm::vec3(0.0f)); }};
     for (auto& img : frame.lights) {
-        img.V.assign(n, 0.0f);
-        img.E.assign(n, 0.0f);  // punctual lights are exact
-        img.U.assign(n, 0.0f);
-        img.lightable.assign(n, 0.0f);
-        img.occluder_m.assign(n, kNoDistance);
-        img.boundary_m.assign(n, kNoDistance);
+        fills.push_back([&img, n] { img.V.assign(n, 0.0f); });
+        fills.push_back([&img, n] { img.E.assign(n, 0.0f); });  // punctual lights are exact
+        fills.push_back([&img, n] { img.U.assign(n, 0.0f); });
+        fills.push_back([&img, n] { img.lightable.assign(n, 0.0f); });
+        fills.push_back([&img, n] { img.occluder_m.assign(n, kNoDistance); });
+        fills.push_back([&img, n] { img.boundary_m.assign(n, kNoDistance); });
     }
+    tbb::parallel_for(std::size_t(0), fills.size(), [&](std::size_t i) { fills[i](); });
 }
 
 }  // namespace
@@ -58,8 +62,10 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     tracer.build();
     stats.build_s = seconds_since(t0);
 
+    t0 = SteadyClock::now();
     OracleFrame& frame = result.frame;
     allocate(frame, scenario, tracer.lights().size());
+    stats.frame_s = seconds_since(t0);
     frame.frame_origin = tracer.frame_origin();
 
     // ---- primary and shadow rays, tile by tile; each pixel's answer is independent of the

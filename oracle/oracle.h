@@ -50,7 +50,7 @@ struct OracleStats {
     std::uint64_t boundary_rays = 0;      // bisection rays locating shadow boundaries
     std::uint64_t verified_retraces = 0;  // shadow rays re-traced with double-precision hit checks
     std::uint64_t culled_retraces = 0;    // primary rays traced again past a single-sided back face
-    double build_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;
+    double build_s = 0, frame_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;  // frame: allocating the channels
     int threads = 0;
     std::string embree_version;
     std::vector<OracleLightStats> lights;

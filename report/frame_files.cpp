@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <future>
 
 #include "common/preview.h"
 #include "common/stopwatch.h"
@@ -76,8 +77,11 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
     auto t0 = SteadyClock::now();
     // Uncompressed: zip costs ~3 CPU-seconds for a 2048^2 frame, more than tracing it (docs/oracle.md section 9).
+    // The preview is encoded (zlib, one thread) while the EXR is written.
+    auto png =
+        std::async(std::launch::async, [&] { write_png(out, "oracle.png", f.width, f.height, oracle_preview(f)); });
     write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
-    write_png(out, "oracle.png", f.width, f.height, oracle_preview(f));
+    png.get();
     return seconds_since(t0);
 }
 
