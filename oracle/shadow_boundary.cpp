@@ -133,15 +133,34 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     rows = {};
 
     // ---- 2. propagate the nearest boundary point across the surface pixels ----
+    // Pixel (x, y) takes the nearest of its neighbours' points: in the forward sweep those to
+    // its left and in the row above, in the backward sweep the mirror image. Its own point and
+    // light direction are computed once, at its first candidate.
     auto sweep = [&](int x, int y, const int(*offsets)[2]) {
         const int i = y * W + x;
         if (frame.A[i] == 0) return;
+        int cur = nearest[i];
+        double cur_d2 = best[i];
+        glm::dvec3 p, to_light;
+        bool have_p = false;
         for (int k = 0; k < 4; ++k) {
-            int xn = x + offsets[k][0], yn = y + offsets[k][1];
+            const int xn = x + offsets[k][0], yn = y + offsets[k][1];
             if (xn < 0 || yn < 0 || xn >= W || yn >= H) continue;
-            int s = nearest[yn * W + xn];
-            if (s >= 0 && s != nearest[i]) consider(i, s);
+            const int s = nearest[yn * W + xn];
+            if (s < 0 || s == cur) continue;
+            if (!have_p) {
+                p = glm::dvec3(frame.P[i]);
+                to_light = direction_to_light(light, p);
+                have_p = true;
+            }
+            const double d2 = lateral_distance2(p, to_light, seeds[s]);
+            if (d2 < cur_d2) {
+                cur_d2 = d2;
+                cur = s;
+            }
         }
+        nearest[i] = cur;
+        best[i] = cur_d2;
     };
     static const int kForward[4][2] = {{-1, 0}, {-1, -1}, {0, -1}, {1, -1}};
     static const int kBackward[4][2] = {{1, 0}, {1, 1}, {0, 1}, {-1, 1}};
