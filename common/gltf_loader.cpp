@@ -424,7 +424,8 @@ struct Flattener {
         for (auto t : tris) {
             glm::dvec3 a = scene.positions[base + t.x], b = scene.positions[base + t.y],
                        c = scene.positions[base + t.z];
-            if (glm::length(glm::cross(b - a, c - a)) == 0.0) {  // no area: can neither be seen nor occlude
+            const glm::dvec3 cross = glm::cross(b - a, c - a);
+            if (glm::dot(cross, cross) == 0.0) {  // no area: can neither be seen nor occlude
                 ++degenerate;
                 continue;
             }
@@ -529,6 +530,12 @@ struct Flattener {
         in.triangles = triangles;
         in.vertices = vertices;
         check_memory(estimate_memory(in), max_memory_bytes, ctx.label);
+        // The scene's arrays are sized once, to these counts (an upper bound of what is kept):
+        // grown primitive by primitive, each doubling re-copies them and faults in fresh pages.
+        scene.positions.reserve(vertices);
+        scene.triangles.reserve(triangles);
+        scene.double_sided.reserve(triangles);
+        scene.triangle_node.reserve(triangles);
     }
 
     void traverse(const std::vector<int>& roots) {

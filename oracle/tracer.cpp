@@ -112,18 +112,18 @@ void Tracer::build() {
         RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
         auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                                3 * sizeof(float), vertices_.size()));
-        auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                  3 * sizeof(unsigned), tris_.size()));
+        // The scene's own triangles are the index buffer (three uint32 each): no copy.
+        static_assert(sizeof(glm::u32vec3) == 3 * sizeof(unsigned));
+        rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, tris_.data(), 0,
+                                   sizeof(glm::u32vec3), tris_.size());
         device_.check("buffer allocation");
-        if (!vb || !ib) throw EnvironmentError("Embree: cannot allocate geometry buffers");
+        if (!vb) throw EnvironmentError("Embree: cannot allocate geometry buffers");
         for (std::size_t i = 0; i < vertices_.size(); ++i) {
             glm::vec3 f = glm::vec3(vertices_[i]);
             vb[3 * i] = f.x;
             vb[3 * i + 1] = f.y;
             vb[3 * i + 2] = f.z;
         }
-        for (std::size_t i = 0; i < tris_.size(); ++i)
-            for (int k = 0; k < 3; ++k) ib[3 * i + k] = tris_[i][k];
         rtcCommitGeometry(geom);
         rtcAttachGeometry(sc, geom);
         rtcReleaseGeometry(geom);  // the scene holds the reference now
