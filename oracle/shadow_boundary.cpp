@@ -10,12 +10,16 @@
 //    in the light-lateral metric.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
 // silhouette) are not seen; pixels farther from every seen boundary report inf.
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <limits>
+#include <thread>
+#include <vector>
 
 #include "oracle/tracer.h"
 
@@ -36,6 +40,46 @@ bool same_plane(const Tracer& tr, std::uint32_t a, std::uint32_t b) {
     if (std::abs(glm::dot(na, nb)) < 1.0 - 1e-12) return false;
     double scale = glm::length(tr.vertex(a, 0)) + glm::length(tr.vertex(b, 0));
     return std::abs(glm::dot(na, tr.vertex(b, 0) - tr.vertex(a, 0))) <= 1e-12 * std::max(scale, 1e-300);
+}
+
+// The threads the boundary sweeps may use: the run's thread limit (tbb::global_control).
+int sweep_threads() {
+    return static_cast<int>(
+        std::max<std::size_t>(1, tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
+}
+
+// Calls visit(x, y) once for every pixel, row after row, each row from x = 0 up, where visit
+// reads only pixels (x' < x, y) and (x' <= x + 1, y - 1) besides (x, y). Rows go round-robin to
+// `threads` threads as a wavefront: a chunk of a row starts once the row above has finished one
+// pixel past it, so every pixel sees the final values a serial sweep would give it.
+template <typename Visit>
+void wavefront_sweep(int W, int H, int threads, Visit&& visit) {
+    constexpr int kChunk = 64;  // pixels a row finishes between two looks at the row above
+    threads = std::clamp(threads, 1, std::max(1, H));
+    if (threads == 1) {
+        for (int y = 0; y < H; ++y)
+            for (int x = 0; x < W; ++x) visit(x, y);
+        return;
+    }
+    std::vector<std::atomic<int>> done(static_cast<std::size_t>(H));  // pixels finished in each row
+    for (auto& d : done) d.store(0, std::memory_order_relaxed);
+    auto run = [&](int first_row) {
+        for (int y = first_row; y < H; y += threads)
+            for (int x0 = 0; x0 < W; x0 += kChunk) {
+                const int x1 = std::min(W, x0 + kChunk);
+                if (y > 0) {
+                    const std::atomic<int>& above = done[static_cast<std::size_t>(y - 1)];
+                    // The row above is at most a few chunks behind: yield, do not sleep.
+                    while (above.load(std::memory_order_acquire) < std::min(W, x1 + 1)) std::this_thread::yield();
+                }
+                for (int x = x0; x < x1; ++x) visit(x, y);
+                done[static_cast<std::size_t>(y)].store(x1, std::memory_order_release);
+            }
+    };
+    std::vector<std::thread> helpers;
+    for (int t = 1; t < threads; ++t) helpers.emplace_back(run, t);
+    run(0);
+    for (std::thread& h : helpers) h.join();
 }
 
 }  // namespace
@@ -135,7 +179,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     // ---- 2. propagate the nearest boundary point across the surface pixels ----
     // Pixel (x, y) takes the nearest of its neighbours' points: in the forward sweep those to
     // its left and in the row above, in the backward sweep the mirror image. Its own point and
-    // light direction are computed once, at its first candidate.
+    // light direction are computed once, at its first candidate. The sweeps run as wavefronts
+    // over the run's threads, with the serial sweeps' result.
     auto sweep = [&](int x, int y, const int(*offsets)[2]) {
         const int i = y * W + x;
         if (frame.A[i] == 0) return;
@@ -165,10 +210,10 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     static const int kForward[4][2] = {{-1, 0}, {-1, -1}, {0, -1}, {1, -1}};
     static const int kBackward[4][2] = {{1, 0}, {1, 1}, {0, 1}, {-1, 1}};
     if (!seeds.empty()) {
-        for (int y = 0; y < H; ++y)
-            for (int x = 0; x < W; ++x) sweep(x, y, kForward);
-        for (int y = H - 1; y >= 0; --y)
-            for (int x = W - 1; x >= 0; --x) sweep(x, y, kBackward);
+        const int threads = sweep_threads();
+        wavefront_sweep(W, H, threads, [&](int x, int y) { sweep(x, y, kForward); });
+        // The backward sweep is the forward one on the image turned by 180 degrees.
+        wavefront_sweep(W, H, threads, [&](int x, int y) { sweep(W - 1 - x, H - 1 - y, kBackward); });
     }
 
     // ---- 3. distances, and ambiguity within float error of a boundary ----
