@@ -1,0 +1,172 @@
+// image_io: EXR and PNG written through OpenEXR and libpng read back exactly, through the
+// OpenImageIO plugin (read_image) and, for the stored pixel types and uint values, through
+// OpenEXR itself.
+#include "image_io/image_io.h"
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include "common/errors.h"
+#include "common/output_files.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Width and height that are not multiples of the writer's strips (64 rows) or of 16.
+constexpr int kW = 37, kH = 70;
+
+const std::vector<float>& channel(const ImageFile& img, const std::string& name) {
+    for (std::size_t c = 0; c < img.channel_names.size(); ++c)
+        if (img.channel_names[c] == name) return img.channels[c];
+    ADD_FAILURE() << "no channel " << name;
+    static const std::vector<float> none;
+    return none;
+}
+
+class ImageIo : public ::testing::TestWithParam<ExrCompression> {};
+
+TEST_P(ImageIo, ExrViewsReadBackExactlyWithTheirStoredTypes) {
+    const std::size_t n = static_cast<std::size_t>(kW) * kH;
+    // An interleaved xyz array read as three strided views, a uint channel, and a mask of
+    // values half holds exactly.
+    std::vector<float> xyz(3 * n);
+    std::vector<std::uint32_t> ids(n);
+    std::vector<float> mask(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        xyz[3 * i] = 0.1f * static_cast<float>(i);
+        xyz[3 * i + 1] = -1e7f + static_cast<float>(i);
+        xyz[3 * i + 2] = i % 5 ? std::ldexp(1.0f, -static_cast<int>(i % 40)) : std::numeric_limits<float>::infinity();
+        ids[i] = i % 7 ? static_cast<std::uint32_t>(i * 2654435761u) : 0xFFFFFFFFu;
+        mask[i] = static_cast<float>(i % 3) * 0.5f;  // 0, 0.5, 1
+    }
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_exr(out, "views.exr", kW, kH,
+                  {{"P.X", ExrStorage::f32, xyz.data(), 3},
+                   {"P.Y", ExrStorage::f32, xyz.data() + 1, 3},
+                   {"P.Z", ExrStorage::f32, xyz.data() + 2, 3},
+                   {"prim", ExrStorage::u32, ids.data(), 1},
+                   {"mask", ExrStorage::half, mask.data(), 1}},
+                  GetParam());
+        out.commit();
+    }
+    const ImageFile img = read_image(dir / "views.exr");
+    EXPECT_EQ(img.format, "openexr");
+    ASSERT_EQ(img.width, kW);
+    ASSERT_EQ(img.height, kH);
+    const auto& x = channel(img, "P.X");
+    const auto& y = channel(img, "P.Y");
+    const auto& z = channel(img, "P.Z");
+    const auto& m = channel(img, "mask");
+    ASSERT_EQ(x.size(), n);
+    for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(x[i], xyz[3 * i]) << i;
+        ASSERT_EQ(y[i], xyz[3 * i + 1]) << i;
+        ASSERT_EQ(z[i], xyz[3 * i + 2]) << i;
+        ASSERT_EQ(m[i], mask[i]) << i;
+    }
+    // The types stored, seen by OpenEXR itself.
+    Imf::InputFile file((dir / "views.exr").c_str());
+    const Imf::ChannelList& channels = file.header().channels();
+    EXPECT_EQ(channels.findChannel("P.X")->type, Imf::FLOAT);
+    EXPECT_EQ(channels.findChannel("prim")->type, Imf::UINT);
+    EXPECT_EQ(channels.findChannel("mask")->type, Imf::HALF);
+    EXPECT_EQ(file.header().compression(),
+              GetParam() == ExrCompression::zip ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION);
+    // The uint channel exactly (OIIO would normalise it to [0, 1]).
+    std::vector<std::uint32_t> read_ids(n);
+    Imf::FrameBuffer frame;
+    frame.insert("prim", Imf::Slice(Imf::UINT, reinterpret_cast<char*>(read_ids.data()), sizeof(std::uint32_t),
+                                    sizeof(std::uint32_t) * kW));
+    file.setFrameBuffer(frame);
+    file.readPixels(0, kH - 1);
+    EXPECT_EQ(read_ids, ids);
+}
+
+INSTANTIATE_TEST_SUITE_P(Compression, ImageIo, ::testing::Values(ExrCompression::zip, ExrCompression::none),
+                         [](const auto& param_info) {
+                             return param_info.param == ExrCompression::zip ? "zip" : "none";
+                         });
+
+// IEC 61966-2-1, in double: the code a linear value should get.
+int srgb_code(double linear) {
+    const double v = std::clamp(linear, 0.0, 1.0);
+    const double s = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+    return static_cast<int>(std::lround(s * 255.0));
+}
+
+TEST(ImageIoPng, RgbIsSrgbEncodedAndReadsBack) {
+    const std::size_t n = static_cast<std::size_t>(kW) * kH;
+    std::vector<float> rgb(3 * n);
+    for (std::size_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<float>(i % 1000) / 999.0f;
+    rgb[0] = -0.5f;  // clamped
+    rgb[1] = 2.0f;
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_png(out, "rgb.png", kW, kH, rgb);
+        out.commit();
+    }
+    const ImageFile img = read_image(dir / "rgb.png");
+    EXPECT_EQ(img.format, "png");
+    EXPECT_EQ(img.bits, 8);
+    ASSERT_EQ(img.channels.size(), 3u);
+    ASSERT_EQ(img.width, kW);
+    ASSERT_EQ(img.height, kH);
+    int off_by_one = 0;
+    for (std::size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) {
+            const int got = static_cast<int>(std::lround(img.channels[c][i] * 255.0f));
+            const int want = srgb_code(rgb[3 * i + c]);
+            // The writer decides in float, the reference in double: they may differ by one
+            // code exactly at a threshold, never more.
+            ASSERT_LE(std::abs(got - want), 1) << "pixel " << i << " channel " << c;
+            off_by_one += got != want;
+        }
+    EXPECT_LT(off_by_one, 10);
+    EXPECT_EQ(std::lround(img.channels[0][0] * 255.0f), 0);
+    EXPECT_EQ(std::lround(img.channels[1][0] * 255.0f), 255);
+}
+
+TEST(ImageIoRead, MissingAndNonImageFilesAreInputErrorsNamingTheFile) {
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path();
+    EXPECT_THROW(
+        {
+            try {
+                read_image(dir / "absent.exr");
+            } catch (const InputError& e) {
+                EXPECT_NE(std::string(e.what()).find("absent.exr"), std::string::npos);
+                throw;
+            }
+        },
+        InputError);
+    std::ofstream(dir / "notes.png") << "not a picture\n";
+    EXPECT_THROW(
+        {
+            try {
+                read_image(dir / "notes.png");
+            } catch (const InputError& e) {
+                EXPECT_NE(std::string(e.what()).find("notes.png"), std::string::npos);
+                throw;
+            }
+        },
+        InputError);
+}
+
+}  // namespace
+}  // namespace penumbra
