@@ -21,16 +21,22 @@ namespace {
 std::vector<fs::path> candidates() {
     std::vector<fs::path> paths;
     if (const char* env = std::getenv("PENUMBRA_OIIO_PLUGIN"); env && *env) paths.emplace_back(env);
+    // The module that holds this code: libpenumbra.so by its absolute path, or the program
+    // itself, whose name dladdr reports as argv[0] (maybe relative, or a bare name found on
+    // PATH), so /proc/self/exe is asked instead.
+    std::vector<fs::path> dirs;
+    std::error_code ec;
     Dl_info info{};
-    if (dladdr(reinterpret_cast<void*>(&oiio_plugin), &info) && info.dli_fname && *info.dli_fname) {
-        std::error_code ec;
-        fs::path self = fs::canonical(fs::path(info.dli_fname), ec);
-        if (ec) self = fs::canonical("/proc/self/exe", ec);
-        if (!ec) {
-            const fs::path dir = self.parent_path();
-            paths.push_back(dir / "penumbra" / PENUMBRA_OIIO_PLUGIN_NAME);
-            paths.push_back(dir / ".." / PENUMBRA_INSTALL_LIBDIR / "penumbra" / PENUMBRA_OIIO_PLUGIN_NAME);
-        }
+    if (dladdr(reinterpret_cast<void*>(&oiio_plugin), &info) && info.dli_fname &&
+        fs::path(info.dli_fname).is_absolute()) {
+        const fs::path self = fs::canonical(fs::path(info.dli_fname), ec);
+        if (!ec) dirs.push_back(self.parent_path());
+    }
+    const fs::path exe = fs::canonical("/proc/self/exe", ec);
+    if (!ec) dirs.push_back(exe.parent_path());
+    for (const fs::path& dir : dirs) {
+        paths.push_back(dir / "penumbra" / PENUMBRA_OIIO_PLUGIN_NAME);
+        paths.push_back(dir / ".." / PENUMBRA_INSTALL_LIBDIR / "penumbra" / PENUMBRA_OIIO_PLUGIN_NAME);
     }
     paths.emplace_back(PENUMBRA_OIIO_PLUGIN_BUILD_PATH);
     paths.emplace_back(PENUMBRA_OIIO_PLUGIN_INSTALL_PATH);
