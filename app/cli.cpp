@@ -38,13 +38,17 @@ OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
     return settings;
 }
 
+void add_tolerance(CLI::App* cmd, double& tolerance) {
+    cmd->add_option("--tolerance", tolerance, "tau: |error| above this plus the oracle's E is wrong")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+}
+
 void add_verdict_options(CLI::App* cmd, VerdictArgs& v) {
     cmd->add_option("--cache", v.cache_dir,
                     "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
     cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
-    cmd->add_option("--tolerance", v.tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
+    add_tolerance(cmd, v.tolerance);
     add_sampling(cmd, v.sampling);
 }
 

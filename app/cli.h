@@ -54,6 +54,8 @@ struct VerdictArgs {
 };
 // --cache, --no-cache, --tolerance and the sampling options.
 void add_verdict_options(CLI::App* cmd, VerdictArgs& v);
+// --tolerance (tau), as validate, compare, tune, sweep and stress take it.
+void add_tolerance(CLI::App* cmd, double& tolerance);
 // The pipeline's options from them (the oracle's progress shown unless quiet).
 ValidateOptions validate_options(const Common& c, const VerdictArgs& v);
 

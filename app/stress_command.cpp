@@ -114,9 +114,7 @@ Subcommand add_stress_command(CLI::App& parent) {
     cmd->add_option("--gate", s.gate_file,
                     "Gate JSON: validate's checks on every light of every case, and \"oracle_invariant\"");
     cmd->add_option("--junit", s.junit_file, "Write the suite's checks as JUnit XML to this file");
-    cmd->add_option("--tolerance", s.tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
+    add_tolerance(cmd, s.tolerance);
     cmd->add_option("--seed", s.seed, "Seed of the generated scenes' random parts (default 20)");
     cmd->add_option("--threads", s.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
     cmd->add_flag("-q,--quiet", s.quiet, "Print nothing but errors");

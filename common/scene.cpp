@@ -21,6 +21,18 @@ void Bounds::grow(const glm::dvec3& p) {
     hi = glm::max(hi, p);
 }
 
+std::uint32_t Scene::add_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, bool is_double_sided) {
+    const auto base = static_cast<std::uint32_t>(positions.size());
+    for (const glm::dvec3& p : {a, b, c}) {
+        positions.push_back(p);
+        bounds.grow(p);
+    }
+    triangles.push_back({base, base + 1, base + 2});
+    double_sided.push_back(is_double_sided);
+    triangle_node.push_back(0);
+    return static_cast<std::uint32_t>(triangles.size() - 1);
+}
+
 double Bounds::radius() const {
     return empty() ? 0.0 : 0.5 * glm::length(hi - lo);
 }

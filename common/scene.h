@@ -59,6 +59,9 @@ struct Scene {
     std::vector<std::string> warnings;  // skipped points/lines, degenerate triangles, ...
 
     std::size_t triangle_count() const { return triangles.size(); }
+    // Appends a triangle with three vertices of its own (node 0) and grows the bounds; returns
+    // its index. For scenes built in code (the stress cases, the tests).
+    std::uint32_t add_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, bool double_sided);
 };
 
 }  // namespace penumbra

@@ -22,15 +22,7 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 class Shapes {
   public:
     std::uint32_t triangle(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, bool double_sided = false) {
-        auto base = static_cast<std::uint32_t>(scene_.positions.size());
-        for (auto p : {a, b, c}) {
-            scene_.positions.push_back(p);
-            scene_.bounds.grow(p);
-        }
-        scene_.triangles.push_back({base, base + 1, base + 2});
-        scene_.double_sided.push_back(double_sided);
-        scene_.triangle_node.push_back(0);
-        return static_cast<std::uint32_t>(scene_.triangles.size() - 1);
+        return scene_.add_triangle(a, b, c, double_sided);
     }
     void quad(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d, bool double_sided = false) {
         triangle(a, b, c, double_sided);

@@ -14,15 +14,7 @@ namespace penumbra::test {
 namespace fs = std::filesystem;
 
 std::uint32_t SceneBuilder::triangle(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, bool double_sided) {
-    auto base = static_cast<std::uint32_t>(scene_.positions.size());
-    for (auto p : {a, b, c}) {
-        scene_.positions.push_back(p);
-        scene_.bounds.grow(p);
-    }
-    scene_.triangles.push_back({base, base + 1, base + 2});
-    scene_.double_sided.push_back(double_sided);
-    scene_.triangle_node.push_back(0);
-    return static_cast<std::uint32_t>(scene_.triangles.size() - 1);
+    return scene_.add_triangle(a, b, c, double_sided);
 }
 
 std::uint32_t SceneBuilder::quad(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c, glm::dvec3 d, bool double_sided) {
