@@ -14,7 +14,7 @@ namespace penumbra {
 struct OracleSettings {
     int threads = 0;                    // 0: all hardware threads
     bool progress = false;              // progress line on stderr
-    int boundary_bisection_steps = 12;  // each step halves the boundary's position interval
+    int boundary_bisection_steps = 12;  // where bisection places a boundary: each step halves its interval
     // Area lights (docs/oracle.md, "Area lights"):
     std::uint64_t seed = 0;          // scrambles of the sampling pattern; same seed, same image
     double area_target = 1.0 / 255;  // stop refining a pixel once its 95% half-width E is this small
@@ -47,7 +47,7 @@ struct OracleLightStats {
 struct OracleStats {
     std::uint64_t primary_rays = 0;
     std::uint64_t shadow_rays = 0;
-    std::uint64_t boundary_rays = 0;      // bisection rays locating shadow boundaries
+    std::uint64_t boundary_rays = 0;      // verified rays locating shadow boundaries
     std::uint64_t verified_retraces = 0;  // shadow rays re-traced with double-precision hit checks
     std::uint64_t culled_retraces = 0;    // primary rays traced again past a single-sided back face
     double build_s = 0, frame_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;  // frame: allocating the channels

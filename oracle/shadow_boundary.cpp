@@ -2,9 +2,11 @@
 // light direction (the metric of a shadow-map texel footprint), independent of any shadow-map
 // resolution.
 //
-// 1. Every pair of 4-adjacent pixels on one plane whose verdicts differ brackets a boundary;
-//    bisecting the segment between their surface points with exact shadow rays places it to
-//    2^-steps of a pixel footprint.
+// 1. Every pair of 4-adjacent pixels on one plane whose verdicts differ brackets a boundary.
+//    It is placed exactly where the segment between their surface points leaves the shadow of
+//    the occluder triangles met from its shadowed end, confirmed by an exact shadow ray just
+//    past it (locate_on_plane); where that cannot conclude, bisection with exact shadow rays
+//    places it to 2^-steps of a pixel footprint.
 // 2. The located boundary points are propagated over the image in two raster sweeps (a
 //    vector distance transform, Danielsson 1980), each pixel keeping the point nearest to it
 //    in the light-lateral metric.
@@ -82,6 +84,125 @@ void wavefront_sweep(int W, int H, int threads, Visit&& visit) {
     for (std::thread& h : helpers) h.join();
 }
 
+// Where the segment from `from` to `to` leaves the shadow that triangle `prim` casts, as a
+// fraction s of the way, `from` being in that shadow. Each edge of the triangle and the light
+// span a plane (the edge and the light's direction, or the edge and the light's position); the
+// triangle's shadow is the side of all three planes that holds the opposite vertex, and each
+// side is a half-line of s. NaN when `from` is not inside, when the whole segment is, or when
+// the triangle is not between the segment and the light.
+double shadow_exit(const Tracer& tr, const LocalLight& light, std::uint32_t prim, const glm::dvec3& from,
+                   const glm::dvec3& to) {
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    const bool directional = light.type == LightType::directional;
+    double exit = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+        const glm::dvec3 &e0 = tr.vertex(prim, k), &e1 = tr.vertex(prim, (k + 1) % 3),
+                         &opposite = tr.vertex(prim, (k + 2) % 3);
+        const glm::dvec3 anchor = directional ? e0 : light.position;
+        const glm::dvec3 c = directional ? glm::cross(e1 - e0, light.to_light) : glm::cross(e0 - anchor, e1 - anchor);
+        const double side = glm::dot(opposite - anchor, c);
+        if (!(side != 0)) return kNaN;  // the triangle is seen edge-on from the light
+        const double g0 = glm::dot(from - anchor, c) * side, g1 = glm::dot(to - anchor, c) * side;
+        if (!(g0 >= 0)) return kNaN;
+        if (g1 < 0) exit = std::min(exit, g0 / (g0 - g1));
+    }
+    if (!(exit <= 1)) return kNaN;
+    // In front: the ray from the exit point meets the triangle's plane between the point and the light.
+    const glm::dvec3 q = from + exit * (to - from), n = tr.normal_ccw(prim);
+    const double ahead = glm::dot(tr.vertex(prim, 0) - q, n);
+    const double along = glm::dot(directional ? light.to_light : light.position - q, n);
+    const double t = ahead / along;
+    if (!(t > 0) || (!directional && !(t < 1))) return kNaN;
+    return exit;
+}
+
+// Occluder triangles walked before falling back to bisection. Near a tessellated silhouette the
+// triangles' shadows are slivers: on a field of 48x25-segment spheres, 12% of walks end at the
+// first triangle, 85% within four, 99.4% within sixteen.
+constexpr int kMaxWalk = 16;
+
+// The boundary point between two pixels on one plane whose verdicts differ: a (verdict va)
+// and b. Both are projected onto the exact plane of triangle `prim` in double.
+//
+// Where the ray from the shadowed end meets an occluder, the shadow of that triangle is exact
+// geometry: the boundary is where the segment leaves it (shadow_exit), unless another
+// triangle's shadow continues it. A verified ray a little past the exit says which: lit, the
+// exit is the boundary; shadowed, the walk goes on from there with the triangle that ray met.
+// "A little" is twice the float error of the verifying rays' hits, mapped onto the receiver
+// (1 / cos to the light; the light's magnification for a point light), and not below the
+// bisection's own resolution. Two rays place most boundaries, where bisection takes `steps`;
+// where the walk cannot conclude (no occluder met, kMaxWalk triangles walked, float error above an
+// eighth of the segment) the segment is bisected, as before.
+glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint32_t prim, glm::dvec3 a, glm::dvec3 b,
+                           float va, int steps, std::uint64_t& rays) {
+    const glm::dvec3 n = glm::normalize(tr.normal_ccw(prim));
+    const glm::dvec3& v0 = tr.vertex(prim, 0);
+    auto on_plane = [&](const glm::dvec3& q) { return q - glm::dot(q - v0, n) * n; };
+    const glm::dvec3 n_lit = glm::dot(n, direction_to_light(light, a)) > 0 ? n : -n;
+    const glm::dvec3 vabs =
+        glm::max(glm::abs(tr.vertex(prim, 0)), glm::max(glm::abs(tr.vertex(prim, 1)), glm::abs(tr.vertex(prim, 2))));
+    // The verdict at a point of the plane (1 lit, 0 shadowed), as the trace would judge it there.
+    auto verdict = [&](const glm::dvec3& p, std::uint32_t* occluder) {
+        SurfacePoint m;
+        m.hit = true;
+        m.p = p;
+        m.n = n_lit;
+        m.error = robust::surface_error_bound(m.p, vabs);
+        ShadowSetup setup;
+        setup_shadow(light, m, setup);
+        if (!setup.lightable) return 0.0f;
+        ++rays;
+        const ShadowAnswer ans = tr.trace_shadow_verified(setup, m.p, kNoPrimitive);
+        if (occluder) *occluder = ans.occluder;
+        return ans.blocked ? 0.0f : 1.0f;
+    };
+    a = on_plane(a);
+    b = on_plane(b);
+
+    // ---- the walk over the occluders' shadow edges ----
+    const glm::dvec3& lit = va == 0 ? b : a;
+    glm::dvec3 from = va == 0 ? a : b;
+    std::uint32_t occluder = kNoPrimitive;
+    if (verdict(from, &occluder) == 0 && occluder != kNoPrimitive) {
+        const double segment = glm::length(lit - from);
+        for (int walked = 0; walked < kMaxWalk; ++walked) {
+            const double s = shadow_exit(tr, light, occluder, from, lit);
+            if (!(s >= 0)) break;
+            const glm::dvec3 exit = on_plane(from + s * (lit - from));
+            const glm::dvec3 to_light = direction_to_light(light, exit);
+            const double cos_nl = glm::dot(n_lit, to_light);
+            if (!(cos_nl > 0)) break;
+            // A point light magnifies the occluder's float error by (light to receiver) / (light to occluder).
+            double magnification = 1;
+            if (light.type != LightType::directional) {
+                const glm::dvec3 no = tr.normal_ccw(occluder);
+                const double to_occluder = glm::dot(tr.vertex(occluder, 0) - exit, no) / glm::dot(to_light, no);
+                const double to_light_m = glm::length(light.position - exit);
+                magnification = to_light_m / std::max(to_light_m - to_occluder, 1e-300);
+            }
+            double vmax = 0;
+            for (int k = 0; k < 3; ++k) vmax = std::max(vmax, glm::length(tr.vertex(occluder, k)));
+            const double fuzz = 16 * robust::kFloatEps * (glm::length(exit) + vmax) * magnification / cos_nl;
+            const double past = std::max(2 * fuzz, std::ldexp(segment, -steps));
+            const double remaining = glm::length(lit - exit);
+            if (!(past <= segment / 8) || !(past < remaining)) break;
+            const glm::dvec3 probe = on_plane(exit + (past / remaining) * (lit - exit));
+            std::uint32_t next = kNoPrimitive;
+            if (verdict(probe, &next) == 1) return exit;
+            if (next == kNoPrimitive) break;
+            from = probe;
+            occluder = next;
+        }
+    }
+
+    // ---- bisection ----
+    for (int s = 0; s < steps; ++s) {
+        const glm::dvec3 m = on_plane(0.5 * (a + b));
+        (verdict(m, nullptr) == va ? a : b) = m;
+    }
+    return 0.5 * (a + b);
+}
+
 }  // namespace
 
 std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std::size_t li, int steps) {
@@ -91,7 +212,7 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     std::uint64_t rays = 0;
 
     // ---- 1. boundary points between straddling pixel pairs ----
-    // Rows are searched in parallel (the bisection rays are most of this phase's time); the
+    // Rows are searched in parallel (the exact shadow rays are most of this phase's time); the
     // points are then taken in row-major order, as a serial loop would, so the output does not
     // depend on the thread count.
     struct Straddle {
@@ -116,32 +237,7 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
                     glm::dvec3 a(frame.P[i]), b(frame.P[j]);
                     glm::dvec3 seed;
                     if (same_plane(tr, pi, pj)) {
-                        // Bisect on the exact plane of the triangle: points projected onto it in double.
-                        glm::dvec3 n = glm::normalize(tr.normal_ccw(pi));
-                        const glm::dvec3& v0 = tr.vertex(pi, 0);
-                        auto on_plane = [&](const glm::dvec3& q) { return q - glm::dot(q - v0, n) * n; };
-                        glm::dvec3 n_lit = glm::dot(n, direction_to_light(light, a)) > 0 ? n : -n;
-                        glm::dvec3 vabs = glm::max(glm::abs(tr.vertex(pi, 0)),
-                                                   glm::max(glm::abs(tr.vertex(pi, 1)), glm::abs(tr.vertex(pi, 2))));
-                        float va = img.V[i];
-                        a = on_plane(a);
-                        b = on_plane(b);
-                        for (int s = 0; s < steps; ++s) {
-                            SurfacePoint m;
-                            m.hit = true;
-                            m.p = on_plane(0.5 * (a + b));
-                            m.n = n_lit;
-                            m.error = robust::surface_error_bound(m.p, vabs);
-                            ShadowSetup setup;
-                            setup_shadow(light, m, setup);
-                            float vm = 0.0f;
-                            if (setup.lightable) {
-                                vm = tr.trace_shadow_verified(setup, m.p, kNoPrimitive).blocked ? 0.0f : 1.0f;
-                                ++local_rays;
-                            }
-                            (vm == va ? a : b) = m.p;
-                        }
-                        seed = 0.5 * (a + b);
+                        seed = locate_on_plane(tr, light, pi, a, b, img.V[i], steps, local_rays);
                     } else {
                         // A crease or a silhouette: accept the midpoint only where the surface is
                         // continuous (similar normals, no depth jump).

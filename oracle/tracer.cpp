@@ -212,6 +212,7 @@ ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::
     if (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
         a.blocked = true;
         a.occluder_t = occluder_distance(setup, p, rh.ray.tfar);
+        a.occluder = rh.hit.primID;
     }
     return a;
 }

@@ -104,6 +104,7 @@ struct ShadowAnswer {
     bool blocked = false;
     bool ambiguous = false;
     float occluder_t = kNoDistance;
+    std::uint32_t occluder = kNoPrimitive;  // the nearest occluder (set by trace_shadow_verified only)
 };
 
 struct TraceCounters {

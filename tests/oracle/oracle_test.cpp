@@ -347,8 +347,45 @@ TEST(Oracle, BoundaryDistanceIsExactForAStraightEdge) {
         ++checked;
     }
     EXPECT_GT(checked, 20000u);
-    // Pixel footprint is 2 cm; the boundary is located to 2^-12 of it.
-    EXPECT_LT(worst, 1e-4);
+    // Pixel footprint is 2 cm; the boundary is the occluder edge's exact shadow (docs/oracle.md
+    // section 6), and P is stored in float.
+    EXPECT_LT(worst, 1e-6);
+    // One straddling pair per row: a ray at its shadowed end and one past the edge's shadow,
+    // where bisection took 12.
+    EXPECT_EQ(res.stats.boundary_rays, 2u * 150);
+}
+
+// The same under a point light at (xl, yl, zl): the edge's shadow is the line x = -xl h / (yl - h).
+// In the pixel row at z = zl, the line from a pixel to the light stays in that row's plane, so
+// the nearest boundary point is the row's own, at lateral distance yl |x - xb| / |light - p|.
+TEST(Oracle, BoundaryDistanceIsExactForAStraightEdgeUnderAPointLight) {
+    const double h = 2, xl = -3, yl = 6;
+    const double xb = -xl * h / (yl - h);
+    SceneBuilder b;
+    std::uint32_t ground = b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
+    b.quad({-20, h, 20}, {0, h, 20}, {0, h, -20}, {-20, h, -20});
+    // 150 rows over 3 m: row centres at z = +-0.01, +-0.03, ...; the light sits on one of them.
+    const double zl = 0.01;
+    Scenario sc = test::make_scenario(b.build(), test::look_at_ortho({xb, 10, 0}, {xb, 0, 0}, 2, 1.5, {0, 0, -1}),
+                                      {test::point({xl, yl, zl})}, 200, 150);
+    OracleResult res = run_oracle(sc);
+    const OracleFrame& f = res.frame;
+    const OracleLightImage& img = f.lights[0];
+    std::size_t checked = 0;
+    double worst = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+        if (f.prim[i] != ground && f.prim[i] != ground + 1) continue;
+        const glm::dvec3 p = world_point(f, i);
+        if (img.U[i] == 0) {
+            EXPECT_EQ(img.V[i], p.x < xb ? 0.0f : 1.0f) << "x = " << p.x;
+        }
+        if (std::abs(p.z - zl) > 1e-4) continue;
+        const double expect = yl * std::abs(p.x - xb) / std::hypot(xl - p.x, yl);
+        worst = std::max(worst, std::abs(img.boundary_m[i] - expect));
+        ++checked;
+    }
+    EXPECT_GT(checked, 150u);  // the row, less the pixels that see the occluder (x < 0)
+    EXPECT_LT(worst, 1e-6);
 }
 
 // ---- invariance ---------------------------------------------------------------------------
