@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <functional>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/mat4x4.hpp>
@@ -321,71 +322,66 @@ TEST(Oracle, SingleSidedSurfacesAreCulledForTheCameraOnly) {
     }
 }
 
-// The distance to the nearest shadow boundary, across the light direction: for a straight edge
-// at height h under light tilted by theta it is |x - h tan(theta)| cos(theta).
-TEST(Oracle, BoundaryDistanceIsExactForAStraightEdge) {
-    const double h = 2, theta = 20 * M_PI / 180;
+// A ground plane and, at height h, an occluding half-plane over x < 0, seen from straight above
+// in 2 cm pixels, 200 x 150 around x = xb, the edge's shadow. Checks V on the ground against
+// x < xb, and boundary_m against `expect(p)` (NaN where the test has no analytic answer).
+struct StraightEdge {
+    std::size_t checked = 0;
+    double worst = 0;  // largest |boundary_m - expect|, metres
+    std::uint64_t boundary_rays = 0;
+};
+StraightEdge straight_edge(double h, double xb, const Light& light,
+                           const std::function<double(const glm::dvec3&)>& expect) {
     SceneBuilder b;
     std::uint32_t ground = b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
     b.quad({-20, h, 20}, {0, h, 20}, {0, h, -20}, {-20, h, -20});
-    const double xb = h * std::tan(theta);
     Scenario sc = test::make_scenario(b.build(), test::look_at_ortho({xb, 10, 0}, {xb, 0, 0}, 2, 1.5, {0, 0, -1}),
-                                      {test::directional({std::sin(theta), -std::cos(theta), 0})}, 200, 150);
+                                      {light}, 200, 150);
     OracleResult res = run_oracle(sc);
     const OracleFrame& f = res.frame;
     const OracleLightImage& img = f.lights[0];
-    std::size_t checked = 0;
-    double worst = 0;
-    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
-        if (f.prim[i] != ground && f.prim[i] != ground + 1) continue;
-        double x = world_point(f, i).x;
-        if (img.U[i] == 0) {
-            EXPECT_EQ(img.V[i], x < xb ? 0.0f : 1.0f) << "x = " << x;
-        }
-        double expect = std::abs(x - xb) * std::cos(theta);
-        worst = std::max(worst, std::abs(img.boundary_m[i] - expect));
-        ++checked;
-    }
-    EXPECT_GT(checked, 20000u);
-    // Pixel footprint is 2 cm; the boundary is the occluder edge's exact shadow (docs/oracle.md
-    // section 6), and P is stored in float.
-    EXPECT_LT(worst, 1e-6);
-    // One straddling pair per row: a ray at its shadowed end and one past the edge's shadow,
-    // where bisection took 12.
-    EXPECT_EQ(res.stats.boundary_rays, 2u * 150);
-}
-
-// The same under a point light at (xl, yl, zl): the edge's shadow is the line x = -xl h / (yl - h).
-// In the pixel row at z = zl, the line from a pixel to the light stays in that row's plane, so
-// the nearest boundary point is the row's own, at lateral distance yl |x - xb| / |light - p|.
-TEST(Oracle, BoundaryDistanceIsExactForAStraightEdgeUnderAPointLight) {
-    const double h = 2, xl = -3, yl = 6;
-    const double xb = -xl * h / (yl - h);
-    SceneBuilder b;
-    std::uint32_t ground = b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
-    b.quad({-20, h, 20}, {0, h, 20}, {0, h, -20}, {-20, h, -20});
-    // 150 rows over 3 m: row centres at z = +-0.01, +-0.03, ...; the light sits on one of them.
-    const double zl = 0.01;
-    Scenario sc = test::make_scenario(b.build(), test::look_at_ortho({xb, 10, 0}, {xb, 0, 0}, 2, 1.5, {0, 0, -1}),
-                                      {test::point({xl, yl, zl})}, 200, 150);
-    OracleResult res = run_oracle(sc);
-    const OracleFrame& f = res.frame;
-    const OracleLightImage& img = f.lights[0];
-    std::size_t checked = 0;
-    double worst = 0;
+    StraightEdge out;
+    out.boundary_rays = res.stats.boundary_rays;
     for (std::size_t i = 0; i < f.pixel_count(); ++i) {
         if (f.prim[i] != ground && f.prim[i] != ground + 1) continue;
         const glm::dvec3 p = world_point(f, i);
         if (img.U[i] == 0) {
             EXPECT_EQ(img.V[i], p.x < xb ? 0.0f : 1.0f) << "x = " << p.x;
         }
-        if (std::abs(p.z - zl) > 1e-4) continue;
-        const double expect = yl * std::abs(p.x - xb) / std::hypot(xl - p.x, yl);
-        worst = std::max(worst, std::abs(img.boundary_m[i] - expect));
-        ++checked;
+        const double e = expect(p);
+        if (std::isnan(e)) continue;
+        out.worst = std::max(out.worst, std::abs(img.boundary_m[i] - e));
+        ++out.checked;
     }
-    EXPECT_GT(checked, 150u);  // the row, less the pixels that see the occluder (x < 0)
-    EXPECT_LT(worst, 1e-6);
+    return out;
+}
+
+// The distance to the nearest shadow boundary, across the light direction: for a straight edge
+// at height h under light tilted by theta it is |x - h tan(theta)| cos(theta).
+TEST(Oracle, BoundaryDistanceIsExactForAStraightEdge) {
+    const double h = 2, theta = 20 * M_PI / 180, xb = h * std::tan(theta);
+    StraightEdge r = straight_edge(h, xb, test::directional({std::sin(theta), -std::cos(theta), 0}),
+                                   [&](const glm::dvec3& p) { return std::abs(p.x - xb) * std::cos(theta); });
+    EXPECT_GT(r.checked, 20000u);
+    // Pixel footprint is 2 cm; the boundary is the occluder edge's exact shadow (docs/oracle.md
+    // section 6), and P is stored in float.
+    EXPECT_LT(r.worst, 1e-6);
+    // One straddling pair per row: a ray at its shadowed end and one past the edge's shadow,
+    // where bisection took 12.
+    EXPECT_EQ(r.boundary_rays, 2u * 150);
+}
+
+// The same under a point light at (xl, yl, zl): the edge's shadow is the line x = -xl h / (yl - h).
+// In the pixel row at z = zl, the line from a pixel to the light stays in that row's plane, so
+// the nearest boundary point is the row's own, at lateral distance yl |x - xb| / |light - p|.
+TEST(Oracle, BoundaryDistanceIsExactForAStraightEdgeUnderAPointLight) {
+    const double h = 2, xl = -3, yl = 6, xb = -xl * h / (yl - h);
+    const double zl = 0.01;  // 150 rows over 3 m: row centres at z = +-0.01, +-0.03, ...
+    StraightEdge r = straight_edge(h, xb, test::point({xl, yl, zl}), [&](const glm::dvec3& p) {
+        return std::abs(p.z - zl) > 1e-4 ? std::nan("") : yl * std::abs(p.x - xb) / std::hypot(xl - p.x, yl);
+    });
+    EXPECT_GT(r.checked, 150u);  // the row, less the pixels that see the occluder (x < 0)
+    EXPECT_LT(r.worst, 1e-6);
 }
 
 // ---- invariance ---------------------------------------------------------------------------
