@@ -128,11 +128,12 @@ constexpr int kMaxWalk = 16;
 // geometry: the boundary is where the segment leaves it (shadow_exit), unless another
 // triangle's shadow continues it. A verified ray a little past the exit says which: lit, the
 // exit is the boundary; shadowed, the walk goes on from there with the triangle that ray met.
-// "A little" is twice the float error of the verifying rays' hits, mapped onto the receiver
-// (1 / cos to the light; the light's magnification for a point light), and not below the
-// bisection's own resolution. Two rays place most boundaries, where bisection takes `steps`;
-// where the walk cannot conclude (no occluder met, kMaxWalk triangles walked, float error above an
-// eighth of the segment) the segment is bisected, as before.
+// "A little" is twice how far the verifying ray's float path may lie from the exact one, mapped
+// onto the receiver, and not below the bisection's own resolution: the exit is exact, but a
+// sliver of shadow thinner than that beyond it goes unseen (docs/oracle.md section 6). Two rays
+// place most boundaries, where bisection takes `steps`; where the walk cannot conclude (no
+// occluder met, kMaxWalk triangles walked, that distance above an eighth of the segment) the
+// segment is bisected, as before.
 glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint32_t prim, glm::dvec3 a, glm::dvec3 b,
                            float va, int steps, std::uint64_t& rays) {
     const glm::dvec3 n = glm::normalize(tr.normal_ccw(prim));
@@ -172,7 +173,11 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
             const glm::dvec3 to_light = direction_to_light(light, exit);
             const double cos_nl = glm::dot(n_lit, to_light);
             if (!(cos_nl > 0)) break;
-            // A point light magnifies the occluder's float error by (light to receiver) / (light to occluder).
+            // How far the verifying ray's float path may lie from the exact ray, on the receiver:
+            // its origin is lifted off the plane by the error bound (docs/oracle.md section 3)
+            // and rounded, the occluder's vertices are rounded (magnified by a point light's
+            // projection), and a displacement across the light lands on the plane stretched by
+            // 1 / cos.
             double magnification = 1;
             if (light.type != LightType::directional) {
                 const glm::dvec3 no = tr.normal_ccw(occluder);
@@ -182,7 +187,9 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
             }
             double vmax = 0;
             for (int k = 0; k < 3; ++k) vmax = std::max(vmax, glm::length(tr.vertex(occluder, k)));
-            const double fuzz = 16 * robust::kFloatEps * (glm::length(exit) + vmax) * magnification / cos_nl;
+            const double lift = glm::dot(glm::abs(n_lit), robust::surface_error_bound(exit, vabs));
+            constexpr double kRound = 2 * 1.7320508075688772 * robust::kFloatEps;  // 2 sqrt(3) eps
+            const double fuzz = (lift + kRound * (glm::length(exit) + vmax * magnification)) / cos_nl;
             const double past = std::max(2 * fuzz, std::ldexp(segment, -steps));
             const double remaining = glm::length(lit - exit);
             if (!(past <= segment / 8) || !(past < remaining)) break;
