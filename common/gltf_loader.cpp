@@ -413,15 +413,7 @@ struct Flattener {
             if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) return {vertex(t), vertex(t + 1 + t % 2), vertex(t + 2 - t % 2)};
             return {vertex(t + 1), vertex(t + 2), vertex(0)};  // fan
         };
-        // Grow geometrically but in one step per primitive (check_size already reserved the
-        // whole scene; this only matters if its counts fell short).
-        auto make_room = [](auto& v, std::size_t more) {
-            if (v.size() + more > v.capacity()) v.reserve(std::max(v.size() + more, 2 * v.capacity()));
-        };
-        make_room(scene.positions, positions.count);
-        make_room(scene.triangles, triangle_count);
-        make_room(scene.double_sided, triangle_count);
-        make_room(scene.triangle_node, triangle_count);
+        // No reserve here: check_size reserved the whole scene from upper bounds of these counts.
         for (std::size_t i = 0; i < positions.count; ++i) {
             glm::dvec3 w = glm::dvec3(world * glm::dvec4(position_at(positions, i), 1.0));
             for (int c = 0; c < 3; ++c)
