@@ -9,6 +9,8 @@ check "default scenario exits 0" test "$rc" -eq 0
 for f in oracle.exr oracle.json oracle.png; do check "writes $f" test -s "$tmp/a/$f"; done
 check "no temporaries left" test -z "$(ls -A "$tmp/a" | grep -v -E '^oracle\.(exr|json|png)$')"
 check "oracle.json counts rays" grep -q '"shadow":' "$tmp/a/oracle.json"
+check "oracle.json times the frame's allocation" grep -q '"frame":' "$tmp/a/oracle.json"
+check "oracle.json counts the rays that locate shadow boundaries" grep -q -E '"boundary": [1-9][0-9]*,?$' "$tmp/a/oracle.json"
 
 # Deterministic: the same EXR bytes with 1 and 2 threads.
 run oracle "$src/data/default/scenario.json" --out "$tmp/b" --threads 2 -q
