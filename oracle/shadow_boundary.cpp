@@ -7,20 +7,25 @@
 //    the occluder triangles met from its shadowed end, confirmed by an exact shadow ray just
 //    past it (locate_on_plane); where that cannot conclude, bisection with exact shadow rays
 //    places it to 2^-steps of a pixel footprint.
-// 2. The located boundary points are propagated over the image in two raster sweeps (a
-//    vector distance transform, Danielsson 1980), each pixel keeping the point nearest to it
-//    in the light-lateral metric.
+// 2. The located boundary points are filed in a grid over a chart of the light's rays (a
+//    directional light's rays by their foot on a plane across them, a point light's by their
+//    direction), where the light-lateral distance from a point to a pixel is the distance from
+//    the point to the pixel's ray. Two raster sweeps over that grid (a vector distance
+//    transform, Danielsson 1980) give each cell the point nearest to its centre's ray; a pixel
+//    takes the nearest of its own and the eight surrounding cells' points and of the points
+//    filed in them, then descends along the boundary from there (nearest_in_chart). Where a
+//    point light's rays spread too wide for one chart, the sweeps run over the image instead.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
 // silhouette) are not seen; pixels farther from every seen boundary report inf.
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <limits>
-#include <thread>
+#include <optional>
 #include <vector>
 
 #include "oracle/tracer.h"
@@ -44,44 +49,96 @@ bool same_plane(const Tracer& tr, std::uint32_t a, std::uint32_t b) {
     return std::abs(glm::dot(na, tr.vertex(b, 0) - tr.vertex(a, 0))) <= 1e-12 * std::max(scale, 1e-300);
 }
 
-// The threads the boundary sweeps may use: the run's thread limit (tbb::global_control).
-int sweep_threads() {
-    return static_cast<int>(
-        std::max<std::size_t>(1, tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
+// The light's rays as points of a plane. A directional light's ray through p is its foot on the
+// plane through the origin perpendicular to the light; a point light's, the gnomonic projection
+// of its direction onto the plane at unit distance along `axis` (their mean direction), which
+// holds only directions less than kChartMaxAngle from it.
+struct RayChart {
+    bool directional = true;
+    glm::dvec3 origin{0.0}, axis{0.0}, e1{0.0}, e2{0.0};
+
+    static constexpr double kMinAxisCos = 0.25;  // kChartMaxAngle: about 75 degrees
+
+    bool map(const glm::dvec3& p, glm::dvec2& uv) const {
+        if (directional) {
+            uv = {glm::dot(p, e1), glm::dot(p, e2)};
+            return true;
+        }
+        const glm::dvec3 d = p - origin;
+        const double a = glm::dot(d, axis);
+        if (!(a > kMinAxisCos * glm::length(d))) return false;
+        uv = {glm::dot(d, e1) / a, glm::dot(d, e2) / a};
+        return true;
+    }
+    // A point light's unit ray direction at chart point uv.
+    glm::dvec3 ray_direction(const glm::dvec2& uv) const { return glm::normalize(axis + uv.x * e1 + uv.y * e2); }
+};
+
+// Two unit vectors completing unit n to an orthonormal basis (Duff et al. 2017, "Building an
+// Orthonormal Basis, Revisited", JCGT 6(1)).
+void complete_basis(const glm::dvec3& n, glm::dvec3& b1, glm::dvec3& b2) {
+    const double sign = std::copysign(1.0, n.z), a = -1.0 / (sign + n.z), b = n.x * n.y * a;
+    b1 = {1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
+    b2 = {b, sign + n.y * n.y * a, -n.y};
 }
 
-// Calls visit(x, y) once for every pixel, row after row, each row from x = 0 up, where visit
-// reads only pixels (x' < x, y) and (x' <= x + 1, y - 1) besides (x, y). Rows go round-robin to
-// `threads` threads as a wavefront: a chunk of a row starts once the row above has finished one
-// pixel past it, so every pixel sees the final values a serial sweep would give it.
-template <typename Visit>
-void wavefront_sweep(int W, int H, int threads, Visit&& visit) {
-    constexpr int kChunk = 64;  // pixels a row finishes between two looks at the row above
-    threads = std::clamp(threads, 1, std::max(1, H));
-    if (threads == 1) {
-        for (int y = 0; y < H; ++y)
-            for (int x = 0; x < W; ++x) visit(x, y);
-        return;
+// A chart for the light's rays through the lightable pixels, or nullopt where a point light's
+// rays towards them spread too wide for one.
+std::optional<RayChart> chart_for(const LocalLight& light, const OracleFrame& frame, const OracleLightImage& img) {
+    RayChart c;
+    if (light.type == LightType::directional) {
+        c.axis = light.to_light;
+    } else {
+        c.directional = false;
+        c.origin = light.position;
+        glm::dvec3 sum(0.0);
+        for (std::size_t i = 0; i < frame.pixel_count(); ++i)
+            if (img.lightable[i] != 0) sum += glm::normalize(glm::dvec3(frame.P[i]) - c.origin);
+        if (!(glm::length(sum) > 0)) return std::nullopt;
+        c.axis = glm::normalize(sum);
     }
-    std::vector<std::atomic<int>> done(static_cast<std::size_t>(H));  // pixels finished in each row
-    for (auto& d : done) d.store(0, std::memory_order_relaxed);
-    auto run = [&](int first_row) {
-        for (int y = first_row; y < H; y += threads)
-            for (int x0 = 0; x0 < W; x0 += kChunk) {
-                const int x1 = std::min(W, x0 + kChunk);
-                if (y > 0) {
-                    const std::atomic<int>& above = done[static_cast<std::size_t>(y - 1)];
-                    // The row above is at most a few chunks behind: yield, do not sleep.
-                    while (above.load(std::memory_order_acquire) < std::min(W, x1 + 1)) std::this_thread::yield();
-                }
-                for (int x = x0; x < x1; ++x) visit(x, y);
-                done[static_cast<std::size_t>(y)].store(x1, std::memory_order_release);
-            }
-    };
-    std::vector<std::thread> helpers;
-    for (int t = 1; t < threads; ++t) helpers.emplace_back(run, t);
-    run(0);
-    for (std::thread& h : helpers) h.join();
+    complete_basis(c.axis, c.e1, c.e2);
+    if (!c.directional) {
+        glm::dvec2 uv;
+        for (std::size_t i = 0; i < frame.pixel_count(); ++i)
+            if (img.lightable[i] != 0 && !c.map(glm::dvec3(frame.P[i]), uv)) return std::nullopt;
+    }
+    return c;
+}
+
+// A uniform grid of square cells over a rectangle of the chart.
+struct ChartGrid {
+    glm::dvec2 lo{0.0};
+    double cell = 1;
+    int nx = 1, ny = 1;
+
+    std::size_t size() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
+    glm::ivec2 cell_of(const glm::dvec2& uv) const {
+        const glm::dvec2 f = (uv - lo) / cell;
+        return {static_cast<int>(std::clamp(std::floor(f.x), 0.0, nx - 1.0)),
+                static_cast<int>(std::clamp(std::floor(f.y), 0.0, ny - 1.0))};
+    }
+    glm::dvec2 centre(int x, int y) const { return lo + cell * glm::dvec2(x + 0.5, y + 0.5); }
+};
+
+// Steps of the descent along a boundary's points at each pixel (nearest_in_chart).
+constexpr int kMaxDescent = 8;
+
+// Cells about kCellsPerPoint per chart point of a lightable pixel, over their bounding box.
+ChartGrid grid_over(const glm::dvec2& lo, const glm::dvec2& hi, std::size_t points) {
+    constexpr double kCellsPerPoint = 0.25;
+    ChartGrid g;
+    g.lo = lo;
+    const glm::dvec2 extent = hi - lo;
+    const double cells = std::max(1.0, kCellsPerPoint * static_cast<double>(points));
+    // Square cells filling the box; a box thin in one direction gets at most `cells` along the other.
+    double side = std::sqrt(extent.x * extent.y / cells);
+    side = std::max(side, std::max(extent.x, extent.y) / cells);
+    if (!(side > 0) || !std::isfinite(side)) side = 1;
+    g.cell = side;
+    g.nx = static_cast<int>(std::min(extent.x / side, cells)) + 1;
+    g.ny = static_cast<int>(std::min(extent.y / side, cells)) + 1;
+    return g;
 }
 
 // Where the segment from `from` to `to` leaves the shadow that triangle `prim` casts, as a
@@ -210,6 +267,243 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
     return 0.5 * (a + b);
 }
 
+// Danielsson's vector distance transform (1980) over a W x H grid of cells holding point
+// indices, in the 8SSEDT order (Leymarie and Levine 1992): rows downwards, each taking the
+// nearest of its own and its neighbours' points from the left and the row above, then from the
+// right; then rows upwards, the mirror image. Without the second pass along each row a point
+// cannot travel more sideways than up or down within a sweep. at(x, y) prepares the measure of
+// cell (x, y), a function of a point index giving its squared distance, once, at the cell's
+// first candidate.
+template <typename Skip, typename At>
+void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>& best, Skip skip, At at) {
+    auto visit = [&](int x, int y, std::initializer_list<glm::ivec2> offsets) {
+        const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(x);
+        if (skip(i)) return;
+        int cur = nearest[i];
+        double cur_d2 = best[i];
+        std::optional<decltype(at(x, y))> measure;
+        for (const glm::ivec2& o : offsets) {
+            const int xn = x + o.x, yn = y + o.y;
+            if (xn < 0 || yn < 0 || xn >= W || yn >= H) continue;
+            const int s =
+                nearest[static_cast<std::size_t>(yn) * static_cast<std::size_t>(W) + static_cast<std::size_t>(xn)];
+            if (s < 0 || s == cur) continue;
+            if (!measure) measure.emplace(at(x, y));
+            const double d2 = (*measure)(s);
+            if (d2 < cur_d2) {
+                cur_d2 = d2;
+                cur = s;
+            }
+        }
+        nearest[i] = cur;
+        best[i] = cur_d2;
+    };
+    for (int y = 0; y < H; ++y) {
+        for (int x = 0; x < W; ++x) visit(x, y, {{-1, 0}, {-1, -1}, {0, -1}, {1, -1}});
+        for (int x = W - 1; x >= 0; --x) visit(x, y, {{1, 0}});
+    }
+    for (int y = H - 1; y >= 0; --y) {
+        for (int x = W - 1; x >= 0; --x) visit(x, y, {{1, 0}, {1, 1}, {0, 1}, {-1, 1}});
+        for (int x = 0; x < W; ++x) visit(x, y, {{-1, 0}});
+    }
+}
+
+// The nearest boundary point of every lightable pixel, through a grid over the light's rays
+// (docs/oracle.md section 6): each cell's nearest point to its centre's ray by the sweeps, then
+// each pixel's nearest among its own and the eight surrounding cells' nearest and filed points,
+// and among those around the nearest found so far.
+void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
+                      const LocalLight& light, const std::vector<glm::dvec3>& seeds, std::vector<int>& nearest,
+                      std::vector<double>& best) {
+    const std::size_t n = frame.pixel_count();
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    struct Box {
+        glm::dvec2 lo{kInf}, hi{-kInf};
+        std::size_t count = 0;
+    };
+    const Box box = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, n, std::size_t(1) << 14), Box{},
+        [&](const tbb::blocked_range<std::size_t>& r, Box b) {
+            glm::dvec2 uv;
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                if (img.lightable[i] != 0 && chart.map(glm::dvec3(frame.P[i]), uv)) {
+                    b.lo = glm::min(b.lo, uv);
+                    b.hi = glm::max(b.hi, uv);
+                    ++b.count;
+                }
+            return b;
+        },
+        [](Box a, const Box& b) {
+            a.lo = glm::min(a.lo, b.lo);
+            a.hi = glm::max(a.hi, b.hi);
+            a.count += b.count;
+            return a;
+        });
+    if (box.count == 0) return;
+    const ChartGrid grid = grid_over(box.lo, box.hi, box.count);
+    auto index = [&](int x, int y) {
+        return static_cast<std::size_t>(y) * static_cast<std::size_t>(grid.nx) + static_cast<std::size_t>(x);
+    };
+
+    // The boundary points filed by cell (a counting sort).
+    const std::size_t m = seeds.size();
+    std::vector<glm::dvec2> seed_uv(m);
+    std::vector<std::size_t> seed_cell(m, grid.size());
+    std::vector<std::uint32_t> first(grid.size() + 1, 0);
+    for (std::size_t s = 0; s < m; ++s)
+        if (chart.map(seeds[s], seed_uv[s])) {
+            const glm::ivec2 c = grid.cell_of(seed_uv[s]);
+            seed_cell[s] = index(c.x, c.y);
+            ++first[seed_cell[s] + 1];
+        }
+    for (std::size_t c = 0; c < grid.size(); ++c) first[c + 1] += first[c];
+    std::vector<int> filed(first.back());
+    {
+        std::vector<std::uint32_t> next(first.begin(), first.end() - 1);
+        for (std::size_t s = 0; s < m; ++s)
+            if (seed_cell[s] < grid.size()) filed[next[seed_cell[s]]++] = static_cast<int>(s);
+    }
+
+    // Each cell's nearest point to its centre's ray: its own filed points, then the sweeps.
+    auto run = [&](auto at_chart_point) {
+        std::vector<int> cell_nearest(grid.size(), -1);
+        std::vector<double> cell_best(grid.size(), kInf);
+        for (std::size_t s = 0; s < m; ++s) {
+            const std::size_t c = seed_cell[s];
+            if (c >= grid.size()) continue;
+            const int x = static_cast<int>(c % static_cast<std::size_t>(grid.nx)),
+                      y = static_cast<int>(c / static_cast<std::size_t>(grid.nx));
+            const double d2 = at_chart_point(grid.centre(x, y))(static_cast<int>(s));
+            if (d2 < cell_best[c]) {
+                cell_best[c] = d2;
+                cell_nearest[c] = static_cast<int>(s);
+            }
+        }
+        nearest_sweeps(
+            grid.nx, grid.ny, cell_nearest, cell_best, [](std::size_t) { return false; },
+            [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
+
+        // Each cell's candidates: the distinct points its own and the eight surrounding cells
+        // hold or are nearest to (built once; about four pixels share a cell).
+        std::vector<std::uint32_t> list_first(grid.size() + 1, 0);
+        std::vector<int> list;
+        {
+            std::vector<std::vector<int>> rows(static_cast<std::size_t>(grid.ny));
+            tbb::parallel_for(0, grid.ny, [&](int y) {
+                std::vector<int>& row = rows[static_cast<std::size_t>(y)];
+                for (int x = 0; x < grid.nx; ++x) {
+                    const std::size_t begin = row.size();
+                    auto add = [&](int s) {
+                        if (s >= 0 &&
+                            std::find(row.begin() + static_cast<std::ptrdiff_t>(begin), row.end(), s) == row.end())
+                            row.push_back(s);
+                    };
+                    const int y0 = std::max(0, y - 1), y1 = std::min(grid.ny - 1, y + 1);
+                    const int x0 = std::max(0, x - 1), x1 = std::min(grid.nx - 1, x + 1);
+                    for (int yn = y0; yn <= y1; ++yn)
+                        for (int xn = x0; xn <= x1; ++xn) {
+                            const std::size_t k = index(xn, yn);
+                            add(cell_nearest[k]);
+                            for (std::uint32_t f = first[k]; f != first[k + 1]; ++f) add(filed[f]);
+                        }
+                    list_first[index(x, y) + 1] = static_cast<std::uint32_t>(row.size() - begin);
+                }
+            });
+            for (std::size_t c = 0; c < grid.size(); ++c) list_first[c + 1] += list_first[c];
+            list.resize(list_first.back());
+            tbb::parallel_for(0, grid.ny, [&](int y) {
+                const std::vector<int>& row = rows[static_cast<std::size_t>(y)];
+                std::copy(row.begin(), row.end(), list.begin() + list_first[index(0, y)]);
+            });
+        }
+
+        // Each pixel: the nearest of its cell's candidates, then of the candidates of the
+        // nearest one's cell, and so on while that changes it (the points of a boundary lie
+        // about a pixel apart, and the one nearest to a cell's centre may be a cell away along
+        // the boundary from the one nearest to the pixel). The search starts from the point
+        // found for the pixel before it in the row, where comparisons mostly confirm; rows are
+        // the unit of work, so the result does not depend on the thread count. Measured in the
+        // chart, then across the light direction at the pixel itself.
+        const int W = frame.width;
+        tbb::parallel_for(0, frame.height, [&](int y) {
+            glm::dvec2 uv;
+            int hint = -1;
+            for (std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W),
+                             end = i + static_cast<std::size_t>(W);
+                 i != end; ++i) {
+                if (img.lightable[i] == 0) continue;
+                const glm::dvec3 p(frame.P[i]);
+                if (!chart.map(p, uv)) continue;
+                const auto measure = at_chart_point(uv);
+                int cur = hint;
+                double cur_d2 = cur >= 0 ? measure(cur) : kInf;
+                const glm::ivec2 c = grid.cell_of(uv);
+                auto scan = [&](std::uint32_t from, std::uint32_t to) {
+                    for (std::uint32_t f = from; f != to; ++f) {
+                        const int s = list[f];
+                        if (s == cur) continue;
+                        const double d2 = measure(s);
+                        if (d2 < cur_d2) {
+                            cur_d2 = d2;
+                            cur = s;
+                        }
+                    }
+                };
+                std::size_t k = index(c.x, c.y), scanned[kMaxDescent + 1];
+                int count = 0;
+                while (true) {
+                    scanned[count++] = k;
+                    scan(list_first[k], list_first[k + 1]);
+                    if (cur < 0 || count > kMaxDescent) break;
+                    k = seed_cell[static_cast<std::size_t>(cur)];
+                    if (k >= grid.size() || std::find(scanned, scanned + count, k) != scanned + count) break;
+                }
+                hint = cur;
+                if (cur < 0) continue;
+                const double d2 =
+                    lateral_distance2(p, direction_to_light(light, p), seeds[static_cast<std::size_t>(cur)]);
+                if (d2 < best[i]) {
+                    best[i] = d2;
+                    nearest[i] = cur;
+                }
+            }
+        });
+    };
+    if (chart.directional) {
+        // The distance between a point and a ray is the distance between their chart points.
+        run([&](const glm::dvec2& at) {
+            return [&seed_uv, at](int s) {
+                const glm::dvec2 d = seed_uv[static_cast<std::size_t>(s)] - at;
+                return glm::dot(d, d);
+            };
+        });
+    } else {
+        run([&](const glm::dvec2& at) {
+            return [&seeds, &chart, dir = chart.ray_direction(at)](int s) {
+                const glm::dvec3 d = seeds[static_cast<std::size_t>(s)] - chart.origin;
+                const double along = glm::dot(d, dir);
+                return std::max(0.0, glm::dot(d, d) - along * along);
+            };
+        });
+    }
+}
+
+// The nearest boundary point of every surface pixel, carried by the sweeps through the image:
+// for a point light whose rays spread too wide for one chart. A point near across the light but
+// far in the image is missed (docs/oracle.md section 6).
+void nearest_in_image(const OracleFrame& frame, const LocalLight& light, const std::vector<glm::dvec3>& seeds,
+                      std::vector<int>& nearest, std::vector<double>& best) {
+    nearest_sweeps(
+        frame.width, frame.height, nearest, best, [&](std::size_t i) { return frame.A[i] == 0; },
+        [&](int x, int y) {
+            const glm::dvec3 p(frame.P[static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.width) +
+                                       static_cast<std::size_t>(x)]);
+            return [&seeds, p, to_light = direction_to_light(light, p)](int s) {
+                return lateral_distance2(p, to_light, seeds[static_cast<std::size_t>(s)]);
+            };
+        });
+}
+
 }  // namespace
 
 std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std::size_t li, int steps) {
@@ -279,44 +573,12 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         }
     rows = {};
 
-    // ---- 2. propagate the nearest boundary point across the surface pixels ----
-    // Pixel (x, y) takes the nearest of its neighbours' points: in the forward sweep those to
-    // its left and in the row above, in the backward sweep the mirror image. Its own point and
-    // light direction are computed once, at its first candidate. The sweeps run as wavefronts
-    // over the run's threads, with the serial sweeps' result.
-    auto sweep = [&](int x, int y, const int(*offsets)[2]) {
-        const int i = y * W + x;
-        if (frame.A[i] == 0) return;
-        int cur = nearest[i];
-        double cur_d2 = best[i];
-        glm::dvec3 p, to_light;
-        bool have_p = false;
-        for (int k = 0; k < 4; ++k) {
-            const int xn = x + offsets[k][0], yn = y + offsets[k][1];
-            if (xn < 0 || yn < 0 || xn >= W || yn >= H) continue;
-            const int s = nearest[yn * W + xn];
-            if (s < 0 || s == cur) continue;
-            if (!have_p) {
-                p = glm::dvec3(frame.P[i]);
-                to_light = direction_to_light(light, p);
-                have_p = true;
-            }
-            const double d2 = lateral_distance2(p, to_light, seeds[s]);
-            if (d2 < cur_d2) {
-                cur_d2 = d2;
-                cur = s;
-            }
-        }
-        nearest[i] = cur;
-        best[i] = cur_d2;
-    };
-    static const int kForward[4][2] = {{-1, 0}, {-1, -1}, {0, -1}, {1, -1}};
-    static const int kBackward[4][2] = {{1, 0}, {1, 1}, {0, 1}, {-1, 1}};
+    // ---- 2. the nearest boundary point of every lightable pixel ----
     if (!seeds.empty()) {
-        const int threads = sweep_threads();
-        wavefront_sweep(W, H, threads, [&](int x, int y) { sweep(x, y, kForward); });
-        // The backward sweep is the forward one on the image turned by 180 degrees.
-        wavefront_sweep(W, H, threads, [&](int x, int y) { sweep(W - 1 - x, H - 1 - y, kBackward); });
+        if (const std::optional<RayChart> chart = chart_for(light, frame, img))
+            nearest_in_chart(*chart, frame, img, light, seeds, nearest, best);
+        else
+            nearest_in_image(frame, light, seeds, nearest, best);
     }
 
     // ---- 3. distances, and ambiguity within float error of a boundary ----

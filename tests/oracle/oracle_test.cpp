@@ -384,6 +384,72 @@ TEST(Oracle, BoundaryDistanceIsExactForAStraightEdgeUnderAPointLight) {
     EXPECT_LT(r.worst, 1e-6);
 }
 
+// A 2 x 2 m slab floating 3 m over the ground, lit from above, seen obliquely: its shadow's
+// outline is in plain view on the ground, and the slab's top face, which shares its rays, lies
+// far from that outline in the image (the slab hides a patch of ground farther back). The
+// nearest boundary point of a top-face pixel is a light-lateral neighbour only: boundary_m must
+// find it all the same. Expected: the lateral distance from the pixel to the exact outline
+// (densely sampled), which the located boundary points on it can only exceed by their spacing
+// (at most a ground pixel's footprint, under 10 cm here).
+class BoundaryAcrossTheImage : public ::testing::TestWithParam<bool> {};
+
+TEST_P(BoundaryAcrossTheImage, IsTheNearestInTheLightsFrame) {
+    const bool point = GetParam();
+    SceneBuilder b;
+    b.quad({-20, 0, 20}, {20, 0, 20}, {20, 0, -20}, {-20, 0, -20}, false);
+    const std::uint32_t slab_first = b.box({-1, 3, -1}, {1, 3.2, 1});
+    const glm::dvec3 light_pos(0.3, 30, 0.2);
+    const Light light = point ? test::point(light_pos) : test::directional({0, -1, 0});
+    Scenario sc = test::make_scenario(b.build(), test::look_at({0, 10, 12}, {0, 0, 0}, 50), {light}, 256, 192);
+    OracleResult res = run_oracle(sc);
+    const OracleFrame& f = res.frame;
+    const OracleLightImage& img = f.lights[0];
+
+    // The outline on the ground: the slab's top square seen from the light (a point light above
+    // it sees no side face), or straight below it.
+    const glm::dvec2 corners[4] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+    auto on_ground = [&](glm::dvec2 c) {
+        if (!point) return glm::dvec3(c.x, 0, c.y);
+        const glm::dvec3 top(c.x, 3.2, c.y);
+        return light_pos + (light_pos.y / (light_pos.y - top.y)) * (top - light_pos);
+    };
+    // Distance from the line through p along u to the outline's edge a + s (z - a), s in [0, 1]:
+    // |(a - p + s (z - a)) x u|^2 is a quadratic in s.
+    auto expect = [&](const glm::dvec3& p) {
+        const glm::dvec3 u = point ? glm::normalize(light_pos - p) : glm::dvec3(0, 1, 0);
+        double best = 1e300;
+        for (int e = 0; e < 4; ++e) {
+            const glm::dvec3 a = on_ground(corners[e]), z = on_ground(corners[(e + 1) % 4]);
+            const glm::dvec3 c0 = glm::cross(a - p, u), c1 = glm::cross(z - a, u);
+            const double s = std::clamp(-glm::dot(c0, c1) / glm::dot(c1, c1), 0.0, 1.0);
+            const glm::dvec3 c = c0 + s * c1;
+            best = std::min(best, glm::dot(c, c));
+        }
+        return std::sqrt(best);
+    };
+
+    std::size_t top = 0, ground_near = 0;
+    double worst_over = 0, worst_under = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+        if (f.A[i] == 0 || img.lightable[i] == 0) continue;
+        const bool on_top = f.prim[i] >= slab_first && f.N[i].y > 0.99f;
+        const glm::dvec3 p = world_point(f, i);
+        const double e = expect(p);
+        if (!on_top && e > 1.0) continue;  // the ground near the shadow, and every top-face pixel
+        (on_top ? top : ground_near)++;
+        ASSERT_TRUE(std::isfinite(img.boundary_m[i])) << "pixel " << i;
+        worst_over = std::max(worst_over, img.boundary_m[i] - e);
+        worst_under = std::max(worst_under, e - img.boundary_m[i]);
+    }
+    EXPECT_GT(top, 300u);
+    EXPECT_GT(ground_near, 1500u);
+    EXPECT_LT(worst_under, 1e-5) << "nearer than the exact outline";
+    EXPECT_LT(worst_over, 0.1) << "a located boundary point nearer than the one found was missed";
+}
+
+INSTANTIATE_TEST_SUITE_P(Oracle, BoundaryAcrossTheImage, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "point" : "directional"; });
+
 // ---- invariance ---------------------------------------------------------------------------
 
 Scenario invariance_scene() {
