@@ -13,8 +13,8 @@
 //    the point to the pixel's ray. Two raster sweeps over that grid (a vector distance
 //    transform, Danielsson 1980) give each cell the point nearest to its centre's ray; a pixel
 //    takes the nearest of its own and the eight surrounding cells' points and of the points
-//    filed in them, then descends along the boundary from there (nearest_in_chart). Where a
-//    point light's rays spread too wide for one chart, the sweeps run over the image instead.
+//    filed in them, then descends along the boundary from there (nearest_in_chart). A point
+//    light whose rays spread too wide for one chart gets one per face of a cube around it.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
 // silhouette) are not seen; pixels farther from every seen boundary report inf.
 #include <tbb/parallel_for.h>
@@ -51,11 +51,20 @@ bool same_plane(const Tracer& tr, std::uint32_t a, std::uint32_t b) {
 
 // The light's rays as points of a plane. A directional light's ray through p is its foot on the
 // plane through the origin perpendicular to the light; a point light's, the gnomonic projection
-// of its direction onto the plane at unit distance along `axis` (their mean direction), which
-// holds only directions less than kChartMaxAngle from it.
+// of its direction onto the plane at unit distance along `axis` (their mean direction, or a cube
+// face's), which holds only directions less than kChartMaxAngle from it. A face's chart owns the
+// pixels whose direction from the light lies in that face of the cube around it.
 struct RayChart {
     bool directional = true;
     glm::dvec3 origin{0.0}, axis{0.0}, e1{0.0}, e2{0.0};
+    int face = -1;  // 0..5: +x, -x, +y, -y, +z, -z; -1: every pixel
+
+    bool owns(const glm::dvec3& p) const {
+        if (face < 0) return true;
+        const glm::dvec3 d = p - origin, m = glm::abs(d);
+        const int k = m.x >= m.y && m.x >= m.z ? 0 : (m.y >= m.z ? 1 : 2);
+        return 2 * k + (d[k] < 0) == face;
+    }
 
     static constexpr double kMinAxisCos = 0.25;  // kChartMaxAngle: about 75 degrees
 
@@ -82,28 +91,37 @@ void complete_basis(const glm::dvec3& n, glm::dvec3& b1, glm::dvec3& b2) {
     b2 = {b, sign + n.y * n.y * a, -n.y};
 }
 
-// A chart for the light's rays through the lightable pixels, or nullopt where a point light's
-// rays towards them spread too wide for one.
-std::optional<RayChart> chart_for(const LocalLight& light, const OracleFrame& frame, const OracleLightImage& img) {
+// The charts for the light's rays through the lightable pixels: one, or, for a point light whose
+// rays towards them spread too wide for one, the six faces of a cube around it.
+std::vector<RayChart> charts_for(const LocalLight& light, const OracleFrame& frame, const OracleLightImage& img) {
     RayChart c;
     if (light.type == LightType::directional) {
         c.axis = light.to_light;
-    } else {
-        c.directional = false;
-        c.origin = light.position;
-        glm::dvec3 sum(0.0);
-        for (std::size_t i = 0; i < frame.pixel_count(); ++i)
-            if (img.lightable[i] != 0) sum += glm::normalize(glm::dvec3(frame.P[i]) - c.origin);
-        if (!(glm::length(sum) > 0)) return std::nullopt;
+        complete_basis(c.axis, c.e1, c.e2);
+        return {c};
+    }
+    c.directional = false;
+    c.origin = light.position;
+    glm::dvec3 sum(0.0);
+    for (std::size_t i = 0; i < frame.pixel_count(); ++i)
+        if (img.lightable[i] != 0) sum += glm::normalize(glm::dvec3(frame.P[i]) - c.origin);
+    bool one = glm::length(sum) > 0;
+    if (one) {
         c.axis = glm::normalize(sum);
-    }
-    complete_basis(c.axis, c.e1, c.e2);
-    if (!c.directional) {
+        complete_basis(c.axis, c.e1, c.e2);
         glm::dvec2 uv;
-        for (std::size_t i = 0; i < frame.pixel_count(); ++i)
-            if (img.lightable[i] != 0 && !c.map(glm::dvec3(frame.P[i]), uv)) return std::nullopt;
+        for (std::size_t i = 0; i < frame.pixel_count() && one; ++i)
+            one = img.lightable[i] == 0 || c.map(glm::dvec3(frame.P[i]), uv);
     }
-    return c;
+    if (one) return {c};
+    std::vector<RayChart> faces(6, c);
+    for (int f = 0; f < 6; ++f) {
+        faces[f].face = f;
+        faces[f].axis = glm::dvec3(0.0);
+        faces[f].axis[f / 2] = f % 2 ? -1.0 : 1.0;
+        complete_basis(faces[f].axis, faces[f].e1, faces[f].e2);
+    }
+    return faces;
 }
 
 // A uniform grid of square cells over a rectangle of the chart.
@@ -126,7 +144,7 @@ constexpr int kMaxDescent = 8;
 
 // Cells about kCellsPerPoint per chart point of a lightable pixel, over their bounding box.
 ChartGrid grid_over(const glm::dvec2& lo, const glm::dvec2& hi, std::size_t points) {
-    constexpr double kCellsPerPoint = 0.25;
+    constexpr double kCellsPerPoint = 1.0 / 16;
     ChartGrid g;
     g.lo = lo;
     const glm::dvec2 extent = hi - lo;
@@ -274,11 +292,10 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
 // cannot travel more sideways than up or down within a sweep. at(x, y) prepares the measure of
 // cell (x, y), a function of a point index giving its squared distance, once, at the cell's
 // first candidate.
-template <typename Skip, typename At>
-void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>& best, Skip skip, At at) {
+template <typename At>
+void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>& best, At at) {
     auto visit = [&](int x, int y, std::initializer_list<glm::ivec2> offsets) {
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(x);
-        if (skip(i)) return;
         int cur = nearest[i];
         double cur_d2 = best[i];
         std::optional<decltype(at(x, y))> measure;
@@ -326,7 +343,8 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         [&](const tbb::blocked_range<std::size_t>& r, Box b) {
             glm::dvec2 uv;
             for (std::size_t i = r.begin(); i != r.end(); ++i)
-                if (img.lightable[i] != 0 && chart.map(glm::dvec3(frame.P[i]), uv)) {
+                if (img.lightable[i] != 0 && chart.owns(glm::dvec3(frame.P[i])) &&
+                    chart.map(glm::dvec3(frame.P[i]), uv)) {
                     b.lo = glm::min(b.lo, uv);
                     b.hi = glm::max(b.hi, uv);
                     ++b.count;
@@ -379,9 +397,8 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 cell_nearest[c] = static_cast<int>(s);
             }
         }
-        nearest_sweeps(
-            grid.nx, grid.ny, cell_nearest, cell_best, [](std::size_t) { return false; },
-            [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
+        nearest_sweeps(grid.nx, grid.ny, cell_nearest, cell_best,
+                       [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
 
         // Each cell's candidates: the distinct points its own and the eight surrounding cells
         // hold or are nearest to (built once; about four pixels share a cell).
@@ -433,7 +450,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                  i != end; ++i) {
                 if (img.lightable[i] == 0) continue;
                 const glm::dvec3 p(frame.P[i]);
-                if (!chart.map(p, uv)) continue;
+                if (!chart.owns(p) || !chart.map(p, uv)) continue;
                 const auto measure = at_chart_point(uv);
                 int cur = hint;
                 double cur_d2 = cur >= 0 ? measure(cur) : kInf;
@@ -486,22 +503,6 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             };
         });
     }
-}
-
-// The nearest boundary point of every surface pixel, carried by the sweeps through the image:
-// for a point light whose rays spread too wide for one chart. A point near across the light but
-// far in the image is missed (docs/oracle.md section 6).
-void nearest_in_image(const OracleFrame& frame, const LocalLight& light, const std::vector<glm::dvec3>& seeds,
-                      std::vector<int>& nearest, std::vector<double>& best) {
-    nearest_sweeps(
-        frame.width, frame.height, nearest, best, [&](std::size_t i) { return frame.A[i] == 0; },
-        [&](int x, int y) {
-            const glm::dvec3 p(frame.P[static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.width) +
-                                       static_cast<std::size_t>(x)]);
-            return [&seeds, p, to_light = direction_to_light(light, p)](int s) {
-                return lateral_distance2(p, to_light, seeds[static_cast<std::size_t>(s)]);
-            };
-        });
 }
 
 }  // namespace
@@ -575,10 +576,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
 
     // ---- 2. the nearest boundary point of every lightable pixel ----
     if (!seeds.empty()) {
-        if (const std::optional<RayChart> chart = chart_for(light, frame, img))
-            nearest_in_chart(*chart, frame, img, light, seeds, nearest, best);
-        else
-            nearest_in_image(frame, light, seeds, nearest, best);
+        for (const RayChart& chart : charts_for(light, frame, img))
+            nearest_in_chart(chart, frame, img, light, seeds, nearest, best);
     }
 
     // ---- 3. distances, and ambiguity within float error of a boundary ----
