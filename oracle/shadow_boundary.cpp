@@ -401,7 +401,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                        [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
 
         // Each cell's candidates: the distinct points its own and the eight surrounding cells
-        // hold or are nearest to (built once; about four pixels share a cell).
+        // hold or are nearest to (built once; about sixteen pixels share a cell).
         std::vector<std::uint32_t> list_first(grid.size() + 1, 0);
         std::vector<int> list;
         {
@@ -442,6 +442,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         // the unit of work, so the result does not depend on the thread count. Measured in the
         // chart, then across the light direction at the pixel itself.
         const int W = frame.width;
+        const double cell2 = grid.cell * grid.cell;
         tbb::parallel_for(0, frame.height, [&](int y) {
             glm::dvec2 uv;
             int hint = -1;
@@ -471,7 +472,9 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 while (true) {
                     scanned[count++] = k;
                     scan(list_first[k], list_first[k + 1]);
-                    if (cur < 0 || count > kMaxDescent) break;
+                    // Within a cell of a directional light's chart, every nearer point lies in the
+                    // 3 x 3 cells just scanned: cur is the nearest.
+                    if (cur < 0 || count > kMaxDescent || (chart.directional && count == 1 && cur_d2 <= cell2)) break;
                     k = seed_cell[static_cast<std::size_t>(cur)];
                     if (k >= grid.size() || std::find(scanned, scanned + count, k) != scanned + count) break;
                 }
