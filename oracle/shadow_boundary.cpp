@@ -14,7 +14,8 @@
 //    transform, Danielsson 1980) give each cell the point nearest to its centre's ray; a pixel
 //    takes the nearest of its own and the eight surrounding cells' points and of the points
 //    filed in them, then descends along the boundary from there (nearest_in_chart). A point
-//    light whose rays spread too wide for one chart gets one per face of a cube around it.
+//    light whose rays spread too wide for one chart gets one per face of a cube around it, and
+//    then the same sweeps over the image, for the pixels whose face sees no boundary point.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
 // silhouette) are not seen; pixels farther from every seen boundary report inf.
 #include <tbb/parallel_for.h>
@@ -292,10 +293,11 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
 // cannot travel more sideways than up or down within a sweep. at(x, y) prepares the measure of
 // cell (x, y), a function of a point index giving its squared distance, once, at the cell's
 // first candidate.
-template <typename At>
-void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>& best, At at) {
+template <typename Skip, typename At>
+void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>& best, Skip skip, At at) {
     auto visit = [&](int x, int y, std::initializer_list<glm::ivec2> offsets) {
         const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(x);
+        if (skip(i)) return;
         int cur = nearest[i];
         double cur_d2 = best[i];
         std::optional<decltype(at(x, y))> measure;
@@ -397,8 +399,9 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 cell_nearest[c] = static_cast<int>(s);
             }
         }
-        nearest_sweeps(grid.nx, grid.ny, cell_nearest, cell_best,
-                       [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
+        nearest_sweeps(
+            grid.nx, grid.ny, cell_nearest, cell_best, [](std::size_t) { return false; },
+            [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
 
         // Each cell's candidates: the distinct points its own and the eight surrounding cells
         // hold or are nearest to (built once; about sixteen pixels share a cell).
@@ -508,6 +511,22 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
     }
 }
 
+// The nearest boundary point of every lightable pixel carried through the image by the same
+// sweeps, each pixel keeping the nearer of its own and its neighbours' points: a complement to
+// the cube of charts, whose faces see only the boundary points within ~75 degrees of their axes.
+void nearest_in_image(const OracleFrame& frame, const OracleLightImage& img, const LocalLight& light,
+                      const std::vector<glm::dvec3>& seeds, std::vector<int>& nearest, std::vector<double>& best) {
+    nearest_sweeps(
+        frame.width, frame.height, nearest, best, [&](std::size_t i) { return img.lightable[i] == 0; },
+        [&](int x, int y) {
+            const glm::dvec3 p(frame.P[static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.width) +
+                                       static_cast<std::size_t>(x)]);
+            return [&seeds, p, to_light = direction_to_light(light, p)](int s) {
+                return lateral_distance2(p, to_light, seeds[static_cast<std::size_t>(s)]);
+            };
+        });
+}
+
 }  // namespace
 
 std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std::size_t li, int steps) {
@@ -579,8 +598,9 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
 
     // ---- 2. the nearest boundary point of every lightable pixel ----
     if (!seeds.empty()) {
-        for (const RayChart& chart : charts_for(light, frame, img))
-            nearest_in_chart(chart, frame, img, light, seeds, nearest, best);
+        const std::vector<RayChart> charts = charts_for(light, frame, img);
+        for (const RayChart& chart : charts) nearest_in_chart(chart, frame, img, light, seeds, nearest, best);
+        if (charts.size() > 1) nearest_in_image(frame, img, light, seeds, nearest, best);
     }
 
     // ---- 3. distances, and ambiguity within float error of a boundary ----
