@@ -17,8 +17,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Bump when the oracle's results change for the same input, so old entries stop matching.
-constexpr const char* kOracleAlgorithm = "penumbra-oracle-4";
+// Bump when the oracle's results change for the same input, so old entries stop matching
+// (5: boundary_m from the occluder-edge walk and the search in the light's charts).
+constexpr const char* kOracleAlgorithm = "penumbra-oracle-5";
 constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '1'};
 
 class KeyBytes {
