@@ -13,7 +13,7 @@
 //    the point to the pixel's ray. Two raster sweeps over that grid (a vector distance
 //    transform, Danielsson 1980) give each cell the point nearest to its centre's ray; a pixel
 //    takes the nearest of its own and the eight surrounding cells' points and of the points
-//    filed in them, then descends along the boundary from there (nearest_in_chart). A point
+//    filed in them, then walks along the boundary from there (nearest_in_chart). A point
 //    light whose rays spread too wide for one chart gets one per face of a cube around it, and
 //    then the same sweeps over the image, for the pixels whose face sees no boundary point.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
@@ -22,6 +22,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <glm/geometric.hpp>
@@ -140,8 +141,10 @@ struct ChartGrid {
     glm::dvec2 centre(int x, int y) const { return lo + cell * glm::dvec2(x + 0.5, y + 0.5); }
 };
 
-// Steps of the descent along a boundary's points at each pixel (nearest_in_chart).
-constexpr int kMaxDescent = 8;
+// The walk along a boundary's points at each pixel (nearest_in_chart): each point's neighbours,
+// and the most steps taken.
+constexpr std::size_t kNeighbours = 6;
+constexpr int kMaxWalkSteps = 64;
 
 // Cells about kCellsPerPoint per chart point of a lightable pixel, over their bounding box.
 ChartGrid grid_over(const glm::dvec2& lo, const glm::dvec2& hi, std::size_t points) {
@@ -330,7 +333,7 @@ void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>
 // The nearest boundary point of every lightable pixel, through a grid over the light's rays
 // (docs/oracle.md section 6): each cell's nearest point to its centre's ray by the sweeps, then
 // each pixel's nearest among its own and the eight surrounding cells' nearest and filed points,
-// and among those around the nearest found so far.
+// and along the boundary from there.
 void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
                       const LocalLight& light, const std::vector<glm::dvec3>& seeds, std::vector<int>& nearest,
                       std::vector<double>& best) {
@@ -437,13 +440,42 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             });
         }
 
-        // Each pixel: the nearest of its cell's candidates, then of the candidates of the
-        // nearest one's cell, and so on while that changes it (the points of a boundary lie
-        // about a pixel apart, and the one nearest to a cell's centre may be a cell away along
-        // the boundary from the one nearest to the pixel). The search starts from the point
-        // found for the pixel before it in the row, where comparisons mostly confirm; rows are
-        // the unit of work, so the result does not depend on the thread count. Measured in the
-        // chart, then across the light direction at the pixel itself.
+        // Each point's neighbours along its boundary: the kNeighbours points nearest to it in the
+        // chart among those filed in its own and the eight surrounding cells.
+        std::vector<std::array<int, kNeighbours>> neighbours(m);
+        tbb::parallel_for(std::size_t(0), m, [&](std::size_t s) {
+            neighbours[s].fill(-1);
+            if (seed_cell[s] >= grid.size()) return;
+            const int cx = static_cast<int>(seed_cell[s] % static_cast<std::size_t>(grid.nx)),
+                      cy = static_cast<int>(seed_cell[s] / static_cast<std::size_t>(grid.nx));
+            std::array<double, kNeighbours> d2s;
+            d2s.fill(kInf);
+            for (int y = std::max(0, cy - 1); y <= std::min(grid.ny - 1, cy + 1); ++y)
+                for (int x = std::max(0, cx - 1); x <= std::min(grid.nx - 1, cx + 1); ++x)
+                    for (std::uint32_t f = first[index(x, y)]; f != first[index(x, y) + 1]; ++f) {
+                        const int t = filed[f];
+                        if (static_cast<std::size_t>(t) == s) continue;
+                        const glm::dvec2 d = seed_uv[static_cast<std::size_t>(t)] - seed_uv[s];
+                        const double d2 = glm::dot(d, d);
+                        if (!(d2 < d2s.back())) continue;
+                        std::size_t k = kNeighbours - 1;  // insertion into the sorted nearest so far
+                        for (; k > 0 && d2 < d2s[k - 1]; --k) {
+                            d2s[k] = d2s[k - 1];
+                            neighbours[s][k] = neighbours[s][k - 1];
+                        }
+                        d2s[k] = d2;
+                        neighbours[s][k] = t;
+                    }
+        });
+
+        // Each pixel: the nearest of its cell's candidates; then, unless that lies within a cell
+        // (see below), a walk along the boundary to the nearest neighbour of the point so far
+        // while that is nearer (the points of a boundary lie about a pixel apart, and the one
+        // nearest to a cell's centre may be a cell away along the boundary from the one nearest
+        // to the pixel). The search starts from the point found for the pixel before it in the
+        // row, where comparisons mostly confirm; rows are the unit of work, so the result does
+        // not depend on the thread count. Measured in the chart, then across the light direction
+        // at the pixel itself.
         const int W = frame.width;
         const double cell2 = grid.cell * grid.cell;
         tbb::parallel_for(0, frame.height, [&](int y) {
@@ -470,17 +502,24 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         }
                     }
                 };
-                std::size_t k = index(c.x, c.y), scanned[kMaxDescent + 1];
-                int count = 0;
-                while (true) {
-                    scanned[count++] = k;
-                    scan(list_first[k], list_first[k + 1]);
-                    // Within a cell of a directional light's chart, every nearer point lies in the
-                    // 3 x 3 cells just scanned: cur is the nearest.
-                    if (cur < 0 || count > kMaxDescent || (chart.directional && count == 1 && cur_d2 <= cell2)) break;
-                    k = seed_cell[static_cast<std::size_t>(cur)];
-                    if (k >= grid.size() || std::find(scanned, scanned + count, k) != scanned + count) break;
-                }
+                const std::size_t k = index(c.x, c.y);
+                scan(list_first[k], list_first[k + 1]);
+                // Within a cell of a directional light's chart, every nearer point lies in the 3 x 3
+                // cells just scanned: cur is the nearest. Otherwise walk along the boundary.
+                if (!(chart.directional && cur_d2 <= cell2))
+                    for (int step = 0; cur >= 0 && step < kMaxWalkSteps; ++step) {
+                        const int before = cur;
+                        for (const int t : neighbours[static_cast<std::size_t>(cur)]) {
+                            if (t < 0) break;
+                            if (t == cur) continue;
+                            const double d2 = measure(t);
+                            if (d2 < cur_d2) {
+                                cur_d2 = d2;
+                                cur = t;
+                            }
+                        }
+                        if (cur == before) break;
+                    }
                 hint = cur;
                 if (cur < 0) continue;
                 const double d2 =
