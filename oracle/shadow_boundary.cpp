@@ -145,6 +145,8 @@ struct ChartGrid {
 // and the most steps taken.
 constexpr std::size_t kNeighbours = 6;
 constexpr int kMaxWalkSteps = 64;
+// Candidates a cell keeps at most (nearest_in_chart).
+constexpr std::size_t kMaxCandidates = 48;
 
 // Cells about kCellsPerPoint per chart point of a lightable pixel, over their bounding box.
 ChartGrid grid_over(const glm::dvec2& lo, const glm::dvec2& hi, std::size_t points) {
@@ -409,6 +411,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         // Each cell's candidates: the distinct points its own and the eight surrounding cells
         // hold or are nearest to (built once; about sixteen pixels share a cell).
         std::vector<std::uint32_t> list_first(grid.size() + 1, 0);
+        std::vector<std::uint8_t> crowded(grid.size(), 0);
         std::vector<int> list;
         {
             std::vector<std::vector<int>> rows(static_cast<std::size_t>(grid.ny));
@@ -416,19 +419,38 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 std::vector<int>& row = rows[static_cast<std::size_t>(y)];
                 for (int x = 0; x < grid.nx; ++x) {
                     const std::size_t begin = row.size();
-                    auto add = [&](int s) {
-                        if (s >= 0 &&
-                            std::find(row.begin() + static_cast<std::ptrdiff_t>(begin), row.end(), s) == row.end())
-                            row.push_back(s);
-                    };
                     const int y0 = std::max(0, y - 1), y1 = std::min(grid.ny - 1, y + 1);
                     const int x0 = std::max(0, x - 1), x1 = std::min(grid.nx - 1, x + 1);
+                    // The filed points are distinct (each is filed once); a cell's nearest point
+                    // is new unless it is filed in the block or already taken.
+                    for (int yn = y0; yn <= y1; ++yn)
+                        for (int xn = x0; xn <= x1; ++xn)
+                            for (std::uint32_t f = first[index(xn, yn)]; f != first[index(xn, yn) + 1]; ++f)
+                                row.push_back(filed[f]);
+                    const std::size_t filed_end = row.size();
                     for (int yn = y0; yn <= y1; ++yn)
                         for (int xn = x0; xn <= x1; ++xn) {
-                            const std::size_t k = index(xn, yn);
-                            add(cell_nearest[k]);
-                            for (std::uint32_t f = first[k]; f != first[k + 1]; ++f) add(filed[f]);
+                            const int s = cell_nearest[index(xn, yn)];
+                            if (s < 0) continue;
+                            const std::size_t k = seed_cell[static_cast<std::size_t>(s)];
+                            const int kx = static_cast<int>(k % static_cast<std::size_t>(grid.nx)),
+                                      ky = static_cast<int>(k / static_cast<std::size_t>(grid.nx));
+                            if (kx >= x0 && kx <= x1 && ky >= y0 && ky <= y1) continue;
+                            if (std::find(row.begin() + static_cast<std::ptrdiff_t>(filed_end), row.end(), s) ==
+                                row.end())
+                                row.push_back(s);
                         }
+                    // Where points crowd (a chart whose pixels are far denser in places than
+                    // its cells), only the kMaxCandidates nearest to the cell's centre are kept,
+                    // and its pixels always walk.
+                    if (row.size() - begin > kMaxCandidates) {
+                        const auto measure = at_chart_point(grid.centre(x, y));
+                        const auto from = row.begin() + static_cast<std::ptrdiff_t>(begin);
+                        std::nth_element(from, from + static_cast<std::ptrdiff_t>(kMaxCandidates) - 1, row.end(),
+                                         [&](int a, int b) { return measure(a) < measure(b); });
+                        row.resize(begin + kMaxCandidates);
+                        crowded[index(x, y)] = 1;
+                    }
                     list_first[index(x, y) + 1] = static_cast<std::uint32_t>(row.size() - begin);
                 }
             });
@@ -506,7 +528,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 scan(list_first[k], list_first[k + 1]);
                 // Within a cell of a directional light's chart, every nearer point lies in the 3 x 3
                 // cells just scanned: cur is the nearest. Otherwise walk along the boundary.
-                if (!(chart.directional && cur_d2 <= cell2))
+                if (!(chart.directional && cur_d2 <= cell2 && !crowded[k]))
                     for (int step = 0; cur >= 0 && step < kMaxWalkSteps; ++step) {
                         const int before = cur;
                         for (const int t : neighbours[static_cast<std::size_t>(cur)]) {
