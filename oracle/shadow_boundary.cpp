@@ -154,6 +154,7 @@ ChartGrid grid_over(const glm::dvec2& lo, const glm::dvec2& hi, std::size_t poin
     ChartGrid g;
     g.lo = lo;
     const glm::dvec2 extent = hi - lo;
+    if (!std::isfinite(extent.x) || !std::isfinite(extent.y)) return g;  // overflowed: one cell
     const double cells = std::max(1.0, kCellsPerPoint * static_cast<double>(points));
     // Square cells filling the box; a box thin in one direction gets at most `cells` along the other.
     double side = std::sqrt(extent.x * extent.y / cells);
