@@ -54,7 +54,7 @@ bool same_plane(const Tracer& tr, std::uint32_t a, std::uint32_t b) {
 // The light's rays as points of a plane. A directional light's ray through p is its foot on the
 // plane through the origin perpendicular to the light; a point light's, the gnomonic projection
 // of its direction onto the plane at unit distance along `axis` (their mean direction, or a cube
-// face's), which holds only directions less than kChartMaxAngle from it. A face's chart owns the
+// face's), which holds only directions less than ~75 degrees from it. A face's chart owns the
 // pixels whose direction from the light lies in that face of the cube around it.
 struct RayChart {
     bool directional = true;
@@ -68,7 +68,7 @@ struct RayChart {
         return 2 * k + (d[k] < 0) == face;
     }
 
-    static constexpr double kMinAxisCos = 0.25;  // kChartMaxAngle: about 75 degrees
+    static constexpr double kMinAxisCos = 0.25;  // the widest direction charted: about 75 degrees
 
     bool map(const glm::dvec3& p, glm::dvec2& uv) const {
         if (directional) {
@@ -133,6 +133,12 @@ struct ChartGrid {
     int nx = 1, ny = 1;
 
     std::size_t size() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
+    std::size_t index(int x, int y) const {
+        return static_cast<std::size_t>(y) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(x);
+    }
+    glm::ivec2 xy(std::size_t k) const {
+        return {static_cast<int>(k % static_cast<std::size_t>(nx)), static_cast<int>(k / static_cast<std::size_t>(nx))};
+    }
     glm::ivec2 cell_of(const glm::dvec2& uv) const {
         const glm::dvec2 f = (uv - lo) / cell;
         return {static_cast<int>(std::clamp(std::floor(f.x), 0.0, nx - 1.0)),
@@ -367,9 +373,6 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         });
     if (box.count == 0) return;
     const ChartGrid grid = grid_over(box.lo, box.hi, box.count);
-    auto index = [&](int x, int y) {
-        return static_cast<std::size_t>(y) * static_cast<std::size_t>(grid.nx) + static_cast<std::size_t>(x);
-    };
 
     // The boundary points filed by cell (a counting sort).
     const std::size_t m = seeds.size();
@@ -379,7 +382,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
     for (std::size_t s = 0; s < m; ++s)
         if (chart.map(seeds[s], seed_uv[s])) {
             const glm::ivec2 c = grid.cell_of(seed_uv[s]);
-            seed_cell[s] = index(c.x, c.y);
+            seed_cell[s] = grid.index(c.x, c.y);
             ++first[seed_cell[s] + 1];
         }
     for (std::size_t c = 0; c < grid.size(); ++c) first[c + 1] += first[c];
@@ -397,9 +400,8 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         for (std::size_t s = 0; s < m; ++s) {
             const std::size_t c = seed_cell[s];
             if (c >= grid.size()) continue;
-            const int x = static_cast<int>(c % static_cast<std::size_t>(grid.nx)),
-                      y = static_cast<int>(c / static_cast<std::size_t>(grid.nx));
-            const double d2 = at_chart_point(grid.centre(x, y))(static_cast<int>(s));
+            const glm::ivec2 xy = grid.xy(c);
+            const double d2 = at_chart_point(grid.centre(xy.x, xy.y))(static_cast<int>(s));
             if (d2 < cell_best[c]) {
                 cell_best[c] = d2;
                 cell_nearest[c] = static_cast<int>(s);
@@ -426,17 +428,15 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                     // is new unless it is filed in the block or already taken.
                     for (int yn = y0; yn <= y1; ++yn)
                         for (int xn = x0; xn <= x1; ++xn)
-                            for (std::uint32_t f = first[index(xn, yn)]; f != first[index(xn, yn) + 1]; ++f)
+                            for (std::uint32_t f = first[grid.index(xn, yn)]; f != first[grid.index(xn, yn) + 1]; ++f)
                                 row.push_back(filed[f]);
                     const std::size_t filed_end = row.size();
                     for (int yn = y0; yn <= y1; ++yn)
                         for (int xn = x0; xn <= x1; ++xn) {
-                            const int s = cell_nearest[index(xn, yn)];
+                            const int s = cell_nearest[grid.index(xn, yn)];
                             if (s < 0) continue;
-                            const std::size_t k = seed_cell[static_cast<std::size_t>(s)];
-                            const int kx = static_cast<int>(k % static_cast<std::size_t>(grid.nx)),
-                                      ky = static_cast<int>(k / static_cast<std::size_t>(grid.nx));
-                            if (kx >= x0 && kx <= x1 && ky >= y0 && ky <= y1) continue;
+                            const glm::ivec2 k = grid.xy(seed_cell[static_cast<std::size_t>(s)]);
+                            if (k.x >= x0 && k.x <= x1 && k.y >= y0 && k.y <= y1) continue;
                             if (std::find(row.begin() + static_cast<std::ptrdiff_t>(filed_end), row.end(), s) ==
                                 row.end())
                                 row.push_back(s);
@@ -450,16 +450,16 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         std::nth_element(from, from + static_cast<std::ptrdiff_t>(kMaxCandidates) - 1, row.end(),
                                          [&](int a, int b) { return measure(a) < measure(b); });
                         row.resize(begin + kMaxCandidates);
-                        crowded[index(x, y)] = 1;
+                        crowded[grid.index(x, y)] = 1;
                     }
-                    list_first[index(x, y) + 1] = static_cast<std::uint32_t>(row.size() - begin);
+                    list_first[grid.index(x, y) + 1] = static_cast<std::uint32_t>(row.size() - begin);
                 }
             });
             for (std::size_t c = 0; c < grid.size(); ++c) list_first[c + 1] += list_first[c];
             list.resize(list_first.back());
             tbb::parallel_for(0, grid.ny, [&](int y) {
                 const std::vector<int>& row = rows[static_cast<std::size_t>(y)];
-                std::copy(row.begin(), row.end(), list.begin() + list_first[index(0, y)]);
+                std::copy(row.begin(), row.end(), list.begin() + list_first[grid.index(0, y)]);
             });
         }
 
@@ -469,13 +469,13 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         tbb::parallel_for(std::size_t(0), m, [&](std::size_t s) {
             neighbours[s].fill(-1);
             if (seed_cell[s] >= grid.size()) return;
-            const int cx = static_cast<int>(seed_cell[s] % static_cast<std::size_t>(grid.nx)),
-                      cy = static_cast<int>(seed_cell[s] / static_cast<std::size_t>(grid.nx));
+            const glm::ivec2 c = grid.xy(seed_cell[s]);
+            const int cx = c.x, cy = c.y;
             std::array<double, kNeighbours> d2s;
             d2s.fill(kInf);
             for (int y = std::max(0, cy - 1); y <= std::min(grid.ny - 1, cy + 1); ++y)
                 for (int x = std::max(0, cx - 1); x <= std::min(grid.nx - 1, cx + 1); ++x)
-                    for (std::uint32_t f = first[index(x, y)]; f != first[index(x, y) + 1]; ++f) {
+                    for (std::uint32_t f = first[grid.index(x, y)]; f != first[grid.index(x, y) + 1]; ++f) {
                         const int t = filed[f];
                         if (static_cast<std::size_t>(t) == s) continue;
                         const glm::dvec2 d = seed_uv[static_cast<std::size_t>(t)] - seed_uv[s];
@@ -525,7 +525,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         }
                     }
                 };
-                const std::size_t k = index(c.x, c.y);
+                const std::size_t k = grid.index(c.x, c.y);
                 scan(list_first[k], list_first[k + 1]);
                 // Within a cell of a directional light's chart, every nearer point lies in the 3 x 3
                 // cells just scanned: cur is the nearest. Otherwise walk along the boundary.
