@@ -389,8 +389,8 @@ TEST(Oracle, BoundaryDistanceIsExactForAStraightEdgeUnderAPointLight) {
 // far from that outline in the image (the slab hides a patch of ground farther back). The
 // nearest boundary point of a top-face pixel is a light-lateral neighbour only: boundary_m must
 // find it all the same. Expected: the lateral distance from the pixel to the exact outline
-// (densely sampled), which the located boundary points on it can only exceed by their spacing
-// (at most a ground pixel's footprint, under 10 cm here).
+// (per edge, in closed form), which the located boundary points on it can only exceed by their
+// spacing (at most a ground pixel's footprint, under 10 cm here).
 class BoundaryAcrossTheImage : public ::testing::TestWithParam<bool> {};
 
 TEST_P(BoundaryAcrossTheImage, IsTheNearestInTheLightsFrame) {
