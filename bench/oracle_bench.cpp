@@ -341,6 +341,10 @@ BareRun bare_embree(const BenchScene& s, int threads) {
                     alignas(64) int svalid[16];
                     for (int k = 0; k < 16; ++k) {
                         svalid[k] = 0;
+                        // Without native 16-wide kernels (AVX2) Embree ignores `valid` and traces
+                        // every lane with tnear <= tfar: an inactive lane must say so itself.
+                        sh.ray.tnear[k] = 0.0f;
+                        sh.ray.tfar[k] = -INFINITY;
                         if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
                         glm::vec3 o(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]);
                         glm::vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
