@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <glm/geometric.hpp>
+#include <limits>
 
 #include "common/camera.h"
 #include "common/errors.h"
@@ -83,14 +83,9 @@ void set_lane(RTCRay16& r, int k, const glm::vec3& o, const glm::vec3& d, float 
     r.flags[k] = 0;
 }
 
-// Traces a packet's active lanes. Where the CPU has no native 16-wide kernels (AVX2 and
-// older), Embree 3 hands rtcIntersect16 to its stream fallback, which ignores `valid` and
-// traces every lane whose tnear <= tfar, writing its hit back (rtcore.cpp and
-// bvh_intersector_stream_filters.cpp in Embree 3.13; RenderKit/embree#520). An inactive lane
-// would then trace whatever it held: a previous packet's ray (wasted work), or uninitialised
-// floats that trip Embree's finite-ray assertion and abort the process. tfar = -inf makes
-// every path skip the lane.
-void intersect_active(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh) {
+}  // namespace
+
+void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh) {
     for (int k = 0; k < kPacket; ++k) {
         if (valid[k]) continue;
         rh.ray.tnear[k] = 0.0f;
@@ -98,8 +93,6 @@ void intersect_active(const int* valid, RTCScene scene, RTCIntersectContext* ctx
     }
     rtcIntersect16(valid, scene, ctx, &rh);
 }
-
-}  // namespace
 
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit) {
     // Embree's t counts from the offset origin; the answer is the distance from the true point.
@@ -284,7 +277,7 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
     }
     AreaRound round;
     if (!any) return round;
-    intersect_active(valid, scene_.get(), &coherent, sh);
+    intersect_active_lanes(valid, scene_.get(), &coherent, sh);
     for (int k = 0; k < kRoundRays; ++k) {
         if (!valid[k]) continue;
         ShadowAnswer ans = judge_lane(sh, k, setup[k], s, counters);
@@ -331,7 +324,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                 local.primary += valid[k] != 0;
             }
-            intersect_active(valid, scene_.get(), &coherent, rh);
+            intersect_active_lanes(valid, scene_.get(), &coherent, rh);
 
             // The double vertices of the hit triangles are cache misses on large scenes: ask for
             // all lanes' indices first, so the misses overlap instead of queueing lane by lane.
@@ -400,7 +393,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 if (!any) continue;
                 // Closest hit, not any hit: the occluder distance is part of the answer (the
                 // metrics measure peter-panning gaps with it).
-                intersect_active(svalid, scene_.get(), &coherent, sh);
+                intersect_active_lanes(svalid, scene_.get(), &coherent, sh);
                 for (int k = 0; k < kPacket; ++k) {
                     if (!svalid[k]) continue;
                     const int i = pixel[k];

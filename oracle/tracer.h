@@ -97,6 +97,15 @@ inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowS
     }
 }
 
+// Traces a packet's active lanes (valid[k] == -1). Where the CPU has no native 16-wide
+// kernels (AVX2 and older), Embree 3 hands rtcIntersect16 to its stream fallback, which ignores
+// `valid`: it traces every lane whose tnear <= tfar and writes its hit back (rtcore.cpp and
+// bvh_intersector_stream_filters.cpp in Embree 3.13; RenderKit/embree#520). An inactive lane
+// then traced whatever it held: a previous packet's ray (wasted work), or uninitialised floats
+// that trip Embree's finite-ray assertion and abort. Inactive lanes get tfar = -inf here, which
+// every path skips; their ray is overwritten, their hit left as it was.
+void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh);
+
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit);
 
