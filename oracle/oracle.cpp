@@ -57,7 +57,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     stats.threads = threads;
 
     auto t0 = SteadyClock::now();
-    Tracer tracer(scenario);
+    Tracer tracer(scenario, settings.embree_isa);
     stats.embree_version = tracer.device().version();
     tracer.build();
     stats.build_s = seconds_since(t0);

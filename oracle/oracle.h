@@ -20,6 +20,10 @@ struct OracleSettings {
     double area_target = 1.0 / 255;  // stop refining a pixel once its 95% half-width E is this small
     int area_max_rays = 4096;        // ... or once it has traced this many rays
     int area_uniform_rays = 0;       // > 0: no adaptivity, every lightable pixel traces exactly this many
+    // Embree's max_isa ("sse4.2", "avx2", ...): the widest kernels it may use; "" for the best the
+    // CPU has. The answers do not depend on it (docs/oracle.md section 7); tests and bug reports
+    // use it to run another CPU's code path.
+    std::string embree_isa;
 };
 
 // The error bound of the refined pixels after a given number of rays per pixel.

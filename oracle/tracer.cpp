@@ -99,9 +99,21 @@ float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_h
     return static_cast<float>(glm::length(glm::dvec3(setup.origin) + static_cast<double>(t_hit) * setup.dir - p));
 }
 
-Tracer::Tracer(const Scenario& scenario)
+namespace {
+
+// Embree's device configuration; it reads an unknown ISA name as SSE2, so names are checked here.
+std::string device_config(const std::string& embree_isa) {
+    if (embree_isa.empty()) return "verbose=0";
+    for (const char* known : {"sse2", "sse4.2", "avx", "avx2", "avx512"})
+        if (embree_isa == known) return "verbose=0,max_isa=" + embree_isa;
+    throw InputError(fmt::format("embree_isa \"{}\": not one of sse2, sse4.2, avx, avx2, avx512", embree_isa));
+}
+
+}  // namespace
+
+Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
     : scenario_(scenario),
-      device_("verbose=0"),
+      device_(device_config(embree_isa)),
       scene_(device_),
       tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided) {}

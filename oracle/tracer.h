@@ -129,7 +129,8 @@ struct AreaRound {
 
 class Tracer {
   public:
-    explicit Tracer(const Scenario& scenario);
+    // embree_isa: OracleSettings::embree_isa.
+    explicit Tracer(const Scenario& scenario, const std::string& embree_isa = "");
     void build();  // BVH over the scene in the local frame
 
     const Scenario& scenario() const { return scenario_; }
