@@ -88,8 +88,7 @@ void set_lane(RTCRay16& r, int k, const glm::vec3& o, const glm::vec3& d, float 
 void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh) {
     for (int k = 0; k < kPacket; ++k) {
         if (valid[k]) continue;
-        rh.ray.tnear[k] = 0.0f;
-        rh.ray.tfar[k] = -std::numeric_limits<float>::infinity();
+        set_lane(rh.ray, k, glm::vec3(0.0f), glm::vec3(0.0f), 0.0f, -std::numeric_limits<float>::infinity());
     }
     rtcIntersect16(valid, scene, ctx, &rh);
 }

@@ -102,8 +102,9 @@ inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowS
 // `valid`: it traces every lane whose tnear <= tfar and writes its hit back (rtcore.cpp and
 // bvh_intersector_stream_filters.cpp in Embree 3.13; RenderKit/embree#520). An inactive lane
 // then traced whatever it held: a previous packet's ray (wasted work), or uninitialised floats
-// that trip Embree's finite-ray assertion and abort. Inactive lanes get tfar = -inf here, which
-// every path skips; their ray is overwritten, their hit left as it was.
+// that trip Embree's finite-ray assertion and abort. Inactive lanes get a defined ray with
+// tfar = -inf here, which every path skips (and Valgrind sees no undefined value enter Embree);
+// their ray is overwritten, their hit left as it was.
 void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh);
 
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).

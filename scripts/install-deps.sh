@@ -14,6 +14,7 @@ packages=(
   python3 assimp-testmodels
   chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
   clang libclang-rt-14-dev  # tests: the libFuzzer targets (tests/fuzz, docs/testing.md)
+  valgrind  # tests: the oracle under memcheck (tests/cli/valgrind_oracle.sh)
   nodejs  # tests/engines: real engines in chromium (npm installs what its package-lock.json pins; below)
 )
 
