@@ -342,8 +342,9 @@ BareRun bare_embree(const BenchScene& s, int threads) {
                     for (int k = 0; k < 16; ++k) {
                         svalid[k] = 0;
                         // Without native 16-wide kernels (AVX2) Embree ignores `valid` and traces
-                        // every lane with tnear <= tfar: an inactive lane must say so itself.
-                        sh.ray.tnear[k] = 0.0f;
+                        // every lane with tnear <= tfar: an inactive lane must say so itself, as
+                        // the oracle's do (docs/oracle.md section 7).
+                        set_lane(sh, k, glm::vec3(0.0f), glm::vec3(0.0f), 0.0f);
                         sh.ray.tfar[k] = -INFINITY;
                         if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
                         glm::vec3 o(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]);
