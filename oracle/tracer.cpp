@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <glm/geometric.hpp>
 #include <limits>
+#include <utility>
 
 #include "common/camera.h"
 #include "common/errors.h"
@@ -85,12 +87,52 @@ void set_lane(RTCRay16& r, int k, const glm::vec3& o, const glm::vec3& d, float 
 
 }  // namespace
 
-void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh) {
+void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh,
+                            bool as_halves) {
     for (int k = 0; k < kPacket; ++k) {
         if (valid[k]) continue;
         set_lane(rh.ray, k, glm::vec3(0.0f), glm::vec3(0.0f), 0.0f, -std::numeric_limits<float>::infinity());
     }
-    rtcIntersect16(valid, scene, ctx, &rh);
+    if (!as_halves) {
+        rtcIntersect16(valid, scene, ctx, &rh);
+        return;
+    }
+    constexpr std::size_t kHalf = 8 * sizeof(float);
+    for (int o = 0; o < kPacket; o += 8) {
+        alignas(32) int half_valid[8];
+        alignas(32) RTCRayHit8 half;
+        std::memcpy(half_valid, valid + o, sizeof half_valid);
+        if (std::all_of(half_valid, half_valid + 8, [](int v) { return v == 0; })) continue;
+        for (auto [to, from] : {std::pair{half.ray.org_x, rh.ray.org_x},
+                                {half.ray.org_y, rh.ray.org_y},
+                                {half.ray.org_z, rh.ray.org_z},
+                                {half.ray.tnear, rh.ray.tnear},
+                                {half.ray.dir_x, rh.ray.dir_x},
+                                {half.ray.dir_y, rh.ray.dir_y},
+                                {half.ray.dir_z, rh.ray.dir_z},
+                                {half.ray.time, rh.ray.time},
+                                {half.ray.tfar, rh.ray.tfar}})
+            std::memcpy(to, from + o, kHalf);
+        for (auto [to, from] : {std::pair{half.ray.mask, rh.ray.mask},
+                                {half.ray.id, rh.ray.id},
+                                {half.ray.flags, rh.ray.flags},
+                                {half.hit.primID, rh.hit.primID},
+                                {half.hit.geomID, rh.hit.geomID},
+                                {half.hit.instID[0], rh.hit.instID[0]}})
+            std::memcpy(to, from + o, kHalf);
+        rtcIntersect8(half_valid, scene, ctx, &half);
+        for (auto [to, from] : {std::pair{rh.ray.tfar, half.ray.tfar},
+                                {rh.hit.Ng_x, half.hit.Ng_x},
+                                {rh.hit.Ng_y, half.hit.Ng_y},
+                                {rh.hit.Ng_z, half.hit.Ng_z},
+                                {rh.hit.u, half.hit.u},
+                                {rh.hit.v, half.hit.v}})
+            std::memcpy(to + o, from, kHalf);
+        for (auto [to, from] : {std::pair{rh.hit.primID, half.hit.primID},
+                                {rh.hit.geomID, half.hit.geomID},
+                                {rh.hit.instID[0], half.hit.instID[0]}})
+            std::memcpy(to + o, from, kHalf);
+    }
 }
 
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit) {
@@ -113,6 +155,8 @@ std::string device_config(const std::string& embree_isa) {
 Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
     : scenario_(scenario),
       device_(device_config(embree_isa)),
+      as_halves_(rtcGetDeviceProperty(device_.get(), RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) == 0 &&
+                 rtcGetDeviceProperty(device_.get(), RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0),
       scene_(device_),
       tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided) {}
@@ -288,7 +332,7 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
     }
     AreaRound round;
     if (!any) return round;
-    intersect_active_lanes(valid, scene_.get(), &coherent, sh);
+    intersect_active_lanes(valid, scene_.get(), &coherent, sh, as_halves_);
     for (int k = 0; k < kRoundRays; ++k) {
         if (!valid[k]) continue;
         ShadowAnswer ans = judge_lane(sh, k, setup[k], s, counters);
@@ -335,7 +379,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                 local.primary += valid[k] != 0;
             }
-            intersect_active_lanes(valid, scene_.get(), &coherent, rh);
+            intersect_active_lanes(valid, scene_.get(), &coherent, rh, as_halves_);
 
             // The double vertices of the hit triangles are cache misses on large scenes: ask for
             // all lanes' indices first, so the misses overlap instead of queueing lane by lane.
@@ -404,7 +448,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 if (!any) continue;
                 // Closest hit, not any hit: the occluder distance is part of the answer (the
                 // metrics measure peter-panning gaps with it).
-                intersect_active_lanes(svalid, scene_.get(), &coherent, sh);
+                intersect_active_lanes(svalid, scene_.get(), &coherent, sh, as_halves_);
                 for (int k = 0; k < kPacket; ++k) {
                     if (!svalid[k]) continue;
                     const int i = pixel[k];

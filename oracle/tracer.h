@@ -104,8 +104,12 @@ inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowS
 // then traced whatever it held: a previous packet's ray (wasted work), or uninitialised floats
 // that trip Embree's finite-ray assertion and abort. Inactive lanes get a defined ray with
 // tfar = -inf here, which every path skips (and Valgrind sees no undefined value enter Embree);
-// their ray is overwritten, their hit left as it was.
-void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh);
+// their ray is overwritten, their hit's primID and geomID left as they were.
+// as_halves: trace the packet as two 8-wide packets (rtcIntersect8), for a device with native
+// 8-wide kernels and no 16-wide ones, where copying the halves in and out costs less than the
+// fallback's lane-by-lane gathers (docs/oracle.md section 9).
+void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh,
+                            bool as_halves);
 
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit);
@@ -173,6 +177,7 @@ class Tracer {
 
     const Scenario& scenario_;
     EmbreeDevice device_;
+    bool as_halves_ = false;  // packets go to Embree as two halves (intersect_active_lanes)
     EmbreeScene scene_;
     glm::dvec3 frame_origin_{0.0};
     std::vector<glm::dvec3> vertices_;  // local frame, double
