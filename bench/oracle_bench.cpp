@@ -12,8 +12,8 @@
 //   Embree's buffers, rtcCommitScene); trace the same primary rays and one closest-hit shadow
 //   ray per pixel that faces the light (16-wide packets both, sent to Embree as the oracle
 //   sends them: rtcIntersect16, or two rtcIntersect8 where only 8-wide kernels are native;
-//   float o + t d + 1e-3 n origins: the fixed epsilon an oracle must not use), no outputs. Embree's peak allocation is read
-//   through its memory monitor.
+//   float o + t d + 1e-3 n origins: the fixed epsilon an oracle must not use), no outputs.
+//   Embree's peak allocation is read through its memory monitor.
 // Prints the median of --repeat runs (and the range) for every phase and the ratios the
 // goals are stated in (docs/oracle.md section 9).
 #include <embree3/rtcore.h>

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The oracle under Valgrind's memcheck: no undefined value may reach Embree or the outputs.
-# Valgrind emulates no AVX-512, so Embree runs its AVX2 kernels here, whose stream fallback
-# reads every lane of a 16-wide packet, active or not (docs/oracle.md section 7): this is where
-# uninitialised lanes once aborted the oracle on AVX2 machines. data/default (three punctual
+# Valgrind emulates no AVX-512, so Embree runs the kernels a CPU without it gets (docs/oracle.md
+# section 7), which read every lane of a packet, active or not: this is where uninitialised
+# lanes once aborted the oracle on AVX2 machines, and memcheck still sees them if the lanes
+# are left undefined. data/default (three punctual
 # lights) and data/soft (three area lights), at 96x54 and 64x36 pixels.
 # Skipped (exit 77) when valgrind is not installed. Usage: valgrind_oracle.sh PENUMBRA SOURCE_DIR
 set -uo pipefail
