@@ -315,8 +315,7 @@ BareRun bare_embree(const BenchScene& s, int threads) {
     out.build = seconds_since(t0);
 
     // Packets as the oracle sends them (oracle/tracer.h): the same kernels, inactive lanes marked.
-    const bool halves = rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) == 0 &&
-                        rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0;
+    const bool halves = oracle_detail::packets_as_halves(device);
     const int W = s.size, H = s.size, tile = 16;
     const int tiles_x = W / tile, tiles_y = H / tile;
     const glm::vec3 L = glm::vec3(-s.light_direction);

@@ -135,6 +135,11 @@ void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContex
     }
 }
 
+bool packets_as_halves(RTCDevice device) {
+    return rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) == 0 &&
+           rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0;
+}
+
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit) {
     // Embree's t counts from the offset origin; the answer is the distance from the true point.
     return static_cast<float>(glm::length(glm::dvec3(setup.origin) + static_cast<double>(t_hit) * setup.dir - p));
@@ -155,8 +160,7 @@ std::string device_config(const std::string& embree_isa) {
 Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
     : scenario_(scenario),
       device_(device_config(embree_isa)),
-      as_halves_(rtcGetDeviceProperty(device_.get(), RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) == 0 &&
-                 rtcGetDeviceProperty(device_.get(), RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0),
+      as_halves_(packets_as_halves(device_.get())),
       scene_(device_),
       tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided) {}

@@ -110,6 +110,8 @@ inline void setup_shadow(const LocalLight& light, const SurfacePoint& s, ShadowS
 // fallback's lane-by-lane gathers (docs/oracle.md section 9).
 void intersect_active_lanes(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RTCRayHit16& rh,
                             bool as_halves);
+// Whether `device` should get its packets as halves: native 8-wide kernels, no 16-wide ones.
+bool packets_as_halves(RTCDevice device);
 
 // Metres from the true surface point p to the hit at Embree's t (measured from the offset origin).
 float occluder_distance(const ShadowSetup& setup, const glm::dvec3& p, float t_hit);
