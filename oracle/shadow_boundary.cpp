@@ -25,11 +25,14 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <vector>
 
+#include "common/fresh_memory.h"
 #include "oracle/tracer.h"
 
 namespace penumbra::oracle_detail {
@@ -343,9 +346,13 @@ void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>
 // (docs/oracle.md section 6): each cell's nearest point to its centre's ray by the sweeps, then
 // each pixel's nearest among its own and the eight surrounding cells' nearest and filed points,
 // and along the boundary from there.
-void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
+//
+// With `finish`, the last search of a pixel: finish(i) is called for every lightable pixel i once
+// its nearest point is known, and nearest_in_chart returns true.
+template <typename Finish = std::nullptr_t>
+bool nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
                       const LocalLight& light, const std::vector<glm::dvec3>& seeds, std::vector<int>& nearest,
-                      std::vector<double>& best) {
+                      std::vector<double>& best, Finish finish = nullptr) {
     const std::size_t n = frame.pixel_count();
     constexpr double kInf = std::numeric_limits<double>::infinity();
     struct Box {
@@ -371,7 +378,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             a.count += b.count;
             return a;
         });
-    if (box.count == 0) return;
+    if (box.count == 0) return false;
     const ChartGrid grid = grid_over(box.lo, box.hi, box.count);
 
     // The boundary points filed by cell (a counting sort).
@@ -504,12 +511,9 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         tbb::parallel_for(0, frame.height, [&](int y) {
             glm::dvec2 uv;
             int hint = -1;
-            for (std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W),
-                             end = i + static_cast<std::size_t>(W);
-                 i != end; ++i) {
-                if (img.lightable[i] == 0) continue;
+            auto search = [&](std::size_t i) {
                 const glm::dvec3 p(frame.P[i]);
-                if (!chart.owns(p) || !chart.map(p, uv)) continue;
+                if (!chart.owns(p) || !chart.map(p, uv)) return;
                 const auto measure = at_chart_point(uv);
                 int cur = hint;
                 double cur_d2 = cur >= 0 ? measure(cur) : kInf;
@@ -544,13 +548,20 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         if (cur == before) break;
                     }
                 hint = cur;
-                if (cur < 0) continue;
+                if (cur < 0) return;
                 const double d2 =
                     lateral_distance2(p, direction_to_light(light, p), seeds[static_cast<std::size_t>(cur)]);
                 if (d2 < best[i]) {
                     best[i] = d2;
                     nearest[i] = cur;
                 }
+            };
+            for (std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W),
+                             end = i + static_cast<std::size_t>(W);
+                 i != end; ++i) {
+                if (img.lightable[i] == 0) continue;
+                search(i);
+                if constexpr (!std::is_same_v<Finish, std::nullptr_t>) finish(i);
             }
         });
     };
@@ -571,6 +582,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             };
         });
     }
+    return !std::is_same_v<Finish, std::nullptr_t>;
 }
 
 // The nearest boundary point of every lightable pixel carried through the image by the same
@@ -640,8 +652,10 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     });
     rays = ray_count;
     std::vector<glm::dvec3> seeds;
-    std::vector<int> nearest(frame.pixel_count(), -1);
-    std::vector<double> best(frame.pixel_count(), std::numeric_limits<double>::infinity());
+    std::vector<int> nearest;
+    std::vector<double> best;
+    assign_populated(nearest, frame.pixel_count(), -1);
+    assign_populated(best, frame.pixel_count(), std::numeric_limits<double>::infinity());
     auto consider = [&](int i, int s) {
         glm::dvec3 p(frame.P[i]);
         double d2 = lateral_distance2(p, direction_to_light(light, p), seeds[s]);
@@ -658,28 +672,47 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         }
     rows = {};
 
-    // ---- 2. the nearest boundary point of every lightable pixel ----
-    if (!seeds.empty()) {
-        const std::vector<RayChart> charts = charts_for(light, frame, img);
-        for (const RayChart& chart : charts) nearest_in_chart(chart, frame, img, light, seeds, nearest, best);
-        if (charts.size() > 1) nearest_in_image(frame, img, light, seeds, nearest, best);
-    }
-
-    // ---- 3. distances, and ambiguity within float error of a boundary ----
+    // ---- 2. the nearest boundary point of every lightable pixel; 3. its distance ----
+    // Step 3 at pixel i: the distance, and ambiguity within float error of a boundary.
     const Camera& cam = tr.scenario().camera;
-    tbb::parallel_for(std::size_t(0), frame.pixel_count(), [&](std::size_t i) {
-        if (img.lightable[i] == 0 || nearest[i] < 0) return;
+    // The ambiguity distance below is at most k (|P| + |B|) with k = 64 eps x 64 (cos_view >=
+    // 1/64), so a squared distance above 2 k^2 (|P|^2 + max |B|^2), with a margin for rounding,
+    // is not ambiguous: most pixels are decided without the square roots and the division.
+    double seed_norm2 = 0;
+    for (const glm::dvec3& b : seeds) seed_norm2 = std::max(seed_norm2, glm::dot(b, b));
+    constexpr double kFar = 64 * 64 * robust::kFloatEps;
+    constexpr double kFar2 = 2 * kFar * kFar * (1 + 1e-6);
+    auto finish = [&](std::size_t i) {
+        if (nearest[i] < 0) return;
         double dist = std::sqrt(best[i]);
         img.boundary_m[i] = static_cast<float>(dist);
         // The receiver point carries a float error of ~eps |P|, stretched along the surface by
         // 1 / cos(view angle); the boundary, ~eps |B|. Closer than that, the verdict is a coin
         // toss for any float implementation, so it is flagged rather than guessed.
-        glm::dvec3 p(frame.P[i]), n(frame.N[i]);
+        glm::dvec3 p(frame.P[i]);
+        if (best[i] > kFar2 * (glm::dot(p, p) + seed_norm2)) return;
+        glm::dvec3 n(frame.N[i]);
         glm::dvec3 view = cam.type == ProjectionType::perspective ? glm::normalize(p) : cam.forward;
         double cos_view = std::max(std::abs(glm::dot(n, view)), 1.0 / 64);
         double ambiguity = 64 * robust::kFloatEps * (glm::length(p) + glm::length(seeds[nearest[i]])) / cos_view;
         if (dist <= ambiguity) img.U[i] = 1.0f;
-    });
+    };
+
+    // With one chart, a pixel's search there is its last, and step 3 follows it in the same pass.
+    bool finished = false;
+    if (!seeds.empty()) {
+        const std::vector<RayChart> charts = charts_for(light, frame, img);
+        if (charts.size() == 1) {
+            finished = nearest_in_chart(charts[0], frame, img, light, seeds, nearest, best, finish);
+        } else {
+            for (const RayChart& chart : charts) nearest_in_chart(chart, frame, img, light, seeds, nearest, best);
+            nearest_in_image(frame, img, light, seeds, nearest, best);
+        }
+    }
+    if (!finished && !seeds.empty())
+        tbb::parallel_for(std::size_t(0), frame.pixel_count(), [&](std::size_t i) {
+            if (img.lightable[i] != 0) finish(i);
+        });
     return rays;
 }
 
