@@ -117,6 +117,10 @@ std::string content_fingerprint(std::string_view bytes) {
 void OutputTransaction::commit() {
     for (auto& [tmp, final_path] : files_) {
         std::error_code ec;
+        // A rename over an existing file makes ext4 write the new file's data out before it
+        // returns (its auto_da_alloc heuristic): 0.2-0.27 s for a 2048^2 oracle.exr, a tenth of
+        // the run, at every run into the same folder. The old file is removed first instead.
+        if (fs::is_regular_file(fs::symlink_status(final_path, ec))) fs::remove(final_path, ec);
         fs::rename(tmp, final_path, ec);
         if (ec)
             throw EnvironmentError(fmt::format("{}: cannot move into place: {}", final_path.string(), ec.message()));
