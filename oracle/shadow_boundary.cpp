@@ -32,7 +32,6 @@
 #include <type_traits>
 #include <vector>
 
-#include "common/fresh_memory.h"
 #include "oracle/tracer.h"
 
 namespace penumbra::oracle_detail {
@@ -652,10 +651,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
     });
     rays = ray_count;
     std::vector<glm::dvec3> seeds;
-    std::vector<int> nearest;
-    std::vector<double> best;
-    assign_populated(nearest, frame.pixel_count(), -1);
-    assign_populated(best, frame.pixel_count(), std::numeric_limits<double>::infinity());
+    std::vector<int> nearest(frame.pixel_count(), -1);
+    std::vector<double> best(frame.pixel_count(), std::numeric_limits<double>::infinity());
     auto consider = [&](int i, int s) {
         glm::dvec3 p(frame.P[i]);
         double d2 = lateral_distance2(p, direction_to_light(light, p), seeds[s]);
