@@ -520,7 +520,6 @@ bool nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 auto scan = [&](std::uint32_t from, std::uint32_t to) {
                     for (std::uint32_t f = from; f != to; ++f) {
                         const int s = list[f];
-                        if (s == cur) continue;
                         const double d2 = measure(s);
                         if (d2 < cur_d2) {
                             cur_d2 = d2;
@@ -537,7 +536,6 @@ bool nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         const int before = cur;
                         for (const int t : neighbours[static_cast<std::size_t>(cur)]) {
                             if (t < 0) break;
-                            if (t == cur) continue;
                             const double d2 = measure(t);
                             if (d2 < cur_d2) {
                                 cur_d2 = d2;
