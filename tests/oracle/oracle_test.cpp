@@ -539,14 +539,17 @@ INSTANTIATE_TEST_SUITE_P(Oracle, Invariance,
                                            InvarianceCase{"all_at_once", 1e3, 71, 1e7}),
                          [](const auto& param_info) { return std::string(param_info.param.name); });
 
+// Two arrays with the same elements, bit for bit.
+template <typename T>
+bool same(const std::vector<T>& x, const std::vector<T>& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(T)) == 0;
+}
+
 TEST(Oracle, IsBitIdenticalWhateverTheThreadCount) {
     Scenario sc = invariance_scene();
     OracleSettings one;
     one.threads = 1;
     OracleResult a = run_oracle(sc, one);
-    auto same = [](const auto& x, const auto& y) {
-        return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
-    };
     // 3 threads on a 2-core machine: the boundary search's rows and the tiles must not depend on
     // which thread runs ahead.
     for (int threads : {2, 3}) {
@@ -570,9 +573,6 @@ TEST(Oracle, IsBitIdenticalWhateverTheThreadCount) {
 TEST(Oracle, GivesTheSameAnswersWhateverEmbreesKernels) {
     Scenario sc = invariance_scene();
     const OracleResult native = run_oracle(sc);
-    auto same = [](const auto& x, const auto& y) {
-        return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
-    };
     for (const char* isa : {"avx2", "sse4.2"}) {
         SCOPED_TRACE(isa);
         OracleSettings s;
