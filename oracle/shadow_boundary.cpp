@@ -346,10 +346,9 @@ void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>
 // each pixel's nearest among its own and the eight surrounding cells' nearest and filed points,
 // and along the boundary from there.
 //
-// With `finish`, the last search of a pixel: finish(i) is called for every lightable pixel i once
-// its nearest point is known, and nearest_in_chart returns true.
+// With `finish`, the pixel's last search: finish(i) follows it at every lightable pixel i.
 template <typename Finish = std::nullptr_t>
-bool nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
+void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
                       const LocalLight& light, const std::vector<glm::dvec3>& seeds, std::vector<int>& nearest,
                       std::vector<double>& best, Finish finish = nullptr) {
     const std::size_t n = frame.pixel_count();
@@ -377,7 +376,7 @@ bool nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             a.count += b.count;
             return a;
         });
-    if (box.count == 0) return false;
+    if (box.count == 0) return;
     const ChartGrid grid = grid_over(box.lo, box.hi, box.count);
 
     // The boundary points filed by cell (a counting sort).
@@ -579,7 +578,6 @@ bool nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             };
         });
     }
-    return !std::is_same_v<Finish, std::nullptr_t>;
 }
 
 // The nearest boundary point of every lightable pixel carried through the image by the same
@@ -693,21 +691,20 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         if (dist <= ambiguity) img.U[i] = 1.0f;
     };
 
-    // With one chart, a pixel's search there is its last, and step 3 follows it in the same pass.
-    bool finished = false;
     if (!seeds.empty()) {
         const std::vector<RayChart> charts = charts_for(light, frame, img);
         if (charts.size() == 1) {
-            finished = nearest_in_chart(charts[0], frame, img, light, seeds, nearest, best, finish);
+            // One chart maps every lightable pixel (charts_for): a pixel's search there is its
+            // last, and step 3 follows it in the same pass.
+            nearest_in_chart(charts[0], frame, img, light, seeds, nearest, best, finish);
         } else {
             for (const RayChart& chart : charts) nearest_in_chart(chart, frame, img, light, seeds, nearest, best);
             nearest_in_image(frame, img, light, seeds, nearest, best);
+            tbb::parallel_for(std::size_t(0), frame.pixel_count(), [&](std::size_t i) {
+                if (img.lightable[i] != 0) finish(i);
+            });
         }
     }
-    if (!finished && !seeds.empty())
-        tbb::parallel_for(std::size_t(0), frame.pixel_count(), [&](std::size_t i) {
-            if (img.lightable[i] != 0) finish(i);
-        });
     return rays;
 }
 
