@@ -14,6 +14,10 @@
 //   sends them: rtcIntersect16, or two rtcIntersect8 where only 8-wide kernels are native;
 //   float o + t d + 1e-3 n origins: the fixed epsilon an oracle must not use), no outputs.
 //   Embree's peak allocation is read through its memory monitor.
+// - the trace phase interleaved in one process: the oracle's tile loop (Tracer::trace_tile, as
+//   run_oracle drives it) and the bare loop's, on the same scene and tiles, alternating in
+//   chunks of a few milliseconds, so that the other load on a shared machine, which comes and
+//   goes over seconds, falls on both alike (--interleave 0 skips it).
 // Prints the median of --repeat runs (and the range) for every phase and the ratios the
 // goals are stated in (docs/oracle.md section 9).
 #include <embree3/rtcore.h>
@@ -36,6 +40,7 @@
 #include <vector>
 
 #include "common/camera.h"
+#include "common/scenario.h"
 #include "common/stopwatch.h"
 #include "oracle/tracer.h"
 
@@ -279,7 +284,124 @@ void set_lane(RTCRayHit16& rh, int k, const glm::vec3& o, const glm::vec3& d, fl
     rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
 }
 
-BareRun bare_embree(const BenchScene& s, int threads) {
+// The bare loop's rays, tile by tile (16 x 16 pixels, as the oracle's tiles): primary rays,
+// then a shadow ray from every hit that faces the light. Returns the rays traced.
+class BareTiles {
+  public:
+    static constexpr int kTile = 16;
+    BareTiles(const BenchScene& s, RTCScene scene, bool halves)
+        : scene_(scene),
+          halves_(halves),
+          W_(s.size),
+          H_(s.size),
+          tiles_x_(s.size / kTile),
+          L_(glm::vec3(-s.light_direction)),
+          znear_(static_cast<float>(s.camera.znear)),
+          rays_(s.camera, W_, H_) {}
+    int count() const { return tiles_x_ * (H_ / kTile); }
+    std::uint64_t trace(int t) const {
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+        std::uint64_t rays = 0;
+        const int x0 = (t % tiles_x_) * kTile, y0 = (t / tiles_x_) * kTile;
+        for (int by = y0; by < y0 + kTile; by += 4)
+            for (int bx = x0; bx < x0 + kTile; bx += 4) {
+                alignas(64) RTCRayHit16 rh;
+                alignas(64) int valid[16];
+                for (int k = 0; k < 16; ++k) {
+                    PrimaryRay pr = rays_.at(bx + (k & 3) + 0.5, by + (k >> 2) + 0.5);
+                    valid[k] = -1;
+                    set_lane(rh, k, glm::vec3(pr.origin), glm::vec3(pr.direction), znear_);
+                }
+                oracle_detail::intersect_active_lanes(valid, scene_, &ctx, rh, halves_);
+                rays += 16;
+                alignas(64) RTCRayHit16 sh;
+                alignas(64) int svalid[16];
+                for (int k = 0; k < 16; ++k) {
+                    svalid[k] = 0;
+                    if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+                    glm::vec3 o(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]);
+                    glm::vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
+                    glm::vec3 n = glm::normalize(glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]));
+                    if (glm::dot(n, d) > 0) n = -n;
+                    if (glm::dot(n, L_) <= 0) continue;
+                    svalid[k] = -1;
+                    set_lane(sh, k, o + rh.ray.tfar[k] * d + 1e-3f * n, L_, 0.0f);
+                    ++rays;
+                }
+                oracle_detail::intersect_active_lanes(svalid, scene_, &ctx, sh, halves_);
+            }
+        return rays;
+    }
+
+  private:
+    RTCScene scene_;
+    bool halves_;
+    int W_, H_, tiles_x_;
+    glm::vec3 L_;
+    float znear_;
+    PrimaryRays rays_;
+};
+
+// The oracle's trace phase and the bare loop's, interleaved: chunk c (kChunk tiles) of pass p
+// goes to the oracle when c + p is even, to the bare loop otherwise, so over each pair of passes
+// both cover every tile once. Each pair gives a ratio of rays per second, oracle over bare.
+struct Interleaved {
+    std::vector<double> ratios;  // one per pair of passes
+};
+
+Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pairs) {
+    using namespace oracle_detail;
+    const Scenario scenario = load_scenario(s.scenario);
+    Tracer tracer(scenario);
+    tracer.build();
+    OracleFrame frame;  // the channels the trace writes, allocated as run_oracle does
+    frame.width = scenario.width;
+    frame.height = scenario.height;
+    const std::size_t n = frame.pixel_count();
+    frame.A.assign(n, 0.0f);
+    frame.prim.assign(n, kNoPrimitive);
+    frame.depth.assign(n, 0.0f);
+    frame.P.assign(n, glm::vec3(0.0f));
+    frame.N.assign(n, glm::vec3(0.0f));
+    frame.lights.resize(tracer.lights().size());
+    for (OracleLightImage& img : frame.lights) {
+        img.V.assign(n, 0.0f);
+        img.U.assign(n, 0.0f);
+        img.lightable.assign(n, 0.0f);
+        img.occluder_m.assign(n, kNoDistance);
+    }
+    constexpr int kChunk = 32;  // 8,192 pixels: about 2 ms of tracing on one core
+    const int tiles = bare.count(), tiles_x = s.size / BareTiles::kTile, chunks = (tiles + kChunk - 1) / kChunk;
+    Interleaved out;
+    for (int pair = 0; pair < pairs; ++pair) {
+        double seconds[2] = {0, 0};
+        std::uint64_t rays[2] = {0, 0};
+        for (int pass = 0; pass < 2; ++pass)
+            for (int c = 0; c < chunks; ++c) {
+                const int who = (c + pass) % 2;  // 0: the oracle, 1: bare
+                std::atomic<std::uint64_t> chunk_rays{0};
+                const auto t0 = SteadyClock::now();
+                tbb::parallel_for(c * kChunk, std::min(tiles, (c + 1) * kChunk), [&](int t) {
+                    if (who == 1) {
+                        chunk_rays += bare.trace(t);
+                        return;
+                    }
+                    TraceCounters counters;
+                    tracer.trace_tile(frame, (t % tiles_x) * BareTiles::kTile, (t / tiles_x) * BareTiles::kTile,
+                                      BareTiles::kTile, counters);
+                    chunk_rays += counters.primary + counters.shadow;
+                });
+                seconds[who] += seconds_since(t0);
+                rays[who] += chunk_rays;
+            }
+        out.ratios.push_back((double(rays[0]) / seconds[0]) / (double(rays[1]) / seconds[1]));
+    }
+    return out;
+}
+
+BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Interleaved* interleaved) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
     BareRun out;
     // Load: the file's bytes; the .glb written above has positions then indices in its BIN chunk.
@@ -315,54 +437,18 @@ BareRun bare_embree(const BenchScene& s, int threads) {
     out.build = seconds_since(t0);
 
     // Packets as the oracle sends them (oracle/tracer.h): the same kernels, inactive lanes marked.
-    const bool halves = oracle_detail::packets_as_halves(device);
-    const int W = s.size, H = s.size, tile = 16;
-    const int tiles_x = W / tile, tiles_y = H / tile;
-    const glm::vec3 L = glm::vec3(-s.light_direction);
-    const float znear = static_cast<float>(s.camera.znear);
+    const BareTiles tiles(s, scene, oracle_detail::packets_as_halves(device));
     std::atomic<std::uint64_t> rays{0};
     t0 = SteadyClock::now();
-    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 4), [&](const tbb::blocked_range<int>& r) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles.count(), 4), [&](const tbb::blocked_range<int>& r) {
         std::uint64_t local = 0;
-        RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
-        ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-        const PrimaryRays camera_rays(s.camera, W, H);
-        for (int t = r.begin(); t != r.end(); ++t) {
-            int x0 = (t % tiles_x) * tile, y0 = (t / tiles_x) * tile;
-            for (int by = y0; by < y0 + tile; by += 4)
-                for (int bx = x0; bx < x0 + tile; bx += 4) {
-                    alignas(64) RTCRayHit16 rh;
-                    alignas(64) int valid[16];
-                    for (int k = 0; k < 16; ++k) {
-                        PrimaryRay pr = camera_rays.at(bx + (k & 3) + 0.5, by + (k >> 2) + 0.5);
-                        valid[k] = -1;
-                        set_lane(rh, k, glm::vec3(pr.origin), glm::vec3(pr.direction), znear);
-                    }
-                    oracle_detail::intersect_active_lanes(valid, scene, &ctx, rh, halves);
-                    local += 16;
-                    alignas(64) RTCRayHit16 sh;
-                    alignas(64) int svalid[16];
-                    for (int k = 0; k < 16; ++k) {
-                        svalid[k] = 0;
-                        if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
-                        glm::vec3 o(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]);
-                        glm::vec3 d(rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]);
-                        glm::vec3 n = glm::normalize(glm::vec3(rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]));
-                        if (glm::dot(n, d) > 0) n = -n;
-                        if (glm::dot(n, L) <= 0) continue;
-                        svalid[k] = -1;
-                        set_lane(sh, k, o + rh.ray.tfar[k] * d + 1e-3f * n, L, 0.0f);
-                        ++local;
-                    }
-                    oracle_detail::intersect_active_lanes(svalid, scene, &ctx, sh, halves);
-                }
-        }
+        for (int t = r.begin(); t != r.end(); ++t) local += tiles.trace(t);
         rays += local;
     });
     out.trace = seconds_since(t0);
     out.rays = rays;
     out.embree_peak_mib = g_embree_peak / (1024.0 * 1024.0);
+    if (interleaved_pairs > 0) *interleaved = interleaved_trace(s, tiles, interleaved_pairs);
     rtcReleaseScene(scene);
     rtcReleaseDevice(device);
     return out;
@@ -388,7 +474,7 @@ struct Spread {
 }  // namespace
 
 int main(int argc, char** argv) {
-    int size = 2048, repeat = 3, bare = 1, inside_out = 0;
+    int size = 2048, repeat = 3, bare = 1, inside_out = 0, interleave = 3;
     std::string scenes = "terrain,spheres", thread_list = "1,2", keep;
     std::string penumbra = PENUMBRA_BINARY;
     std::setvbuf(stdout, nullptr, _IOLBF, 0);  // line by line, also into a file: the runs are long
@@ -410,10 +496,12 @@ int main(int argc, char** argv) {
             inside_out = std::stoi(v);
         else if (a == "--keep")
             keep = v;
+        else if (a == "--interleave")
+            interleave = std::max(0, std::stoi(v));
         else {
             std::fprintf(stderr,
                          "usage: oracle_bench [--scenes terrain,spheres] [--threads 1,2] [--repeat 3] [--size 2048] "
-                         "[--bare 0|1] [--inside-out 0|1] [--penumbra PATH] [--keep DIR]\n");
+                         "[--bare 0|1] [--interleave PAIRS] [--inside-out 0|1] [--penumbra PATH] [--keep DIR]\n");
             return 2;
         }
     }
@@ -440,6 +528,7 @@ int main(int argc, char** argv) {
                 whole_ratio, trace_ratio, mem_ratio;
             OracleRun o;
             BareRun b;
+            Interleaved interleaved;
             for (int r = 0; r < repeat; ++r) {
                 o = run_penumbra(penumbra, s, dir / name / "out", threads);
                 wall.v.push_back(o.wall);
@@ -451,7 +540,7 @@ int main(int argc, char** argv) {
                 write.v.push_back(o.write);
                 peak.v.push_back(o.peak_mib);
                 if (!bare) continue;
-                b = bare_embree(s, threads);
+                b = bare_embree(s, threads, r == repeat - 1 ? interleave : 0, &interleaved);
                 b_load.v.push_back(b.load);
                 b_build.v.push_back(b.build);
                 b_trace.v.push_back(b.trace);
@@ -478,6 +567,9 @@ int main(int argc, char** argv) {
             std::printf("ratios  whole oracle / bare load+build+trace %s (goal <= 2)\n",
                         whole_ratio.text("%.2f").c_str());
             std::printf("        trace rays/s oracle / bare %s (goal >= 0.7)\n", trace_ratio.text("%.2f").c_str());
+            if (!interleaved.ratios.empty())
+                std::printf("        the same, interleaved in one process: %s, median (min-max) of %zu pass pairs\n",
+                            Spread{interleaved.ratios}.text("%.3f").c_str(), interleaved.ratios.size());
             std::printf("        peak memory / (Embree peak + frame channels) %s (goal <= 1.5)\n",
                         mem_ratio.text("%.2f").c_str());
         }
