@@ -16,11 +16,6 @@ const char* to_string(LightType type) {
     return "?";
 }
 
-void Bounds::grow(const glm::dvec3& p) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-}
-
 std::uint32_t Scene::add_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, bool is_double_sided) {
     const auto base = static_cast<std::uint32_t>(positions.size());
     for (const glm::dvec3& p : {a, b, c}) {

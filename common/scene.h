@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <glm/common.hpp>
 #include <glm/vec3.hpp>
 #include <string>
 #include <vector>
@@ -40,7 +41,11 @@ struct Camera {
 
 struct Bounds {
     glm::dvec3 lo{1e300}, hi{-1e300};
-    void grow(const glm::dvec3& p);
+    // Inline: the loader calls it for every vertex of every triangle.
+    void grow(const glm::dvec3& p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
     bool empty() const { return lo.x > hi.x; }
     glm::dvec3 center() const { return (lo + hi) * 0.5; }
     double radius() const;
