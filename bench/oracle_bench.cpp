@@ -14,7 +14,7 @@
 //   sends them: rtcIntersect16, or two rtcIntersect8 where only 8-wide kernels are native;
 //   float o + t d + 1e-3 n origins: the fixed epsilon an oracle must not use), no outputs.
 //   Embree's peak allocation is read through its memory monitor.
-// - the trace phase interleaved in one process: the oracle's tile loop (Tracer::trace_tile, as
+// - the trace phase interleaved in one process: the oracle's tile loop (Tracer::trace_tiles, as
 //   run_oracle drives it) and the bare loop's, on the same scene and tiles, alternating in
 //   chunks of a few milliseconds, so that the other load on a shared machine, which comes and
 //   goes over seconds, falls on both alike (--interleave 0 skips it).
@@ -383,14 +383,15 @@ Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pa
                 const int who = (c + pass) % 2;  // 0: the oracle, 1: bare
                 std::atomic<std::uint64_t> chunk_rays{0};
                 const auto t0 = SteadyClock::now();
-                tbb::parallel_for(c * kChunk, std::min(tiles, (c + 1) * kChunk), [&](int t) {
+                // Ranges of 4 tiles, as run_oracle hands them out.
+                const tbb::blocked_range<int> range(c * kChunk, std::min(tiles, (c + 1) * kChunk), 4);
+                tbb::parallel_for(range, [&](const tbb::blocked_range<int>& r) {
                     if (who == 1) {
-                        chunk_rays += bare.trace(t);
+                        for (int t = r.begin(); t != r.end(); ++t) chunk_rays += bare.trace(t);
                         return;
                     }
                     TraceCounters counters;
-                    tracer.trace_tile(frame, (t % tiles_x) * BareTiles::kTile, (t / tiles_x) * BareTiles::kTile,
-                                      BareTiles::kTile, counters);
+                    tracer.trace_tiles(frame, r.begin(), r.end(), tiles_x, BareTiles::kTile, counters);
                     chunk_rays += counters.primary + counters.shadow;
                 });
                 seconds[who] += seconds_since(t0);

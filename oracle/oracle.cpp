@@ -84,9 +84,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     int last_percent = -1;
     tbb::parallel_for(tbb::blocked_range<int>(0, tile_count, 4), [&](const tbb::blocked_range<int>& r) {
         TraceCounters c;
-        for (int t = r.begin(); t != r.end(); ++t)
-            tracer.trace_tile(frame, (t % tiles_x) * kTile, (t / tiles_x) * kTile, kTile, c,
-                              any_area ? &surfaces : nullptr);
+        tracer.trace_tiles(frame, r.begin(), r.end(), tiles_x, kTile, c, any_area ? &surfaces : nullptr);
         primary += c.primary;
         shadow += c.shadow;
         retraced += c.retraced;

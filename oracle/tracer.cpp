@@ -348,6 +348,42 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
     return round;
 }
 
+void Tracer::prefetch_tile_outputs(const OracleFrame& frame, int x0, int y0, int size) const {
+    const int width = std::min(size, frame.width - x0);
+    if (width <= 0) return;
+    auto lines = [](const void* first, std::size_t bytes) {
+        const char* p = static_cast<const char*>(first);
+        for (std::size_t o = 0; o < bytes; o += 64) __builtin_prefetch(p + o, 1);
+        __builtin_prefetch(p + bytes - 1, 1);  // the last line, where the span is not line-aligned
+    };
+    const auto w = static_cast<std::size_t>(width);
+    for (int y = y0; y < std::min(y0 + size, frame.height); ++y) {
+        const std::size_t i =
+            static_cast<std::size_t>(y) * static_cast<std::size_t>(frame.width) + static_cast<std::size_t>(x0);
+        lines(&frame.A[i], w * sizeof(float));
+        lines(&frame.prim[i], w * sizeof(std::uint32_t));
+        lines(&frame.depth[i], w * sizeof(float));
+        lines(&frame.P[i], w * sizeof(glm::vec3));
+        lines(&frame.N[i], w * sizeof(glm::vec3));
+        for (std::size_t li = 0; li < lights_.size(); ++li) {
+            if (is_area_light(lights_[li].type)) continue;  // sampled later (area_pass.cpp)
+            const OracleLightImage& img = frame.lights[li];
+            for (const std::vector<float>* channel : {&img.V, &img.U, &img.lightable, &img.occluder_m})
+                lines(&(*channel)[i], w * sizeof(float));
+        }
+    }
+}
+
+void Tracer::trace_tiles(OracleFrame& frame, int first, int last, int tiles_x, int tile, TraceCounters& counters,
+                         std::vector<SurfacePoint>* surfaces) const {
+    auto corner = [&](int t) { return glm::ivec2(t % tiles_x, t / tiles_x) * tile; };
+    if (first < last) prefetch_tile_outputs(frame, corner(first).x, corner(first).y, tile);
+    for (int t = first; t < last; ++t) {
+        if (t + 1 < last) prefetch_tile_outputs(frame, corner(t + 1).x, corner(t + 1).y, tile);
+        trace_tile(frame, corner(t).x, corner(t).y, tile, counters, surfaces);
+    }
+}
+
 void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters,
                         std::vector<SurfacePoint>* surfaces) const {
     const Camera& cam = scenario_.camera;

@@ -145,11 +145,13 @@ class Tracer {
     const glm::dvec3& frame_origin() const { return frame_origin_; }
     const std::vector<LocalLight>& lights() const { return lights_; }
 
-    // Traces one tile of pixels: primary rays, then one shadow ray per lightable pixel and
-    // punctual light. Area lights are sampled afterwards (area_pass.cpp) from the surface points
-    // kept in `surfaces` (one per pixel) when it is given.
-    void trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters,
-                    std::vector<SurfacePoint>* surfaces = nullptr) const;
+    // Traces tiles first ... last - 1 of a row-major grid of square tiles `tile` pixels wide,
+    // `tiles_x` to a row, one after the other. Each tile's output lines are asked for (with
+    // intent to write) a tile ahead, so that their reads from memory overlap the tile before
+    // instead of stalling this one's stores (docs/oracle.md section 9); not past `last`, whose
+    // tiles another thread may be writing.
+    void trace_tiles(OracleFrame& frame, int first, int last, int tiles_x, int tile, TraceCounters& counters,
+                     std::vector<SurfacePoint>* surfaces = nullptr) const;
 
     // One round of shadow rays from surface point s to light `li`: points first_point ...
     // first_point + kRoundRays - 1 of the Sobol (0,2)-sequence under the digital shift `scramble`.
@@ -171,6 +173,13 @@ class Tracer {
     // re-judged in double, re-tracing the ray when Embree's hit was spurious.
     ShadowAnswer judge_lane(const RTCRayHit16& sh, int k, const ShadowSetup& setup, const SurfacePoint& s,
                             TraceCounters& counters) const;
+    // One tile of trace_tiles: primary rays, then one shadow ray per lightable pixel and punctual
+    // light. Area lights are sampled afterwards (area_pass.cpp) from the surface points kept in
+    // `surfaces` (one per pixel) when it is given.
+    void trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters,
+                    std::vector<SurfacePoint>* surfaces = nullptr) const;
+
+    void prefetch_tile_outputs(const OracleFrame& frame, int x0, int y0, int size) const;
     // Fills `s` (every field) from Embree's hit; `n_ccw` is normal_ccw(prim), computed once by
     // the caller.
     void primary_hit(std::uint32_t prim, double u, double v, double t, const glm::dvec3& ray_org,
