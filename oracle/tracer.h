@@ -146,10 +146,10 @@ class Tracer {
     const std::vector<LocalLight>& lights() const { return lights_; }
 
     // Traces tiles first ... last - 1 of a row-major grid of square tiles `tile` pixels wide,
-    // `tiles_x` to a row, one after the other. Each tile's output lines are asked for (with
-    // intent to write) a tile ahead, so that their reads from memory overlap the tile before
-    // instead of stalling this one's stores (docs/oracle.md section 9); not past `last`, whose
-    // tiles another thread may be writing.
+    // `tiles_x` to a row, one after the other. Each tile's output lines are prefetched a tile
+    // ahead, so that their reads from memory overlap the tile before instead of stalling this
+    // one's stores (docs/oracle.md section 9); not past `last`, whose tiles another thread may
+    // be writing.
     void trace_tiles(OracleFrame& frame, int first, int last, int tiles_x, int tile, TraceCounters& counters,
                      std::vector<SurfacePoint>* surfaces = nullptr) const;
 
