@@ -298,6 +298,7 @@ class BareTiles {
           L_(glm::vec3(-s.light_direction)),
           znear_(static_cast<float>(s.camera.znear)),
           rays_(s.camera, W_, H_) {}
+    int tiles_x() const { return tiles_x_; }
     int count() const { return tiles_x_ * (H_ / kTile); }
     std::uint64_t trace(int t) const {
         RTCIntersectContext ctx;
@@ -356,24 +357,10 @@ Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pa
     const Scenario scenario = load_scenario(s.scenario);
     Tracer tracer(scenario);
     tracer.build();
-    OracleFrame frame;  // the channels the trace writes, allocated as run_oracle does
-    frame.width = scenario.width;
-    frame.height = scenario.height;
-    const std::size_t n = frame.pixel_count();
-    frame.A.assign(n, 0.0f);
-    frame.prim.assign(n, kNoPrimitive);
-    frame.depth.assign(n, 0.0f);
-    frame.P.assign(n, glm::vec3(0.0f));
-    frame.N.assign(n, glm::vec3(0.0f));
-    frame.lights.resize(tracer.lights().size());
-    for (OracleLightImage& img : frame.lights) {
-        img.V.assign(n, 0.0f);
-        img.U.assign(n, 0.0f);
-        img.lightable.assign(n, 0.0f);
-        img.occluder_m.assign(n, kNoDistance);
-    }
-    constexpr int kChunk = 32;  // 8,192 pixels: about 2 ms of tracing on one core
-    const int tiles = bare.count(), tiles_x = s.size / BareTiles::kTile, chunks = (tiles + kChunk - 1) / kChunk;
+    OracleFrame frame;
+    allocate_frame(frame, scenario, tracer.lights().size());  // as run_oracle does
+    constexpr int kChunk = 32;                                // 8,192 pixels: about 2 ms of tracing on one core
+    const int tiles = bare.count(), chunks = (tiles + kChunk - 1) / kChunk;
     Interleaved out;
     for (int pair = 0; pair < pairs; ++pair) {
         double seconds[2] = {0, 0};
@@ -391,7 +378,7 @@ Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pa
                         return;
                     }
                     TraceCounters counters;
-                    tracer.trace_tiles(frame, r.begin(), r.end(), tiles_x, BareTiles::kTile, counters);
+                    tracer.trace_tiles(frame, r.begin(), r.end(), bare.tiles_x(), BareTiles::kTile, counters);
                     chunk_rays += counters.primary + counters.shadow;
                 });
                 seconds[who] += seconds_since(t0);

@@ -20,7 +20,11 @@ namespace {
 
 constexpr int kTile = 16;  // pixels per tile side: the unit of parallel work
 
-void allocate(OracleFrame& frame, const Scenario& scenario, std::size_t lights) {
+}  // namespace
+
+namespace oracle_detail {
+
+void allocate_frame(OracleFrame& frame, const Scenario& scenario, std::size_t lights) {
     frame.width = scenario.width;
     frame.height = scenario.height;
     const std::size_t n = frame.pixel_count();
@@ -43,7 +47,7 @@ void allocate(OracleFrame& frame, const Scenario& scenario, std::size_t lights) 
     tbb::parallel_for(std::size_t(0), fills.size(), [&](std::size_t i) { fills[i](); });
 }
 
-}  // namespace
+}  // namespace oracle_detail
 
 OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings) {
     using namespace oracle_detail;
@@ -64,7 +68,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
 
     t0 = SteadyClock::now();
     OracleFrame& frame = result.frame;
-    allocate(frame, scenario, tracer.lights().size());
+    allocate_frame(frame, scenario, tracer.lights().size());
     stats.frame_s = seconds_since(t0);
     frame.frame_origin = tracer.frame_origin();
 

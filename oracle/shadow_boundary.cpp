@@ -345,12 +345,12 @@ void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>
 // each pixel's nearest among its own and the eight surrounding cells' nearest and filed points,
 // and along the boundary from there.
 //
-// found(i, s, d2) follows the search at every lightable pixel i, in increasing i along each row
+// on_found(i, s, d2) follows the search at every lightable pixel i, in increasing i along each row
 // (rows run in parallel): s is the point found (-1 if none, or if the chart does not hold the
 // pixel) and d2 its squared distance across the light at the pixel.
-template <typename Found>
+template <typename OnFound>
 void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
-                      const LocalLight& light, const std::vector<glm::dvec3>& seeds, Found found) {
+                      const LocalLight& light, const std::vector<glm::dvec3>& seeds, OnFound on_found) {
     const std::size_t n = frame.pixel_count();
     constexpr double kInf = std::numeric_limits<double>::infinity();
     struct Box {
@@ -511,7 +511,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             int hint = -1;
             auto search = [&](std::size_t i) {
                 const glm::dvec3 p(frame.P[i]);
-                if (!chart.owns(p) || !chart.map(p, uv)) return found(i, -1, kInf);
+                if (!chart.owns(p) || !chart.map(p, uv)) return on_found(i, -1, kInf);
                 const auto measure = at_chart_point(uv);
                 int cur = hint;
                 double cur_d2 = cur >= 0 ? measure(cur) : kInf;
@@ -544,8 +544,9 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         if (cur == before) break;
                     }
                 hint = cur;
-                if (cur < 0) return found(i, -1, kInf);
-                found(i, cur, lateral_distance2(p, direction_to_light(light, p), seeds[static_cast<std::size_t>(cur)]));
+                if (cur < 0) return on_found(i, -1, kInf);
+                on_found(i, cur,
+                         lateral_distance2(p, direction_to_light(light, p), seeds[static_cast<std::size_t>(cur)]));
             };
             for (std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W),
                              end = i + static_cast<std::size_t>(W);

@@ -198,6 +198,10 @@ class Tracer {
     const std::vector<std::uint8_t>& double_sided_;
 };
 
+// Sizes every channel of `frame` for the scenario's image and `lights` lights and fills each
+// with its default (no surface, unlit, no distance), the channels side by side.
+void allocate_frame(OracleFrame& frame, const Scenario& scenario, std::size_t lights);
+
 // Fills boundary_m of light `li` and flags pixels within float error of a boundary as U.
 // Returns the number of bisection rays traced.
 std::uint64_t locate_shadow_boundaries(const Tracer& tracer, OracleFrame& frame, std::size_t li, int bisection_steps);
