@@ -2,6 +2,7 @@
 // look alike side by side.
 #pragma once
 
+#include <glm/vec3.hpp>
 #include <vector>
 
 namespace penumbra {
@@ -12,9 +13,17 @@ struct PreviewLight {
 };
 
 // Linear RGB, row-major. Each light adds its own tint where it reaches the surface, so a shadow
-// shows the colour of the light it blocks as missing; ambiguous pixels are magenta. `relief`
-// (per pixel, may be empty) darkens by surface orientation.
-std::vector<float> visibility_preview(const std::vector<float>& A, const std::vector<float>& relief,
-                                      const std::vector<PreviewLight>& lights);
+// shows the colour of the light it blocks as missing; ambiguous pixels are magenta. With
+// normals, relief darkens by surface orientation (0.6 + 0.4 |N.y|).
+struct VisibilityPreview {
+    int width = 0;
+    const std::vector<float>* A = nullptr;
+    const std::vector<glm::vec3>* N = nullptr;  // may be null: no relief
+    std::vector<PreviewLight> lights;
+
+    // Row y: `width` pixels, 3 floats each. Computed row by row, so a large preview needs no
+    // image-sized buffer (image_io's row-wise write_png).
+    void row(int y, float* rgb) const;
+};
 
 }  // namespace penumbra

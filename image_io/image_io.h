@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,11 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
                const std::vector<ExrChannelView>& channels, ExrCompression compression = ExrCompression::zip);
 // 8-bit sRGB-encoded RGB image, linear input in [0, 1] per channel, row-major.
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const std::vector<float>& rgb);
+// Fills row y (0 at the top) of linear RGB: `width` pixels, 3 floats each.
+using PngRowSource = std::function<void(int y, float* rgb)>;
+// The same, one row at a time: for large previews, whose whole float image would be fresh
+// memory (50 MB at 2048^2) that the kernel must fault in and zero (docs/oracle.md section 9).
+void write_png(OutputTransaction& out, const std::string& name, int width, int height, const PngRowSource& rows);
 
 // An image as read from a file: every channel as float, row 0 at the top. Integer formats are
 // normalised to [0, 1] by OpenImageIO (an 8-bit 255 reads as 1.0).

@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <cmath>
 #include <future>
 
 #include "common/preview.h"
@@ -38,12 +37,10 @@ std::vector<ExrChannelView> oracle_channels(const OracleFrame& f) {
     return ch;
 }
 
-std::vector<float> oracle_preview(const OracleFrame& f) {
-    std::vector<float> relief(f.pixel_count());
-    for (std::size_t i = 0; i < relief.size(); ++i) relief[i] = 0.6f + 0.4f * std::abs(f.N[i].y);
-    std::vector<PreviewLight> lights;
-    for (const auto& l : f.lights) lights.push_back({&l.V, &l.U});
-    return visibility_preview(f.A, relief, lights);
+VisibilityPreview oracle_preview(const OracleFrame& f) {
+    VisibilityPreview p{f.width, &f.A, &f.N, {}};
+    for (const auto& l : f.lights) p.lights.push_back({&l.V, &l.U});
+    return p;
 }
 
 std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
@@ -78,8 +75,10 @@ double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
     auto t0 = SteadyClock::now();
     // Uncompressed: zip costs ~3 CPU-seconds for a 2048^2 frame, more than tracing it (docs/oracle.md section 9).
     // The preview is encoded (zlib, one thread) while the EXR is written.
-    auto png =
-        std::async(std::launch::async, [&] { write_png(out, "oracle.png", f.width, f.height, oracle_preview(f)); });
+    auto png = std::async(std::launch::async, [&] {
+        const VisibilityPreview preview = oracle_preview(f);
+        write_png(out, "oracle.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); });
+    });
     write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
     png.get();
     return seconds_since(t0);
@@ -97,9 +96,9 @@ void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, cons
     const RasterFrame& f = result.frame;
     auto t0 = SteadyClock::now();
     write_exr(out, "raster.exr", f.width, f.height, raster_channels(f));
-    std::vector<PreviewLight> lights;
-    for (const auto& l : f.lights) lights.push_back({&l.V, nullptr});
-    write_png(out, "raster.png", f.width, f.height, visibility_preview(f.A, {}, lights));
+    VisibilityPreview preview{f.width, &f.A, nullptr, {}};
+    for (const auto& l : f.lights) preview.lights.push_back({&l.V, nullptr});
+    write_png(out, "raster.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); });
     nlohmann::json j = raster_json(scenario, technique, result, timings);
     j["seconds"]["write"] = seconds_since(t0);
     out.write_json("raster.json", j);

@@ -142,6 +142,34 @@ TEST(ImageIoPng, RgbIsSrgbEncodedAndReadsBack) {
     EXPECT_EQ(std::lround(img.channels[1][0] * 255.0f), 255);
 }
 
+// Rows asked for one at a time land where they belong: row y holds code y in every channel
+// (codes 0..69, each at the centre of its interval), and each row is asked for once, top to bottom.
+TEST(ImageIoPng, RowSourceRowsLandInOrder) {
+    std::vector<int> asked;
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_png(out, "rows.png", kW, kH, [&](int y, float* rgb) {
+            asked.push_back(y);
+            // The linear value at the centre of code y's interval (whose ends are y ± 0.5).
+            const double s = y / 255.0;
+            const double lin = s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4);
+            for (int i = 0; i < 3 * kW; ++i) rgb[i] = static_cast<float>(lin);
+        });
+        out.commit();
+    }
+    ASSERT_EQ(asked.size(), static_cast<std::size_t>(kH));
+    for (int y = 0; y < kH; ++y) EXPECT_EQ(asked[static_cast<std::size_t>(y)], y);
+    const ImageFile img = read_image(dir / "rows.png");
+    ASSERT_EQ(img.channels.size(), 3u);
+    for (int y = 0; y < kH; ++y)
+        for (int c = 0; c < 3; ++c)
+            for (int x = 0; x < kW; x += 9)
+                ASSERT_EQ(std::lround(img.channels[c][static_cast<std::size_t>(y) * kW + x] * 255.0f), y)
+                    << "row " << y << " x " << x << " channel " << c;
+}
+
 // read_image(file) throws an InputError whose message names the file.
 void expect_input_error_naming(const fs::path& file) {
     try {

@@ -4,6 +4,7 @@
 
 #include <fstream>
 
+#include "common/preview.h"
 #include "report/bitmap_font.h"
 #include "report/report_files.h"
 #include "tests/metrics/synthetic_frames.h"
@@ -129,6 +130,32 @@ TEST(Report, JunitHasOneTestcasePerLightAndCheck) {
     EXPECT_NE(xml.find("classname=\"penumbra.contact.light0\" name=\"rates.peter_panning &lt;= 0.5\""),
               std::string::npos)
         << xml;
+}
+
+// The visibility preview, pixel by pixel: background where nothing is seen, a light's tint
+// where it reaches, dark where it is blocked, magenta where the oracle is unsure, relief from
+// the normal; rows are independent of each other.
+TEST(VisibilityPreview, ColoursEachPixelByWhatReachesIt) {
+    const std::vector<float> A = {0, 1, 1, 1, 1, 1};
+    const std::vector<glm::vec3> N = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, -1, 0}, {1, 0, 0}};
+    const std::vector<float> V = {1, 1, 0, 1, 1, 1};
+    const std::vector<float> U = {0, 0, 0, 1, 0, 0};
+    const VisibilityPreview preview{3, &A, &N, {{&V, &U}}};
+    std::vector<float> rgb(18);
+    preview.row(1, rgb.data() + 9);  // rows in any order
+    preview.row(0, rgb.data());
+    auto px = [&](int i) { return glm::vec3(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]); };
+    const glm::vec3 lit = 0.1f + 0.85f * glm::vec3(1.0f, 0.86f, 0.62f);  // the first light's tint
+    EXPECT_EQ(px(0), glm::vec3(0.06f, 0.07f, 0.09f));
+    EXPECT_EQ(px(1), lit);
+    EXPECT_EQ(px(2), glm::vec3(0.1f));
+    EXPECT_EQ(px(3), glm::vec3(0.95f, 0.1f, 0.9f));
+    EXPECT_EQ(px(4), lit);         // |N.y| = 1 facing down too
+    EXPECT_EQ(px(5), 0.6f * lit);  // a wall: the darkest relief
+
+    const VisibilityPreview flat{3, &A, nullptr, {}};  // no normals, no lights: every seen pixel lit
+    flat.row(1, rgb.data());
+    EXPECT_EQ(px(2), glm::vec3(0.1f + 0.85f * 1.0f));
 }
 
 TEST(BitmapFont, DrawsInsideTheImageOnly) {
