@@ -54,7 +54,8 @@ struct OracleStats {
     std::uint64_t boundary_rays = 0;      // verified rays locating shadow boundaries
     std::uint64_t verified_retraces = 0;  // shadow rays re-traced with double-precision hit checks
     std::uint64_t culled_retraces = 0;    // primary rays traced again past a single-sided back face
-    double build_s = 0, frame_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;  // frame: allocating the channels
+    // frame: the wait for the channels' allocation left after the build it overlaps
+    double build_s = 0, frame_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;
     int threads = 0;
     std::string embree_version;
     std::vector<OracleLightStats> lights;
