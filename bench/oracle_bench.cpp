@@ -358,8 +358,8 @@ Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pa
     Tracer tracer(scenario);
     tracer.build();
     OracleFrame frame;
-    allocate_frame(frame, scenario, tracer.lights().size());  // as run_oracle does
-    constexpr int kChunk = 32;                                // 8,192 pixels: about 2 ms of tracing on one core
+    allocate_frame(frame, scenario);  // as run_oracle does
+    constexpr int kChunk = 32;        // 8,192 pixels: about 2 ms of tracing on one core
     const int tiles = bare.count(), chunks = (tiles + kChunk - 1) / kChunk;
     Interleaved out;
     for (int pair = 0; pair < pairs; ++pair) {

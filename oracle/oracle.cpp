@@ -25,11 +25,11 @@ constexpr int kTile = 16;  // pixels per tile side: the unit of parallel work
 
 namespace oracle_detail {
 
-void allocate_frame(OracleFrame& frame, const Scenario& scenario, std::size_t lights) {
+void allocate_frame(OracleFrame& frame, const Scenario& scenario) {
     frame.width = scenario.width;
     frame.height = scenario.height;
     const std::size_t n = frame.pixel_count();
-    frame.lights.resize(lights);
+    frame.lights.resize(scenario.lights.size());
     // Filling a fresh channel is mostly the kernel's first-touch page faults and zeroing
     // (0.14 s for the 240 MB of a 2048^2 frame); channels are separate mappings, so the
     // threads fault them in side by side.
@@ -66,7 +66,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     // thread, the task runs at wait(), after the build). frame_s is the wait that is left.
     OracleFrame& frame = result.frame;
     tbb::task_group frame_task;
-    frame_task.run([&] { allocate_frame(frame, scenario, scenario.lights.size()); });
+    frame_task.run([&] { allocate_frame(frame, scenario); });
     auto t0 = SteadyClock::now();
     Tracer tracer(scenario, settings.embree_isa);
     stats.embree_version = tracer.device().version();

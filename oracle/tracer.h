@@ -198,9 +198,9 @@ class Tracer {
     const std::vector<std::uint8_t>& double_sided_;
 };
 
-// Sizes every channel of `frame` for the scenario's image and `lights` lights and fills each
-// with its default (no surface, unlit, no distance), the channels side by side.
-void allocate_frame(OracleFrame& frame, const Scenario& scenario, std::size_t lights);
+// Sizes every channel of `frame` for the scenario's image and lights and fills each with its
+// default (no surface, unlit, no distance), the channels side by side.
+void allocate_frame(OracleFrame& frame, const Scenario& scenario);
 
 // Fills boundary_m of light `li` and flags pixels within float error of a boundary as U.
 // Returns the number of bisection rays traced.
