@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "common/errors.h"
+#include "common/output_files.h"
 #include "common/json_reader.h"
 #include "common/memory_estimate.h"
 #include "pipeline/validate.h"
@@ -10,7 +11,7 @@
 namespace penumbra::cli {
 
 void add_common(CLI::App* cmd, Common& c) {
-    cmd->add_option("--out", c.out, "Output folder (created if missing)")->required();
+    cmd->add_option("--out", c.out, "Output folder (created if missing)")->required()->check(output_folder_problem);
     cmd->add_flag("--allow-external-paths", c.allow_external_paths,
                   "Let glTF buffer URIs point outside the scene's folder");
     cmd->add_option("--threads", c.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
@@ -44,11 +45,19 @@ void add_tolerance(CLI::App* cmd, double& tolerance) {
         ->check(finite_number_problem);
 }
 
+void add_visible_threshold(CLI::App* cmd, double& threshold) {
+    cmd->add_option("--visible-threshold", threshold,
+                    "A wrong pixel is also visible when |error| >= this (counts_visible, rates_visible; default 0.1)")
+        ->check(CLI::Range(0.0, 1.0))
+        ->check(finite_number_problem);
+}
+
 void add_verdict_options(CLI::App* cmd, VerdictArgs& v) {
     cmd->add_option("--cache", v.cache_dir,
                     "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
     cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
     add_tolerance(cmd, v.tolerance);
+    add_visible_threshold(cmd, v.visible_threshold);
     add_sampling(cmd, v.sampling);
 }
 
@@ -58,6 +67,7 @@ ValidateOptions validate_options(const Common& c, const VerdictArgs& v) {
     o.use_cache = !v.no_cache;
     o.cache_dir = v.cache_dir;
     o.tolerance = v.tolerance;
+    o.visible_threshold = v.visible_threshold;
     return o;
 }
 

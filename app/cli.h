@@ -50,12 +50,15 @@ struct VerdictArgs {
     std::filesystem::path cache_dir;
     bool no_cache = false;
     double tolerance = 1.0 / 255.0;
+    double visible_threshold = 0.1;
     SamplingArgs sampling;
 };
 // --cache, --no-cache, --tolerance and the sampling options.
 void add_verdict_options(CLI::App* cmd, VerdictArgs& v);
 // --tolerance (tau), as validate, compare, tune, sweep and stress take it.
 void add_tolerance(CLI::App* cmd, double& tolerance);
+// --visible-threshold: |error| from which a wrong pixel also counts as visible.
+void add_visible_threshold(CLI::App* cmd, double& threshold);
 // The pipeline's options from them (the oracle's progress shown unless quiet).
 ValidateOptions validate_options(const Common& c, const VerdictArgs& v);
 

@@ -9,6 +9,7 @@
 
 #include "app/cli.h"
 #include "common/errors.h"
+#include "common/output_files.h"
 #include "common/version.h"
 
 int main(int argc, char** argv) {
@@ -30,6 +31,7 @@ int main(int argc, char** argv) {
         int code = app.exit(e);
         return code == 0 ? kExitSuccess : kExitBadInput;
     }
+    install_interrupt_cleanup();  // Ctrl-C leaves no temporary file and no folder it made
     try {
         for (const auto& c : commands)
             if (*c.app) return c.run();

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 
@@ -22,6 +23,7 @@ struct StressArgs {
     std::filesystem::path gate_file;
     std::filesystem::path junit_file;
     double tolerance = 1.0 / 255.0;
+    double visible_threshold = 0.1;
     std::uint64_t seed = 20;
     int threads = 0;
     bool quiet = false;
@@ -46,6 +48,7 @@ int run_stress_command(const StressArgs& a, const TechniqueArgs& t) {
     stress::SuiteOptions options;
     options.validate.oracle.threads = a.threads;
     options.validate.tolerance = a.tolerance;
+    options.validate.visible_threshold = a.visible_threshold;
     options.validate.device = t.device;
     options.validate.use_cache = false;
     const bool terminal = !a.quiet && ::isatty(::fileno(stderr));
@@ -83,8 +86,12 @@ int run_stress_command(const StressArgs& a, const TechniqueArgs& t) {
                        r.invariant.holds() ? "holds" : "FAILS", r.invariant.differing, r.invariant.uncertain, rates,
                        r.seconds);
         }
-        fmt::print("stress: {} cases on {} in {:.1f} s; the oracle invariant holds on {} of them\n", cases.size(),
-                   result.device, result.seconds, holds);
+        fmt::print("stress: {} cases on {} in {:.1f} s; the oracle invariant holds on {} of them; {}\n", cases.size(),
+                   result.device, result.seconds, holds,
+                   std::any_of(result.cases.begin(), result.cases.end(),
+                               [](const auto& r) { return r.gate && !r.gate->outcomes.empty(); })
+                       ? "the technique's gate is judged"
+                       : "no gate: the technique's verdicts are reported, not judged");
         fmt::print("results: {}/report.html, stress.json\n", a.out.string());
     }
     for (const auto& line : failures) fmt::print(stderr, "{}\n", line);
@@ -106,7 +113,7 @@ Subcommand add_stress_command(CLI::App& parent) {
     StressArgs& s = a->stress;
     CLI::App* cmd = parent.add_subcommand(
         "stress", "Generated stiff and extreme scenes: the oracle's invariance and the technique's verdict on each");
-    cmd->add_option("--out", s.out, "Output folder (created if missing)")->required();
+    cmd->add_option("--out", s.out, "Output folder (created if missing)")->required()->check(output_folder_problem);
     add_technique(cmd, a->technique);
     std::string names;
     for (const auto& n : stress::case_names()) names += (names.empty() ? "" : ", ") + n;
@@ -115,6 +122,7 @@ Subcommand add_stress_command(CLI::App& parent) {
                     "Gate JSON: validate's checks on every light of every case, and \"oracle_invariant\"");
     cmd->add_option("--junit", s.junit_file, "Write the suite's checks as JUnit XML to this file");
     add_tolerance(cmd, s.tolerance);
+    add_visible_threshold(cmd, s.visible_threshold);
     cmd->add_option("--seed", s.seed, "Seed of the generated scenes' random parts (default 20)");
     cmd->add_option("--threads", s.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
     cmd->add_flag("-q,--quiet", s.quiet, "Print nothing but errors");

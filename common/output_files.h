@@ -1,5 +1,6 @@
 // Writing results without ever leaving partial output: every file goes to a temporary name in
-// the output folder and is renamed into place only when all of them were written.
+// the output folder and is moved into place only when all of them were written, all or none
+// (docs/outputs.md). Temporaries and a folder the run made are removed when it is interrupted.
 #pragma once
 
 #include <filesystem>
@@ -28,14 +29,23 @@ class OutputTransaction {
     // image into a report.
     std::string written_bytes(const std::string& name) const;
 
-    void commit();  // renames every temporary into place
+    // Moves every temporary into place, all or none: every target is checked first (a folder in
+    // the way is an InputError, before anything moves), an earlier run's file is swapped with
+    // the new one atomically (the name never goes missing), and a failure part-way swaps back
+    // what had moved. Interrupts wait until the set is in place.
+    void commit();
     const std::filesystem::path& dir() const { return dir_; }
 
   private:
     std::filesystem::path dir_;
     bool created_dir_ = false;
     bool committed_ = false;
-    std::vector<std::pair<std::filesystem::path, std::filesystem::path>> files_;  // temp, final
+    struct Staged {
+        std::filesystem::path tmp, final_path;
+        int tracked = -1;  // its slot in the interrupt cleanup's registry
+    };
+    std::vector<Staged> files_;
+    int tracked_dir_ = -1;
     std::mutex stage_mutex_;  // guards files_ and the folder's creation in stage()
 };
 
@@ -44,6 +54,22 @@ class OutputTransaction {
 // and is writable (or can be created). Throws InputError naming `option`.
 void check_output_file(const std::filesystem::path& file, const std::filesystem::path& out_dir,
                        const std::string& option);
+
+// Why `dir` cannot be an output folder ("" when it can): empty, not a folder, or no file can be
+// made in it (or, when it does not exist yet, in the nearest folder above it). For --out, checked
+// as the command line is parsed, before any work.
+std::string output_folder_problem(const std::string& dir);
+
+// Removes, on SIGINT, SIGTERM or SIGHUP, every temporary file an OutputTransaction or the
+// oracle cache has staged and not yet moved into place, and every output folder a run made that
+// is then empty; the signal then ends the process as it would have. main() calls it once. A
+// signal ignored when it is called stays ignored.
+void install_interrupt_cleanup();
+
+// A path the interrupt cleanup removes until untrack(): a file (unlink) or a folder (rmdir,
+// only when empty). Returns a slot for untrack(), or -1 when not tracked (registry full).
+int track_for_interrupt(const std::filesystem::path& path, bool folder);
+void untrack_for_interrupt(int slot);
 
 // Standard base64 (RFC 4648), for data: URIs.
 std::string base64_encode(std::string_view bytes);

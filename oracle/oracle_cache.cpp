@@ -1,9 +1,13 @@
 #include "oracle/oracle_cache.h"
 
 #include <fmt/format.h>
+#include <signal.h>
 #include <unistd.h>
+#include <xxhash.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -20,7 +24,11 @@ namespace {
 // Bump when the oracle's results change for the same input, so old entries stop matching
 // (5: boundary_m from the occluder-edge walk and the search in the light's charts).
 constexpr const char* kOracleAlgorithm = "penumbra-oracle-5";
-constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '1'};
+// 2: an XXH3-64 checksum of every byte after the magic ends the entry.
+constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '2'};
+// A temporary of a store that was killed is removed by a later store once it is this old, or
+// at once when the process that wrote it is gone.
+constexpr auto kStaleTemporary = std::chrono::hours(1);
 
 class KeyBytes {
   public:
@@ -64,6 +72,19 @@ void for_each_channel(Frame& f, Fn&& fn) {
     }
 }
 
+// `.oracle-KEY.tmp-PID` of a store that no longer runs: its process is gone, or it is older
+// than any store takes (the PID may have been reused since).
+bool is_stale_temporary(const std::string& name, fs::file_time_type written, fs::file_time_type now) {
+    const auto dash = name.rfind(".tmp-");
+    if (dash == std::string::npos) return false;
+    const std::string digits = name.substr(dash + 5);
+    if (digits.empty() || digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos)
+        return false;
+    const auto pid = static_cast<pid_t>(std::stol(digits));
+    const bool gone = pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH;
+    return gone || now - written > kStaleTemporary;
+}
+
 }  // namespace
 
 std::string oracle_cache_key(const Scenario& s, const OracleSettings& settings) {
@@ -105,19 +126,25 @@ fs::path OracleCache::entry(const std::string& key) const {
     return dir_ / ("oracle-" + key + ".bin");
 }
 
-std::optional<CachedOracle> OracleCache::load(const std::string& key) const {
+std::optional<CachedOracle> OracleCache::load(const std::string& key, std::string* damaged) const {
     if (dir_.empty()) return std::nullopt;
     const fs::path file = entry(key);
     File f(std::fopen(file.c_str(), "rb"));
     if (!f) return std::nullopt;
-    auto read = [&](void* dst, std::size_t n) { return std::fread(dst, 1, n, f.get()) == n; };
+    XXH3_state_t* sum = XXH3_createState();
+    XXH3_64bits_reset(sum);
+    auto read = [&](void* dst, std::size_t n) {
+        if (std::fread(dst, 1, n, f.get()) != n) return false;
+        XXH3_64bits_update(sum, dst, n);
+        return true;
+    };
     char magic[8];
     char stored_key[32];
     std::int32_t size[2];
     std::uint32_t lights = 0;
     std::uint64_t info_len = 0;
     CachedOracle c;
-    bool ok = read(magic, 8) && std::memcmp(magic, kMagic, 8) == 0 && read(stored_key, 32) &&
+    bool ok = std::fread(magic, 1, 8, f.get()) == 8 && std::memcmp(magic, kMagic, 8) == 0 && read(stored_key, 32) &&
               std::string_view(stored_key, 32) == key && read(size, sizeof size) && size[0] > 0 && size[1] > 0 &&
               size[0] <= kMaxImageSide && size[1] <= kMaxImageSide && read(&lights, 4) && lights < 4096 &&
               read(&c.frame.frame_origin, sizeof c.frame.frame_origin) && read(&info_len, 8) && info_len < (1u << 26);
@@ -132,14 +159,24 @@ std::optional<CachedOracle> OracleCache::load(const std::string& key) const {
             channel.resize(n);
             ok = ok && read(channel.data(), n * sizeof channel[0]);
         });
-        ok = ok && std::fgetc(f.get()) == EOF;
-        c.info = nlohmann::json::parse(info, nullptr, false);
-        ok = ok && !c.info.is_discarded();
+        const XXH64_hash_t expected = XXH3_64bits_digest(sum);
+        XXH64_hash_t stored = 0;
+        ok = ok && std::fread(&stored, 1, sizeof stored, f.get()) == sizeof stored && stored == expected &&
+             std::fgetc(f.get()) == EOF;
+        if (ok) {
+            c.info = nlohmann::json::parse(info, nullptr, false);
+            ok = !c.info.is_discarded();
+        }
     }
+    XXH3_freeState(sum);
     if (!ok) {
         f.reset();
         std::error_code ec;
         fs::remove(file, ec);
+        if (damaged)
+            *damaged = fmt::format("{}: the cached oracle was damaged (its checksum or layout did not match) and was "
+                                   "removed; traced again",
+                                   file.string());
         return std::nullopt;
     }
     std::error_code ec;
@@ -155,36 +192,48 @@ std::optional<std::string> OracleCache::store(const std::string& key, const Orac
     const fs::path final_path = entry(key);
     const fs::path tmp = dir_ / fmt::format(".oracle-{}.tmp-{}", key, ::getpid());
     bool ok = false;
+    const int tracked = track_for_interrupt(tmp, false);
     {
         File f(std::fopen(tmp.c_str(), "wb"));
         if (f) {
-            auto write = [&](const void* src, std::size_t n) { return std::fwrite(src, 1, n, f.get()) == n; };
+            XXH3_state_t* sum = XXH3_createState();
+            XXH3_64bits_reset(sum);
+            auto write = [&](const void* src, std::size_t n) {
+                XXH3_64bits_update(sum, src, n);
+                return std::fwrite(src, 1, n, f.get()) == n;
+            };
             const std::int32_t size[2] = {frame.width, frame.height};
             const auto lights = static_cast<std::uint32_t>(frame.lights.size());
             // Paths in `info` may hold bytes that are not UTF-8 (a Latin-1 folder): replaced, not thrown.
             const std::string text = info.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
             const std::uint64_t info_len = text.size();
-            ok = write(kMagic, 8) && write(key.data(), 32) && write(size, sizeof size) && write(&lights, 4) &&
+            ok = std::fwrite(kMagic, 1, 8, f.get()) == 8 && write(key.data(), 32) && write(size, sizeof size) && write(&lights, 4) &&
                  write(&frame.frame_origin, sizeof frame.frame_origin) && write(&info_len, 8) &&
                  write(text.data(), text.size());
             for_each_channel(frame, [&](const auto& channel) {
                 ok = ok && channel.size() == frame.pixel_count() &&
                      write(channel.data(), channel.size() * sizeof channel[0]);
             });
+            const XXH64_hash_t checksum = XXH3_64bits_digest(sum);
+            XXH3_freeState(sum);
+            ok = ok && std::fwrite(&checksum, 1, sizeof checksum, f.get()) == sizeof checksum;
             ok = std::fclose(f.release()) == 0 && ok;
         }
     }
     if (ok) fs::rename(tmp, final_path, ec);
-    if (!ok || ec) {
-        fs::remove(tmp, ec);
+    if (!ok || ec) fs::remove(tmp, ec);
+    untrack_for_interrupt(tracked);
+    if (!ok || ec)
         return fmt::format("{}: could not store the oracle in the cache; the next run traces again", dir_.string());
-    }
-    // Keep the newest entries only.
+    // Keep the newest entries only, and sweep temporaries of stores that never finished.
     std::vector<std::pair<fs::file_time_type, fs::path>> entries;
+    const auto now = fs::file_time_type::clock::now();
     for (const auto& e : fs::directory_iterator(dir_, ec)) {
         const std::string name = e.path().filename().string();
         if (name.starts_with("oracle-") && name.ends_with(".bin"))
             entries.emplace_back(fs::last_write_time(e.path(), ec), e.path());
+        else if (name.starts_with(".oracle-") && is_stale_temporary(name, fs::last_write_time(e.path(), ec), now))
+            fs::remove(e.path(), ec);
     }
     std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
     for (std::size_t i = static_cast<std::size_t>(std::max(max_entries_, 1)); i < entries.size(); ++i)

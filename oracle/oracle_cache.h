@@ -32,10 +32,13 @@ class OracleCache {
     // Default folder: $PENUMBRA_CACHE_DIR, else $XDG_CACHE_HOME/penumbra, else ~/.cache/penumbra.
     static std::filesystem::path default_dir();
 
-    // A damaged or foreign entry is a miss (and is removed), never an error.
-    std::optional<CachedOracle> load(const std::string& key) const;
-    // Written to a temporary name and renamed, so readers never see half an entry; the oldest
-    // entries beyond max_entries are removed. Failures to write only cost the reuse: they
+    // A damaged or foreign entry is a miss (and is removed), never an error; every entry ends
+    // with a checksum of its bytes, so flipped bytes are found. `damaged`, when given, is set
+    // to a warning naming the entry when one was removed.
+    std::optional<CachedOracle> load(const std::string& key, std::string* damaged = nullptr) const;
+    // Written to a temporary name and renamed, so readers never see half an entry (the
+    // temporary is removed on an interrupt, and one left by a killed run is swept later); the
+    // oldest entries beyond max_entries are removed. Failures to write only cost the reuse: they
     // return a warning.
     std::optional<std::string> store(const std::string& key, const OracleFrame& frame,
                                      const nlohmann::json& info) const;

@@ -28,9 +28,10 @@ report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResul
 }
 
 std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, const raster::Technique& technique,
-                                                     double tolerance) {
+                                                     double tolerance, double visible_threshold) {
     metrics::ScoringOptions so;
     so.tolerance = static_cast<float>(tolerance);
+    so.visible_threshold = static_cast<float>(visible_threshold);
     so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
     // docs/metrics.md, "acne": the shader's reference and stored depths are floats, a few
     // float steps apart, so the quantum is never finer than 2^-22.
@@ -54,8 +55,9 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
     const std::string key = oracle_cache_key(scenario, options.oracle);
     OracleRun o;
     // The cache keeps neither P, N nor depth: a caller that writes oracle.exr traces.
+    std::string damaged;
     if (!options.keep_oracle_frame) {
-        if (auto hit = cache.load(key)) {
+        if (auto hit = cache.load(key, &damaged)) {
             o.frame = std::move(hit->frame);
             o.info = std::move(hit->info);
             o.info["cache"] = {{"hit", true}, {"key", key}, {"dir", cache.dir().string()}};
@@ -68,6 +70,7 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
     o.info = oracle_json(scenario, result, {});
     o.seconds = seconds_since(t0);
     o.warning = cache.store(key, result.frame, o.info);
+    if (!damaged.empty()) o.warning = o.warning ? damaged + "; " + *o.warning : damaged;
     o.info["cache"] = {{"hit", false}, {"key", key}, {"dir", cache.dir().string()}};
     o.frame = std::move(result.frame);
     return o;
@@ -98,7 +101,7 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
     r.warnings.insert(r.warnings.end(), r.raster.stats.warnings.begin(), r.raster.stats.warnings.end());
 
     auto t3 = SteadyClock::now();
-    r.scoring = scoring_options(scenario, technique, options.tolerance);
+    r.scoring = scoring_options(scenario, technique, options.tolerance, options.visible_threshold);
     r.score = metrics::score_frames(r.oracle->frame, r.raster.frame, r.scoring);
     r.metrics_s = seconds_since(t3);
 

@@ -47,7 +47,7 @@ run oracle "$tmp/bad.json" --out "$tmp/e"
 check "existing folder untouched" test "$(ls -A "$tmp/e")" = "keep.txt"
 
 # Malformed glTF through the CLI.
-if [ -d /usr/share/assimp/models/glTF2/IndexOutOfRange ]; then
+if require_tool assimp-testmodels /usr/share/assimp/models/glTF2/IndexOutOfRange; then
     sed "s#\"scene.glb\"#\"/usr/share/assimp/models/glTF2/IndexOutOfRange/IndexOutOfRange.gltf\"#" "$tmp/bad.json" |
         sed 's/"direction": \[0, 0, 0\]/"direction": [0, -1, 0]/' >"$tmp/oob.json"
     run oracle "$tmp/oob.json" --out "$tmp/f"
@@ -124,7 +124,52 @@ check "--frames traces the oracle (the cache lacks its G-buffer)" grep -q '"orac
 echo "garbage" >"$(ls "$tmp/cache"/oracle-*.bin | head -1)"
 run validate "$tmp/small.json" --out "$tmp/v6" -q
 check "a damaged cache entry is traced again, not an error" test "$rc" -eq 0
+# Bytes flipped in the middle of an entry (its size and header intact) are found by its
+# checksum: a warning, the oracle traced again, the same verdict.
+entry=$(ls -t "$tmp/cache"/oracle-*.bin | head -1)
+size=$(stat -c %s "$entry")
+printf '\xff\xfe\xfd\xfc' | dd of="$entry" bs=1 seek=$((size / 2)) conv=notrunc status=none
+run validate "$tmp/small.json" --out "$tmp/v8"
+check "a cache entry with flipped bytes exits 0" test "$rc" -eq 0
+check "a cache entry with flipped bytes is named in a warning" grep -q "warning: .*oracle-.*damaged" <<<"$err"
+check "a cache entry with flipped bytes is traced again" grep -q '"oracle_cached": false' "$tmp/v8/report.json"
+check "a cache entry with flipped bytes gives the same verdict" cmp -s "$tmp/v1/errors.exr" "$tmp/v8/errors.exr"
+# A temporary of a store that was killed (its process gone) is swept by the next store.
+touch "$tmp/cache/.oracle-00000000000000000000000000000000.tmp-999999999"
+run validate "$tmp/small.json" --out "$tmp/v9" -q --area-max-rays 17
+check "a killed store's temporary is swept" test ! -e "$tmp/cache/.oracle-00000000000000000000000000000000.tmp-999999999"
 
+# A bad --out is refused before any work (no oracle traced, nothing cached).
+touch "$tmp/a-file"
+PENUMBRA_CACHE_DIR="$tmp/cache-badout" run validate "$tmp/small.json" --out "$tmp/a-file"
+check "--out naming a file exits 2" test "$rc" -eq 2
+check "--out naming a file says so" grep -q "a-file: exists and is not a folder" <<<"$err"
+check "--out naming a file is refused before the oracle runs" test ! -e "$tmp/cache-badout"
+run validate "$tmp/small.json" --out ""
+check "--out \"\" exits 2" test "$rc" -eq 2
+check "--out \"\" says it is empty" grep -q -- "--out.*empty" <<<"$err"
+if [[ $(id -u) -ne 0 ]]; then
+    mkdir "$tmp/ro" && chmod a-w "$tmp/ro"
+    run oracle "$tmp/small.json" --out "$tmp/ro/x"
+    check "--out in a read-only folder exits 2" test "$rc" -eq 2
+fi
+run oracle "$tmp/small.json" --out /proc/penumbra-out
+check "--out where nothing can be written exits 2" test "$rc" -eq 2
+check "--out where nothing can be written names the folder" grep -q "cannot write into /proc" <<<"$err"
+
+# The commit is all or nothing: a folder in the way of one output (report.html) fails the run
+# before any file is replaced, and leaves no temporary.
+run validate "$tmp/small.json" --out "$tmp/v10" -q
+check "validate into a fresh folder exits 0" test "$rc" -eq 0
+cp "$tmp/v10/report.json" "$tmp/v10-report.before"
+rm "$tmp/v10/report.html" && mkdir "$tmp/v10/report.html"
+run validate "$tmp/small.json" --out "$tmp/v10" -q --set bias.constant=3
+check "a folder in the way of an output exits 2" test "$rc" -eq 2
+check "a folder in the way is named" grep -q "report.html: is a folder" <<<"$err"
+check "a folder in the way: no file was replaced" cmp -s "$tmp/v10/report.json" "$tmp/v10-report.before"
+check "a folder in the way: no temporary left" test -z "$(ls -A "$tmp/v10" | grep tmp-)"
+
+require_tool xmllint xmllint
 junit_ok() { xmllint --noout --schema "$src/tests/cli/junit.xsd" "$1" 2>"$tmp/xmllint.log"; }
 
 # Gates: exit 0 when every check passes, 1 with one line per failure, 2 for a bad gate.

@@ -25,6 +25,14 @@ run() {  # run ARGS... -> runs penumbra; sets rc, err
     err=$(cat "$tmp/stderr")
 }
 fails() { ! "$@"; }
+# A tool the project's scripts install (scripts/install-deps.sh) must be there: a missing one is
+# a failure, never a silent skip. require_tool NAME PATH_OR_COMMAND
+require_tool() {
+    if command -v "$2" >/dev/null 2>&1 || [[ -e $2 ]]; then return 0; fi
+    failed=$((failed + 1))
+    echo "FAIL: $1 is missing ($2): scripts/install-deps.sh installs it"
+    return 1
+}
 # The page opens in headless Chromium with every image decoded and no console message (pages
 # carry report::image_check_script()).
 html_check() {  # html_check FILE -> 0 when clean
