@@ -60,9 +60,11 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
             "{:.3f} s, writing {:.3f} s\n",
             scenario.width, scenario.height, scenario.lights.size(), r.oracle->cached ? "from cache" : "traced",
             r.oracle->seconds, r.raster_timings.device_s, r.raster_s, r.metrics_s, write_s);
-        for (std::size_t li = 0; li < r.score.lights.size(); ++li)
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
             fmt::print("  light {} ({}): {}\n", li, to_string(scenario.lights[li].type),
                        metrics::summary_line(r.score.lights[li]));
+            if (auto hint = metrics::reading_line(r.score.lights[li])) fmt::print("    hint: {}\n", *hint);
+        }
         fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
     }
     return gate_exit_code(r.gate, c.quiet);

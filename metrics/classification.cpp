@@ -39,6 +39,15 @@ double LightScore::rate(PixelClass c) const {
     return pixels.scored ? static_cast<double>(count(c)) / static_cast<double>(pixels.scored) : 0.0;
 }
 
+std::uint64_t LightScore::count_visible(PixelClass c) const {
+    const std::size_t k = error_class_index(c);
+    return k < counts_visible.size() ? counts_visible[k] : 0;
+}
+
+double LightScore::rate_visible(PixelClass c) const {
+    return pixels.scored ? static_cast<double>(count_visible(c)) / static_cast<double>(pixels.scored) : 0.0;
+}
+
 namespace {
 
 // estimate_aliasing_band_m's fixed point is met in a few iterations on real profiles; the cap
@@ -52,9 +61,10 @@ constexpr float kWidthBand = 0.05f;
 
 struct RowSums {
     PixelCounts pixels;
-    std::array<std::uint64_t, 5> counts{};
+    std::array<std::uint64_t, 5> counts{}, counts_visible{};
     double abs_sum = 0, sq_sum = 0, signed_sum = 0;
     double gap_sum = 0, gap_max = 0, acne_sum = 0, acne_max = 0;
+    std::uint64_t acne_measured = 0;
     std::vector<float> gaps;  // peter-panning gaps, for their percentile
     // Soft lights: per oracle region (umbra, penumbra, lit) pixels and |error| sums.
     std::array<std::uint64_t, 3> region_pixels{};
@@ -75,7 +85,11 @@ struct RowSums {
         pixels.back_facing += r.pixels.back_facing;
         pixels.uncertain += r.pixels.uncertain;
         pixels.coverage_mismatch += r.pixels.coverage_mismatch;
-        for (std::size_t k = 0; k < counts.size(); ++k) counts[k] += r.counts[k];
+        for (std::size_t k = 0; k < counts.size(); ++k) {
+            counts[k] += r.counts[k];
+            counts_visible[k] += r.counts_visible[k];
+        }
+        acne_measured += r.acne_measured;
         abs_sum += r.abs_sum;
         sq_sum += r.sq_sum;
         signed_sum += r.signed_sum;
@@ -198,6 +212,7 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
     const std::size_t n = of.pixel_count();
     const int W = of.width;
     img.error.assign(n, 0.0f);
+    img.visible_threshold = opt.visible_threshold;
     img.cls.assign(n, static_cast<std::uint8_t>(PixelClass::background));
     std::vector<RowSums> rows(static_cast<std::size_t>(of.height));
 
@@ -239,14 +254,19 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                         c = r.lookups ? classify_from_lookups(e, o, of.prim[i], lk, i, opt)
                                       : classify_from_geometry(e, o, i, scales);
                         ++s.counts[error_class_index(c)];
+                        if (std::abs(e) >= opt.visible_threshold) ++s.counts_visible[error_class_index(c)];
                         if (c == PixelClass::peter_panning) {
                             s.gap_sum += o.occluder_m[i];
                             s.gap_max = std::max(s.gap_max, static_cast<double>(o.occluder_m[i]));
                             s.gaps.push_back(o.occluder_m[i]);
-                        } else if (c == PixelClass::acne && r.lookups) {
-                            double depth = std::max(0.0f, (lk.ref_depth[i] - lk.stored_depth[i]) * lk.depth_to_m[i]);
+                        } else if (c == PixelClass::acne && r.lookups && lk.ref_depth[i] > lk.stored_depth[i]) {
+                            // Only where the centre texel itself holds the receiver behind: elsewhere
+                            // filter taps darkened it, at depths the lookups do not record, and a
+                            // depth of 0 would read as "no more bias needed".
+                            const double depth = (lk.ref_depth[i] - lk.stored_depth[i]) * lk.depth_to_m[i];
                             s.acne_sum += depth;
                             s.acne_max = std::max(s.acne_max, depth);
+                            ++s.acne_measured;
                         }
                     }
                 }
@@ -263,7 +283,9 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
     s.evidence = evidence;
     s.pixels = t.pixels;
     s.counts = t.counts;
+    s.counts_visible = t.counts_visible;
     for (auto c : t.counts) s.wrong += c;
+    for (auto c : t.counts_visible) s.wrong_visible += c;
     if (t.pixels.scored > 0) {
         const double scored = static_cast<double>(t.pixels.scored);
         s.mae = t.abs_sum / scored;
@@ -272,7 +294,6 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
         s.wrong_fraction = static_cast<double>(s.wrong) / scored;
     }
     const auto pp = s.count(PixelClass::peter_panning);
-    const auto acne = s.count(PixelClass::acne);
     s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
     if (!t.gaps.empty()) {
         // Nearest rank: the smallest gap with at least 95% of them at or below it.
@@ -280,7 +301,8 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
         std::nth_element(t.gaps.begin(), t.gaps.begin() + static_cast<std::ptrdiff_t>(rank), t.gaps.end());
         s.peter_panning_gap_p95 = t.gaps[rank];
     }
-    s.acne_depth = {acne ? t.acne_sum / acne : 0.0, t.acne_max};
+    s.acne_depth = {t.acne_measured ? t.acne_sum / static_cast<double>(t.acne_measured) : 0.0, t.acne_max};
+    s.acne_depth_pixels = t.acne_measured;
     if (opt.soft) {
         SoftScore& soft = s.soft.emplace();
         auto mean = [&](std::size_t k) {

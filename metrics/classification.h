@@ -45,6 +45,7 @@ constexpr std::size_t error_class_index(PixelClass c) {
 // "V only"); each is estimated from the frames when not given.
 struct ScoringOptions {
     float tolerance = 1.0f / 255.0f;         // tau: a pixel is wrong when |error| > tolerance + oracle E
+    float visible_threshold = 0.1f;          // a wrong pixel is also *visible* when |error| >= this
     float filter_reach_texels = 1.0f;        // aliasing band: this many texel footprints around a true boundary
     float depth_quantum = 0.0f;              // the depth format's resolution r (depth units), 0 for float
     double pixels_per_degree = 67.0;         // viewing condition of the perceptual error (FLIP's default)
@@ -104,23 +105,33 @@ struct LightScore {
     PixelCounts pixels;
     std::array<std::uint64_t, 5> counts{};  // indexed like kErrorClasses
     std::uint64_t wrong = 0;
+    // The wrong pixels whose |error| reaches ScoringOptions::visible_threshold: a pixel 1% too
+    // dark and a missing shadow are one count above, only the second one here.
+    std::array<std::uint64_t, 5> counts_visible{};
+    std::uint64_t wrong_visible = 0;
     double mae = 0, rmse = 0, wrong_fraction = 0;
     double bias = 0;                          // mean signed error (raster - oracle) over scored pixels
     MeanMax peter_panning_gap;                // metres along the shadow ray to the true occluder, peter-panning pixels
     double peter_panning_gap_p95 = 0;         // its 95th percentile (nearest rank), metres
-    MeanMax acne_depth;                       // metres the receiver lies behind its own stored surface, acne pixels
-                                              // (measured from the lookups: 0, and not reported, with V only)
+    MeanMax acne_depth;                       // metres the receiver lies behind its own stored surface, over the
+                                              // acne pixels where the centre texel holds it behind (the lookups
+                                              // record that texel alone; not reported with V only)
+    std::uint64_t acne_depth_pixels = 0;      // those pixels; the other acne pixels were darkened by filter taps
+                                              // whose depths are not recorded, so no depth is claimed for them
     MeanMax perceptual;                       // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
     std::optional<SoftScore> soft;            // area lights only
     ClassificationEvidence evidence;          // what the classes rest on
     std::uint64_t count(PixelClass c) const;  // 0 for classes that are not errors
     double rate(PixelClass c) const;          // count / scored
+    std::uint64_t count_visible(PixelClass c) const;
+    double rate_visible(PixelClass c) const;  // count_visible / scored
 };
 
 struct LightErrorImage {
     std::vector<float> error;       // raster V - oracle V where scored, 0 elsewhere
     std::vector<std::uint8_t> cls;  // PixelClass per pixel
     std::vector<float> perceptual;  // per-pixel perceptual error
+    float visible_threshold = 0.1f;  // the ScoringOptions' one: maps draw fainter errors paler
 };
 
 struct FrameScore {

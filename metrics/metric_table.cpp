@@ -15,6 +15,10 @@ double count_of(const LightScore& s, PixelClass c) {
     return static_cast<double>(s.count(c));
 }
 
+double visible_count_of(const LightScore& s, PixelClass c) {
+    return static_cast<double>(s.count_visible(c));
+}
+
 // Soft metrics read s.soft, which value_of guarantees for their scope.
 constexpr std::array kMetrics = {
     Metric{"pixels.surface", pixels, every_light, "the oracle's surface pixels (every bucket but background)",
@@ -50,8 +54,34 @@ constexpr std::array kMetrics = {
            [](const LightScore& s) { return s.rate(PixelClass::false_shadow); }},
     Metric{"rates.false_lit", fraction, every_light, "false_lit pixels / scored pixels",
            [](const LightScore& s) { return s.rate(PixelClass::false_lit); }},
+    Metric{"counts_visible.acne", pixels, every_light, "acne pixels whose |error| reaches the visible threshold",
+           [](const LightScore& s) { return visible_count_of(s, PixelClass::acne); }},
+    Metric{"counts_visible.peter_panning", pixels, every_light,
+           "peter_panning pixels whose |error| reaches the visible threshold",
+           [](const LightScore& s) { return visible_count_of(s, PixelClass::peter_panning); }},
+    Metric{"counts_visible.aliasing", pixels, every_light,
+           "aliasing pixels whose |error| reaches the visible threshold",
+           [](const LightScore& s) { return visible_count_of(s, PixelClass::aliasing); }},
+    Metric{"counts_visible.false_shadow", pixels, every_light,
+           "false_shadow pixels whose |error| reaches the visible threshold",
+           [](const LightScore& s) { return visible_count_of(s, PixelClass::false_shadow); }},
+    Metric{"counts_visible.false_lit", pixels, every_light,
+           "false_lit pixels whose |error| reaches the visible threshold",
+           [](const LightScore& s) { return visible_count_of(s, PixelClass::false_lit); }},
+    Metric{"rates_visible.acne", fraction, every_light, "visible acne pixels / scored pixels",
+           [](const LightScore& s) { return s.rate_visible(PixelClass::acne); }},
+    Metric{"rates_visible.peter_panning", fraction, every_light, "visible peter_panning pixels / scored pixels",
+           [](const LightScore& s) { return s.rate_visible(PixelClass::peter_panning); }},
+    Metric{"rates_visible.aliasing", fraction, every_light, "visible aliasing pixels / scored pixels",
+           [](const LightScore& s) { return s.rate_visible(PixelClass::aliasing); }},
+    Metric{"rates_visible.false_shadow", fraction, every_light, "visible false_shadow pixels / scored pixels",
+           [](const LightScore& s) { return s.rate_visible(PixelClass::false_shadow); }},
+    Metric{"rates_visible.false_lit", fraction, every_light, "visible false_lit pixels / scored pixels",
+           [](const LightScore& s) { return s.rate_visible(PixelClass::false_lit); }},
     Metric{"wrong", pixels, every_light, "wrong pixels: |V_raster - V_oracle| > tolerance + E",
            [](const LightScore& s) { return static_cast<double>(s.wrong); }},
+    Metric{"wrong_visible", pixels, every_light, "wrong pixels whose |error| reaches the visible threshold",
+           [](const LightScore& s) { return static_cast<double>(s.wrong_visible); }},
     Metric{"mae", visibility, every_light, "mean |V_raster - V_oracle| over scored pixels",
            [](const LightScore& s) { return s.mae; }},
     Metric{"rmse", visibility, every_light, "root-mean-square V_raster - V_oracle over scored pixels",
@@ -70,11 +100,16 @@ constexpr std::array kMetrics = {
            "95th percentile of that distance over peter-panning pixels (nearest rank)",
            [](const LightScore& s) { return s.peter_panning_gap_p95; }},
     Metric{"acne_depth.mean", metres, depth_map_lookups,
-           "mean depth an acne pixel's biased receiver lies behind its own stored surface",
+           "mean depth an acne pixel's biased receiver lies behind its own surface in the centre texel, over "
+           "acne_depth.pixels",
            [](const LightScore& s) { return s.acne_depth.mean; }},
     Metric{"acne_depth.max", metres, depth_map_lookups,
-           "largest such depth: how much more bias would have cured every acne pixel",
+           "largest such depth: the extra bias the centre texels need (filter taps may need more)",
            [](const LightScore& s) { return s.acne_depth.max; }},
+    Metric{"acne_depth.pixels", pixels, depth_map_lookups,
+           "acne pixels whose centre texel holds the receiver behind; the rest were darkened by filter taps "
+           "whose depths are not recorded",
+           [](const LightScore& s) { return static_cast<double>(s.acne_depth_pixels); }},
     Metric{"perceptual.mean", perceptual, every_light, "mean FLIP-style error over surface pixels",
            [](const LightScore& s) { return s.perceptual.mean; }},
     Metric{"perceptual.max", perceptual, every_light, "largest FLIP-style error of a surface pixel",
@@ -183,6 +218,30 @@ nlohmann::json to_json(const LightScore& s) {
     }
     j["evidence"] = std::move(evidence);
     return j;
+}
+
+std::optional<std::string> reading_line(const LightScore& s) {
+    PixelClass top = PixelClass::correct;
+    std::uint64_t most = 0;
+    for (PixelClass c : kErrorClasses)
+        if (s.count_visible(c) > most) {
+            most = s.count_visible(c);
+            top = c;
+        }
+    if (most == 0 || s.rate_visible(top) < kHintRate) return std::nullopt;
+    std::string_view cure;
+    switch (top) {
+        case PixelClass::acne: cure = "self-shadowing; add bias, or run `penumbra tune`"; break;
+        case PixelClass::peter_panning:
+            cure = "shadows pulled off their casters by too much bias; lower it, or run `penumbra tune`";
+            break;
+        case PixelClass::aliasing: cure = "along shadow edges; raise the resolution, fit the map tighter or filter"; break;
+        case PixelClass::false_shadow:
+            cure = "shadow where nothing occludes (outside the map, clipped or culled receivers); check the fit";
+            break;
+        default: cure = "shadows missing (casters clipped, culled or outside the map); check the fit and culling"; break;
+    }
+    return fmt::format("{} {:.1f}% of scored pixels (visible): {}", to_string(top), 100.0 * s.rate_visible(top), cure);
 }
 
 std::string summary_line(const LightScore& s) {

@@ -62,4 +62,11 @@ nlohmann::json to_json(const LightScore& s);
 // evidence when the classes rest on the oracle's geometry.
 std::string summary_line(const LightScore& s);
 
+// One line that reads a light's verdict for a person: the class with the most visible wrong
+// pixels, its visible rate and what usually cures it ("acne 46.2% of scored pixels (visible):
+// self-shadowing; add bias, or run `penumbra tune`"). nullopt when no class reaches
+// kHintRate of the scored pixels visibly: nothing dominates enough to name.
+inline constexpr double kHintRate = 0.01;
+std::optional<std::string> reading_line(const LightScore& s);
+
 }  // namespace penumbra::metrics

@@ -289,6 +289,7 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
 
     metrics::ScoringOptions so;
     so.tolerance = static_cast<float>(opt.validate.tolerance);
+    so.visible_threshold = static_cast<float>(opt.validate.visible_threshold);
     so.filter_reach_texels = opt.filter_reach_texels;
     so.depth_quantum = 0.0f;
     r.scoring.assign(sc.lights.size(), so);

@@ -30,6 +30,7 @@ struct ValidateOptions {
     std::filesystem::path cache_dir;  // empty: OracleCache::default_dir()
     bool keep_oracle_frame = false;   // trace (never from the cache) and keep P, N, depth (--frames)
     double tolerance = 1.0 / 255.0;   // tau (docs/metrics.md)
+    double visible_threshold = 0.1;   // |error| from which a wrong pixel is also visible (docs/metrics.md)
     std::string device;               // Vulkan device when no session is given
     raster::RenderOptions render;     // lookups on for reports; V only for objectives
 };
@@ -63,7 +64,7 @@ struct ValidateResult {
 // How each light is judged under a technique (docs/metrics.md): tau, the filter's reach, the
 // depth format's quantum, soft scoring for area lights. The one derivation of these options.
 std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, const raster::Technique& technique,
-                                                     double tolerance);
+                                                     double tolerance, double visible_threshold = 0.1);
 
 // The warning every command gives for a scenario without lights (nothing is scored), or none.
 // Nothing here prints: warnings are returned, and the caller shows them.

@@ -32,6 +32,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
         const auto& o = in.scoring.size() == 1 ? in.scoring[0] : in.scoring.at(li);
         nlohmann::json so = {{"light", li},
                              {"tolerance", o.tolerance},
+                             {"visible_threshold", o.visible_threshold},
                              {"filter_reach_texels", o.filter_reach_texels},
                              {"depth_quantum", o.depth_quantum},
                              {"pixels_per_degree", o.pixels_per_degree}};

@@ -84,8 +84,11 @@ std::vector<float> class_image(const OracleLightImage& o, const metrics::LightEr
     std::vector<float> rgb(3 * n);
     for (std::size_t i = 0; i < n; ++i) {
         const auto c = static_cast<PixelClass>(e.cls[i]);
-        // Correct pixels keep the shading of the truth, so the scene stays recognisable.
-        glm::vec3 col = c == PixelClass::correct ? glm::vec3(0.16f + 0.4f * o.V[i]) : class_colour(c);
+        // Correct pixels keep the shading of the truth, so the scene stays recognisable; a wrong
+        // pixel whose error is below the visible threshold is drawn halfway to it (paler).
+        const glm::vec3 truth(0.16f + 0.4f * o.V[i]);
+        glm::vec3 col = c == PixelClass::correct ? truth : class_colour(c);
+        if (c > PixelClass::correct && std::abs(e.error[i]) < e.visible_threshold) col = 0.5f * (col + truth);
         for (int k = 0; k < 3; ++k) rgb[3 * i + k] = col[k];
     }
     return rgb;
@@ -219,12 +222,14 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
         const metrics::LightScore& l = score.lights[li];
         h += fmt::format("<h2>Light {} ({})</h2>\n", li, escape_markup(to_string(sc.lights[li].type)));
         h += fmt::format("<p>Classes from {}.</p>\n", escape_markup(evidence_text(l.evidence)));
-        h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th></tr>\n";
+        h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th>"
+             "<th title=\"|error| at least the visible threshold\">visible</th><th>visible rate</th></tr>\n";
         for (auto c : metrics::kErrorClasses) {
             h += fmt::format(
                 "<tr><td><span class=\"swatch\" "
-                "style=\"background:{}\"></span>{}</td><td>{}</td><td>{:.4f}%</td></tr>\n",
-                css_colour(class_colour(c)), to_string(c), l.count(c), 100.0 * l.rate(c));
+                "style=\"background:{}\"></span>{}</td><td>{}</td><td>{:.4f}%</td><td>{}</td><td>{:.4f}%</td></tr>\n",
+                css_colour(class_colour(c)), to_string(c), l.count(c), 100.0 * l.rate(c), l.count_visible(c),
+                100.0 * l.rate_visible(c));
         }
         h += "</table><table>\n";
         for (const metrics::Metric& m : metrics::metric_table())
@@ -274,7 +279,9 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
     std::vector<LegendEntry> legend;
     for (auto c : metrics::kErrorClasses)
         legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
-    legend.push_back({class_colour(PixelClass::correct), "correct"});
+    legend.push_back({0.5f * (class_colour(PixelClass::acne) + glm::vec3(0.36f)),
+                      fmt::format("paler: faint, |error| < {:g}", e.visible_threshold)});
+    legend.push_back({glm::vec3(0.36f), "correct (the truth's shading)"});
     for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
         legend.push_back({class_colour(c), std::string(to_string(c))});
     int h = 0;

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "report/report.h"
 #include "report/report_files.h"
 
@@ -58,6 +60,16 @@ std::string html_page(const std::vector<StressCase>& cases, const SuiteResult& r
             rows += "</tr>\n";
         }
     }
+    // "Suite passed" must say what passed: the oracle's invariance, and the technique's gate
+    // only when one was given (the technique's rates are otherwise reported, not judged).
+    const bool gated = std::any_of(result.cases.begin(), result.cases.end(), [](const CaseResult& r) {
+        return r.gate && !r.gate->outcomes.empty();
+    });
+    const std::string verdict = fmt::format(
+        "Suite {}: {}.", result.passed ? "passed" : "FAILED",
+        gated ? "the oracle's invariance and the technique's gate"
+              : "the oracle's invariance only; no gate was given, so the technique's verdicts below are reported, "
+                "not judged (give one with --gate)");
     std::string highest;
     for (const auto& [cls, best] : stress.at("highest_rates").items())
         if (best.is_object())
@@ -73,7 +85,7 @@ th {{ background: #222; }} .ok {{ color: #6d6; }} .bad {{ color: #f55; font-weig
 img {{ image-rendering: pixelated; }}
 </style></head><body>
 <h1>penumbra stress</h1>
-<p>{} cases, {}x{} px, on {}; {:.1f} s. Oracle invariant: {} of {} cases hold. Suite {}.</p>
+<p>{} cases, {}x{} px, on {}; {:.1f} s. Oracle invariant: {} of {} cases hold. {}</p>
 <p>Technique: <code>{}</code></p>
 <p>Highest rate per class: {}</p>
 <p>Rates are fractions of scored pixels (docs/metrics.md); "at canonical" is the technique's wrong fraction on the
@@ -89,7 +101,7 @@ version's outside uncertain pixels (docs/stress.md).</p>
                        result.cases.size(), stress.at("image").at("width").get<int>(),
                        stress.at("image").at("height").get<int>(), escape_markup(result.device), result.seconds,
                        result.cases.size() - stress.at("oracle_invariant_failures").get<std::size_t>(),
-                       result.cases.size(), result.passed ? "passed" : "FAILED",
+                       result.cases.size(), escape_markup(verdict),
                        escape_markup(stress.at("technique").dump()), highest, rows,
                        escape_markup(stress.at("version").get<std::string>()));
 }

@@ -121,6 +121,26 @@ TEST(Classification, FalseShadowFromTheReceiversOwnSurfaceIsAcne) {
     EXPECT_NEAR(s.lights[0].acne_depth.mean, (0.002 * 10.0 + 0.00005 * 10.0) / 2, 1e-6);
 }
 
+// With a filter, a pixel's centre texel can hold the receiver in front (lit) while other taps
+// darken it: no depth is measured there, and it must not read as "0 m more bias would cure it".
+TEST(Classification, AcneDepthLeavesOutPixelsOnlyFilterTapsDarkened) {
+    Frames f(3, 1);
+    f.rl().V.assign(3, 0.0f);
+    f.lk().ref_depth = {0.502f, 0.499f, 0.499f};  // 0: behind its own surface; 1, 2: in front of it
+    f.lk().stored_depth.assign(3, 0.5f);
+    const LightScore l = f.score().lights[0];
+    EXPECT_EQ(l.count(PixelClass::acne), 3u);
+    EXPECT_EQ(l.acne_depth_pixels, 1u);
+    EXPECT_NEAR(l.acne_depth.mean, 0.002 * 10.0, 1e-6) << "the two unmeasured pixels are not averaged in as 0";
+    EXPECT_NEAR(l.acne_depth.max, 0.002 * 10.0, 1e-6);
+    EXPECT_EQ(to_json(l)["acne_depth"]["pixels"], 1);
+    // Only filter-darkened acne: nothing measured, and the report says so with pixels = 0.
+    f.lk().ref_depth.assign(3, 0.499f);
+    const LightScore none = f.score().lights[0];
+    EXPECT_EQ(none.count(PixelClass::acne), 3u);
+    EXPECT_EQ(none.acne_depth_pixels, 0u);
+}
+
 TEST(Classification, LightLostToBiasIsPeterPanningAndReportsTheGap) {
     Frames f(3, 1);
     f.lk().bias_m.assign(3, 0.05f);  // + one 0.01 m texel = 0.06 m reach
@@ -409,6 +429,52 @@ const std::vector<Light> kTwoSuns = lights_of({LightType::directional, LightType
 
 Gate gate_file(const char* text, const std::vector<Light>& lights = kTwoSuns) {
     return parse_gate(nlohmann::json::parse(text), "gate.json", lights, GateOrigin::file);
+}
+
+// A class counts a pixel 1% too dark as it counts a missing shadow; the visible counts keep only
+// errors of at least the threshold (a tie counts as visible).
+TEST(Classification, VisibleCountsKeepErrorsFromTheThresholdUp) {
+    Frames f(5, 1);
+    f.lk().stored_prim.assign(5, 99u);  // false shadows: a foreign occluder well in front
+    f.lk().stored_depth.assign(5, 0.1f);
+    f.rl().V = {0.99f, 0.7500001f, 0.75f, 0.0f, 1.0f};  // errors -0.01, just under -0.25, -0.25, -1, 0
+    ScoringOptions opt;
+    opt.visible_threshold = 0.25f;
+    const FrameScore s = f.score(opt);
+    const LightScore& l = s.lights[0];
+    EXPECT_EQ(l.count(PixelClass::false_shadow), 4u);
+    EXPECT_EQ(l.count_visible(PixelClass::false_shadow), 2u);
+    EXPECT_EQ(l.wrong_visible, 2u);
+    EXPECT_NEAR(l.rate_visible(PixelClass::false_shadow), 2.0 / 5.0, 1e-12);
+    EXPECT_EQ(l.count_visible(PixelClass::acne), 0u);
+    const nlohmann::json j = to_json(l);
+    EXPECT_EQ(j["counts_visible"]["false_shadow"], 2);
+    EXPECT_EQ(j["counts"]["false_shadow"], 4);
+    EXPECT_DOUBLE_EQ(j["rates_visible"]["false_shadow"].get<double>(), 0.4);
+    EXPECT_FLOAT_EQ(s.images[0].visible_threshold, 0.25f);
+    // Gates read them like any metric, a tie at the bound passing.
+    const Gate g = gate_file(R"({"checks": [{"metric": "counts_visible.false_shadow", "max": 2},
+        {"metric": "rates_visible.false_shadow", "max": 0.39}]})",
+                             lights_of({LightType::directional}));
+    const GateResult r = evaluate_gate(g, s.lights);
+    ASSERT_EQ(r.outcomes.size(), 2u);
+    EXPECT_TRUE(r.outcomes[0].passed) << "2 <= 2";
+    EXPECT_FALSE(r.outcomes[1].passed) << "0.4 > 0.39";
+}
+
+// The reading names the class with the most visible pixels and its cure; faint errors alone,
+// however many, name nothing.
+TEST(Classification, TheReadingNamesTheDominantVisibleClass) {
+    Frames f(4, 1);
+    f.rl().V = {0.0f, 0.0f, 0.0f, 1.0f};  // own surface shadows three of four: acne
+    f.lk().ref_depth.assign(4, 0.502f);
+    f.lk().stored_depth.assign(4, 0.5f);
+    const auto acne = reading_line(f.score().lights[0]);
+    ASSERT_TRUE(acne);
+    EXPECT_NE(acne->find("acne 75.0% of scored pixels (visible)"), std::string::npos) << *acne;
+    EXPECT_NE(acne->find("penumbra tune"), std::string::npos) << *acne;
+    f.rl().V = {0.95f, 0.95f, 0.95f, 1.0f};  // the same pixels, only 5% too dark
+    EXPECT_FALSE(reading_line(f.score().lights[0]));
 }
 
 TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
