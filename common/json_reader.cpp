@@ -321,6 +321,42 @@ JsonObject JsonObject::object(const std::string& key) {
     return JsonObject(v, file_, path_of(key));
 }
 
+namespace {
+
+// Levenshtein distance, for "did you mean": keys are short, so the plain O(nm) table is fine.
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] != b[j - 1] ? 1 : 0)});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+}  // namespace
+
+void JsonObject::only_keys(std::initializer_list<std::string_view> known) const {
+    for (auto it = value_.begin(); it != value_.end(); ++it) {
+        const std::string& key = it.key();
+        if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+        // A known key it resembles: one containing it ("fov" in "yfov_deg") or two edits away.
+        std::string_view like;
+        for (std::string_view k : known)
+            if (!value_.contains(std::string(k)) && key.size() >= 3 &&
+                (k.find(key) != std::string_view::npos || edit_distance(key, k) <= 2)) {
+                like = k;
+                break;
+            }
+        fail(key, like.empty() ? "unknown key" : fmt::format("unknown key (did you mean \"{}\"?)", like));
+    }
+}
+
 void JsonObject::finish() const {
     for (auto it = value_.begin(); it != value_.end(); ++it)
         if (!read_.count(it.key())) fail(it.key(), "unknown key");

@@ -7,6 +7,7 @@
 #include <glm/vec3.hpp>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <initializer_list>
 #include <set>
 #include <string>
 #include <string_view>
@@ -75,6 +76,10 @@ class JsonObject {
     glm::dvec3 nonzero_vec3(const std::string& key);
     JsonObject object(const std::string& key);
 
+    // Unknown keys are errors, named before any missing required key is (a misspelt "fov" is
+    // reported as unknown, with the known key it resembles, not as a missing "yfov_deg"). Call
+    // before reading when the object's keys are known up front; finish() still checks at the end.
+    void only_keys(std::initializer_list<std::string_view> known) const;
     void finish() const;  // unknown keys are errors
 
   private:

@@ -42,6 +42,10 @@ Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_
         return c;
     }
     std::string type = cam.string("type");
+    if (type == "perspective")
+        cam.only_keys({"type", "eye", "target", "up", "yfov_deg", "znear", "zfar"});
+    else if (type == "orthographic")
+        cam.only_keys({"type", "eye", "target", "up", "xmag", "ymag", "znear", "zfar"});
     glm::dvec3 eye = position(cam, "eye");
     glm::dvec3 target = position(cam, "target");
     glm::dvec3 up = cam.has("up") ? cam.nonzero_vec3("up") : glm::dvec3(0, 1, 0);
@@ -72,6 +76,12 @@ Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_
 Light read_light(JsonObject o) {
     Light l;
     std::string type = o.string("type");
+    if (type == "directional") o.only_keys({"type", "name", "direction"});
+    if (type == "spot") o.only_keys({"type", "name", "position", "direction", "outer_cone_deg", "inner_cone_deg"});
+    if (type == "point") o.only_keys({"type", "name", "position"});
+    if (type == "rect") o.only_keys({"type", "name", "center", "u", "v"});
+    if (type == "disk") o.only_keys({"type", "name", "center", "normal", "radius"});
+    if (type == "sphere") o.only_keys({"type", "name", "center", "radius"});
     o.string("name", "");
     if (type == "directional") {
         l.type = LightType::directional;
@@ -125,6 +135,7 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     s.label = file.filename().string();
     nlohmann::json root = read_json_file(file);
     JsonObject top(root, s.label, "");
+    top.only_keys({"scene", "image", "camera", "lights", "technique", "gate"});
 
     std::string scene_rel = top.string("scene");
     if (scene_rel.empty()) top.fail("scene", "empty path");
@@ -136,6 +147,7 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
                  fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", s.scene_file.string()));
 
     JsonObject image = top.object("image");
+    image.only_keys({"width", "height"});
     s.width = static_cast<int>(image.integer("width", 1, kMaxImageSide));
     s.height = static_cast<int>(image.integer("height", 1, kMaxImageSide));
     image.finish();

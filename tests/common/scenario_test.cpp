@@ -57,6 +57,20 @@ TEST_F(ScenarioTest, RefusesUnknownKeysAndWrongTypes) {
     auto doc = valid();
     doc["camera"]["fov"] = 45;
     EXPECT_EQ(error_of(doc), "scenario.json: camera.fov: unknown key");
+    // A misspelt key in place of a required one is named as unknown, with the key it resembles,
+    // not reported as the required key missing.
+    doc = valid();
+    doc["camera"].erase("yfov_deg");
+    doc["camera"]["fov"] = 45;
+    EXPECT_EQ(error_of(doc), "scenario.json: camera.fov: unknown key (did you mean \"yfov_deg\"?)");
+    doc = valid();
+    doc["lights"][0].erase("direction");
+    doc["lights"][0]["dir"] = {0, -1, 0};
+    EXPECT_EQ(error_of(doc), "scenario.json: lights[0].dir: unknown key (did you mean \"direction\"?)");
+    doc = valid();
+    doc.erase("image");
+    doc["img"] = {{"width", 64}, {"height", 48}};
+    EXPECT_EQ(error_of(doc), "scenario.json: img: unknown key (did you mean \"image\"?)");
     doc = valid();
     doc["image"]["width"] = "wide";
     EXPECT_EQ(error_of(doc), "scenario.json: image.width: expected an integer, got string");
