@@ -18,6 +18,9 @@ set_target_properties(penumbra_library PROPERTIES
 target_link_libraries(penumbra_library
   PRIVATE embree TBB::tbb PkgConfig::OPENEXR PkgConfig::PNG ${CMAKE_DL_LIBS} PkgConfig::XXHASH Vulkan::Vulkan fmt::fmt
   PUBLIC glm::glm nlohmann_json::nlohmann_json Vulkan::Headers)
+# The public headers use C++20 (std::span, designated initialisers): a consumer gets the
+# requirement with the target, whatever its own CMAKE_CXX_STANDARD says.
+target_compile_features(penumbra_library INTERFACE cxx_std_20)
 # The public headers keep the source tree's module folders under include/penumbra/, so that
 # they include each other as they do in the tree ("common/scenario.h").
 target_include_directories(penumbra_library INTERFACE
