@@ -24,7 +24,7 @@ sys.exit(0 if h['rate'] == top and h['case'] in [c['name'] for c in j['cases']] 
 check "report.html has a row per case" test "$(grep -o '<small>canonical: ' "$tmp/a/report.html" | wc -l)" -eq 6
 check "report.html embeds the class maps" grep -q 'data:image/png;base64,' "$tmp/a/report.html"
 check "junit has an oracle testcase per case" test "$(grep -c 'name="oracle invariant"' "$tmp/a.xml")" -eq 6
-if command -v xmllint >/dev/null; then
+if require_tool xmllint xmllint; then
     junit_ok() { xmllint --noout --schema "$src/tests/cli/junit.xsd" "$1" 2>"$tmp/xmllint.log"; }
     check "junit validates against the schema" junit_ok "$tmp/a.xml"
 fi

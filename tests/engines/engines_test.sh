@@ -12,14 +12,20 @@
 #   bias 0.02                       -> acne gone; peter-panning under spot and point lights,
 #                                     whose perspective depth makes 0.02 metres here;
 #   bias 0.2                        -> shadows lost: brighter everywhere they were.
-# Skipped (exit 77) only when node or chromium is missing; the npm packages come from
+# Skipped (exit 77) only when node or chromium is missing, and never in CI (CI set: a failure); the npm packages come from
 # `npm ci` in this folder (scripts/install-deps.sh). Usage: engines_test.sh PENUMBRA SOURCE_DIR
 set -uo pipefail
 bin=$1 src=$2
 here=$src/tests/engines
-command -v node >/dev/null || { echo "SKIP: node is not installed"; exit 77; }
+# Optional outside CI (README); in CI (CI set) a missing tool is a failure, not a skip.
+skip() {
+    [[ -n ${CI:-} ]] && { echo "FAIL: $1 (CI must run this test; scripts/install-deps.sh installs it)"; exit 1; }
+    echo "SKIP: $1 (optional outside CI; scripts/install-deps.sh installs it)"
+    exit 77
+}
+command -v node >/dev/null || skip "node is not installed"
 chromium=${CHROMIUM:-/usr/bin/chromium}
-[[ -x $chromium ]] || { echo "SKIP: no chromium at $chromium"; exit 77; }
+[[ -x $chromium ]] || skip "no chromium at $chromium"
 [[ -d $here/node_modules/three && -d $here/node_modules/puppeteer-core ]] ||
     { echo "FAIL: tests/engines/node_modules is missing: run scripts/install-deps.sh (npm ci in tests/engines)"; exit 1; }
 tmp=$(mktemp -d)

@@ -23,6 +23,7 @@ class Raster : public ::testing::Test {
         ctx_ = std::make_unique<raster::VulkanContext>(o);
     }
     void TearDown() override {
+        if (!ctx_) return;  // SetUp failed, and said why
         EXPECT_TRUE(ctx_->validation_messages().empty())
             << ctx_->validation_messages().size() << " validation messages, first: " << ctx_->validation_messages()[0];
     }
