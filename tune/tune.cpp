@@ -148,7 +148,7 @@ Evaluator::Evaluator(std::span<const Scenario> scenarios, const raster::Techniqu
         scene.scenario = &s;
         scene.oracle = std::make_shared<const OracleRun>(oracle_for(s, options.validate));
         scene.session = std::make_unique<raster::RasterSession>(s, ctx);
-        scene.scoring = scoring_options(s, base, options.validate.tolerance);
+        scene.scoring = scoring_options(s, base, options.validate.tolerance, options.validate.visible_threshold);
         for (auto& o : scene.scoring) o.perceptual = false;
         if (!options.lookups) {
             // V only: each light's footprint from one lookup render of the starting technique;
