@@ -561,5 +561,24 @@ TEST_F(Raster, WorldFloat32PrecisionDiffersFarFromTheOriginAndNotAtIt) {
     EXPECT_GT(differing_pixels(far_rel, far_world), surface / 20);
 }
 
+// A technique the device refuses, with a new precision, leaves the session as it was: the next
+// render finds its scene and maps in place and draws what a cold run draws.
+TEST_F(Raster, ARefusedTechniqueLeavesTheSessionAsItWas) {
+    Scenario sc = moved(perspective_scene(), {3e6, 0, -2e6});
+    raster::RasterSession session(sc, *ctx_);
+    const nlohmann::json relative = {{"bias", {{"slope", 1.5}}}};
+    const raster::Technique technique = raster::parse_technique(relative, "test");
+    session.render(technique);
+    raster::Technique refused = raster::parse_technique({{"precision", "world_float32"}}, "test");
+    refused.resolution = static_cast<int>(ctx_->limits().maxImageDimension2D) + 1;
+    EXPECT_THROW(session.render(refused), InputError);
+    const raster::RasterResult again = session.render(technique);
+    EXPECT_TRUE(again.stats.lights[0].map_reused) << "the refused precision replaced the scene and its maps";
+    expect_identical(again.frame, render(sc, relative).frame, "after a refused technique");
+    const nlohmann::json world = {{"precision", "world_float32"}};
+    expect_identical(session.render(raster::parse_technique(world, "test")).frame, render(sc, world).frame,
+                     "world_float32 after a refused technique");
+}
+
 }  // namespace
 }  // namespace penumbra
