@@ -68,41 +68,4 @@ ExpandedLights expand_area_lights(const std::vector<Light>& lights, const Techni
     return e;
 }
 
-RasterResult fold_area_lights(const ExpandedLights& expanded, RasterResult drawn) {
-    if (expanded.lights.size() == expanded.first.size()) return drawn;  // nothing was expanded
-    RasterResult out;
-    out.frame.width = drawn.frame.width;
-    out.frame.height = drawn.frame.height;
-    out.frame.frame_origin = drawn.frame.frame_origin;
-    out.frame.A = std::move(drawn.frame.A);
-    out.frame.prim = std::move(drawn.frame.prim);
-    const std::vector<RasterLightStats> drawn_lights = std::move(drawn.stats.lights);
-    out.stats = std::move(drawn.stats);
-    out.stats.lights.clear();
-    for (std::size_t li = 0; li < expanded.first.size(); ++li) {
-        const std::size_t first = expanded.first[li], n = expanded.count[li];
-        RasterLightImage img = std::move(drawn.frame.lights[first]);
-        RasterLightStats ls = drawn_lights[first];
-        for (std::size_t j = first + 1; j < first + n; ++j) {
-            const RasterLightImage& other = drawn.frame.lights[j];
-            for (std::size_t i = 0; i < img.V.size(); ++i) {
-                img.V[i] += other.V[i];
-                // Back-facing only where every point is behind the receiver's tangent plane.
-                if (img.lookups && other.lookups && !(other.lookups->flags[i] & kRasterBackFacing))
-                    img.lookups->flags[i] &= ~kRasterBackFacing;
-            }
-            const RasterLightStats& o = drawn_lights[j];
-            ls.layers_sampled |= o.layers_sampled;
-            ls.layers_rendered += o.layers_rendered;
-            ls.shadow_ms += o.shadow_ms;
-            ls.lookup_ms += o.lookup_ms;
-        }
-        if (n > 1)
-            for (float& v : img.V) v /= static_cast<float>(n);
-        out.frame.lights.push_back(std::move(img));
-        out.stats.lights.push_back(std::move(ls));
-    }
-    return out;
-}
-
 }  // namespace penumbra::raster

@@ -2,9 +2,9 @@
 // light) drawn with the technique's fit, format, culling and hardware depth bias, then one
 // compute lookup per light that applies the shader biases and the filter (none, 2x2 compare,
 // PCF, Poisson, PCSS) and writes V with the lookups behind it. Everything it builds is cached
-// for the session's next render: pipelines by their specialisation, maps by size and format,
-// per-light buffers and descriptor sets by light count; a map whose inputs did not change is
-// not drawn again.
+// for the session's next render: pipelines by their specialisation, a map per light (one map
+// for all when they would not fit kMapBudgetBytes) by size and format, per-light buffers and
+// descriptor sets by light count; a map whose inputs did not change is not drawn again.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -134,6 +134,14 @@ struct MapContent {
     bool operator==(const MapContent&) const = default;
 };
 
+// Maps of all lights together up to this size get a map each, kept between renders; beyond it
+// the lights share one map, drawn again for each light.
+constexpr std::uint64_t kMapBudgetBytes = std::uint64_t{512} << 20;
+
+std::uint64_t depth_texel_bytes(DepthFormat f) {
+    return f == DepthFormat::d16 ? 2 : 4;
+}
+
 class DepthMapFamily final : public TechniqueFamily {
   public:
     explicit DepthMapFamily(const SceneOnGpu& scene);
@@ -142,25 +150,33 @@ class DepthMapFamily final : public TechniqueFamily {
 
   private:
     // Per light: its uniform parameters, the cube-face mask, and its output: every lookup
-    // (36 bytes a pixel) or V alone (4 bytes), each with a host copy on GPUs.
+    // (36 bytes a pixel) or V alone (4 bytes), as the render asks, with a host copy on GPUs.
     struct Slot {
-        GpuBuffer params, mask;
-        GpuBuffer lookups, lookups_host, visibility, visibility_host;
+        GpuBuffer params, mask, output, output_host;
+    };
+    // A light's shadow map (or every light's, when they share one) and what it holds.
+    struct LightMap {
+        GpuImage depth, prim;
+        std::vector<UniqueImageView> depth_layers, prim_layers;
+        std::optional<MapContent> content;  // set: drawn, in SHADER_READ_ONLY_OPTIMAL
+        bool read_only = false;             // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
     };
 
     void check_supported(const Technique& t, RasterStats& stats);
     VkPipeline shadow_pipeline(const Technique& t);
     VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
     VkSampler compare_sampler(bool linear, bool clamp_to_border);
-    void ensure_maps(const Technique& t, std::uint32_t layers);
-    void ensure_slots(std::size_t n);
+    void ensure_maps(const Technique& t, std::span<const Light> lights);
+    LightMap& map_of(std::size_t li) { return maps_[maps_.size() == 1 ? 0 : li]; }
+    void record_map_layouts(VkCommandBuffer cmd);
+    void ensure_slots(std::size_t n, bool lookups);
     void ensure_queries(std::uint32_t count);
     gpu::LookupParams light_params(const Technique& t, const Light& light, const LightProjection& projection) const;
     void record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t);
     void record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li, RasterLightStats& ls,
                       const RenderOptions& options);
     RasterLightImage read_back(std::size_t li, bool lookups) const;
-    const GpuBuffer& host_copy(const Slot& slot, bool lookups) const;
+    const GpuBuffer& host_copy(const Slot& slot) const;
 
     const SceneOnGpu& s_;
     const VulkanContext& ctx_;
@@ -174,11 +190,12 @@ class DepthMapFamily final : public TechniqueFamily {
     std::map<std::pair<bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
 
-    GpuImage shadow_depth_, shadow_prim_;
-    std::vector<UniqueImageView> depth_layers_, prim_layers_;
-    std::optional<MapContent> map_content_;  // what the map images hold now
+    // Each arena before what is bound to it: destroyed after it.
+    MemoryArena maps_arena_, slots_arena_;
+    std::vector<LightMap> maps_;
     std::vector<glm::vec2> disk_;
     std::vector<Slot> slots_;
+    bool slots_hold_lookups_ = false;
     UniqueQueryPool queries_;
     std::uint32_t query_capacity_ = 0;
 };
@@ -246,43 +263,77 @@ VkSampler DepthMapFamily::compare_sampler(bool linear, bool clamp_to_border) {
     return s.get();
 }
 
-void DepthMapFamily::ensure_maps(const Technique& t, std::uint32_t layers) {
+void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> lights) {
     const VkFormat format = vk_format(t.depth_format);
-    const auto res = static_cast<std::uint32_t>(t.resolution);
-    if (shadow_depth_.image && shadow_depth_.format == format && shadow_depth_.width == res &&
-        shadow_depth_.layers == layers)
-        return;
-    map_content_.reset();
-    depth_layers_.clear();
-    prim_layers_.clear();
-    shadow_depth_ = create_image(ctx_, format, res, res, layers,
-                                 VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                                 VK_IMAGE_ASPECT_DEPTH_BIT, true);
-    shadow_prim_ =
-        create_image(ctx_, kPrimFormat, res, res, layers,
-                     VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT, true);
-    for (std::uint32_t l = 0; l < layers; ++l) {
-        depth_layers_.push_back(create_layer_view(ctx_, shadow_depth_, l, VK_IMAGE_ASPECT_DEPTH_BIT));
-        prim_layers_.push_back(create_layer_view(ctx_, shadow_prim_, l, VK_IMAGE_ASPECT_COLOR_BIT));
+    // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
+    const auto res = static_cast<std::uint32_t>(lights.empty() ? 1 : t.resolution);
+    auto layers_of = [](const Light& l) { return l.type == LightType::point ? 6u : 1u; };
+    std::vector<std::uint32_t> wanted;
+    std::uint64_t bytes = 0;
+    for (const Light& l : lights) {
+        wanted.push_back(layers_of(l));
+        bytes += std::uint64_t{res} * res * layers_of(l) * (depth_texel_bytes(t.depth_format) + 4);
+    }
+    if (wanted.empty() || bytes > kMapBudgetBytes) {
+        const bool any_point =
+            std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return layers_of(l) > 1; });
+        wanted = {any_point ? 6u : 1u};  // one map for all
+    }
+    bool same = maps_.size() == wanted.size();
+    for (std::size_t i = 0; same && i < wanted.size(); ++i)
+        same = maps_[i].depth.format == format && maps_[i].depth.width == res && maps_[i].depth.layers == wanted[i];
+    if (same) return;
+    maps_.clear();
+    maps_arena_ = MemoryArena(ctx_);
+    maps_.resize(wanted.size());
+    for (std::size_t i = 0; i < wanted.size(); ++i) {
+        maps_arena_.add(maps_[i].depth, format, res, res, wanted[i],
+                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                        VK_IMAGE_ASPECT_DEPTH_BIT, true);
+        maps_arena_.add(maps_[i].prim, kPrimFormat, res, res, wanted[i],
+                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
+                        true);
+    }
+    maps_arena_.commit();
+    for (LightMap& m : maps_)
+        for (std::uint32_t l = 0; l < m.depth.layers; ++l) {
+            m.depth_layers.push_back(create_layer_view(ctx_, m.depth, l, VK_IMAGE_ASPECT_DEPTH_BIT));
+            m.prim_layers.push_back(create_layer_view(ctx_, m.prim, l, VK_IMAGE_ASPECT_COLOR_BIT));
+        }
+}
+
+// The lookup descriptors name the maps in SHADER_READ_ONLY, the mask dispatches' too (which
+// never read them): make that true of maps never drawn.
+void DepthMapFamily::record_map_layouts(VkCommandBuffer cmd) {
+    for (LightMap& m : maps_) {
+        if (m.read_only) continue;
+        image_barrier(cmd, m.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, m.depth.layers, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        image_barrier(cmd, m.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, m.prim.layers, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        m.read_only = true;
     }
 }
 
-void DepthMapFamily::ensure_slots(std::size_t n) {
-    // A GPU writes its output into its own memory and copies it back once; a CPU device
-    // writes it where it is read.
-    auto output = [&](GpuBuffer& device, GpuBuffer& host, VkDeviceSize bytes) {
-        device = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                               direct_readback_);
-        if (!direct_readback_) host = create_buffer(ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
-    };
-    while (slots_.size() < n) {
-        Slot slot;
-        slot.params = create_buffer(ctx_, sizeof(gpu::LookupParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, true);
-        slot.mask = create_buffer(ctx_, 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-        output(slot.lookups, slot.lookups_host, s_.pixels * sizeof(gpu::LookupTexel));
-        output(slot.visibility, slot.visibility_host, s_.pixels * sizeof(float));
-        slots_.push_back(std::move(slot));
+void DepthMapFamily::ensure_slots(std::size_t n, bool lookups) {
+    if (slots_.size() >= n && slots_hold_lookups_ == lookups) return;
+    // All slots in one arena, with only the output this render writes. A GPU writes its
+    // output into its own memory and copies it back once; a CPU device writes it where it is read.
+    slots_.clear();
+    slots_arena_ = MemoryArena(ctx_);
+    slots_.resize(n);
+    const VkDeviceSize bytes = s_.pixels * (lookups ? sizeof(gpu::LookupTexel) : sizeof(float));
+    for (Slot& slot : slots_) {
+        slots_arena_.add(slot.params, sizeof(gpu::LookupParams), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, true);
+        slots_arena_.add(slot.mask, 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+        slots_arena_.add(slot.output, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                         direct_readback_);
+        if (!direct_readback_) slots_arena_.add(slot.output_host, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
     }
+    slots_arena_.commit();
+    slots_hold_lookups_ = lookups;
     sets_.reserve(n);
 }
 
@@ -338,15 +389,6 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
 
 // Point lights: which cube faces some receiver samples, so that only those are drawn.
 void DepthMapFamily::record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t) {
-    // The lookup descriptors name the maps in SHADER_READ_ONLY; make that true before the mask
-    // dispatches (which never read them).
-    image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
-                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE,
-                  VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
-                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE,
-                  VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    map_content_.reset();  // the transition above discards what the maps held
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 0);
     for (std::size_t li = 0; li < lights.size(); ++li) {
         if (lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
@@ -368,24 +410,27 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
     MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
                        t.bias.constant,         t.bias.slope,      t.bias.clamp};
-    ls.map_reused = options.reuse_maps && ls.layers_sampled != 0 && map_content_ == content;
+    LightMap& map = map_of(li);
+    ls.map_reused = options.reuse_maps && ls.layers_sampled != 0 && map.content == content;
     if (ls.layers_sampled != 0 && !ls.map_reused) {
-        // The previous light's lookup read these images; its contents are not needed again.
-        image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
+        // A lookup may have read these images (a previous render, or the previous light of a
+        // shared map); their contents are not needed again.
+        map.content.reset();
+        image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-        image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
-                      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE,
-                      VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+        image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers, VK_IMAGE_LAYOUT_UNDEFINED,
+                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t));
         VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
-            begin_rendering(cmd, prim_layers_[layer].get(), depth_layers_[layer].get(), res, res, 1.0f);
+            begin_rendering(cmd, map.prim_layers[layer].get(), map.depth_layers[layer].get(), res, res, 1.0f);
             vkCmdSetDepthBias(cmd, static_cast<float>(t.bias.constant), static_cast<float>(t.bias.clamp),
                               static_cast<float>(t.bias.slope));
             glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
@@ -394,15 +439,15 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
             vkCmdEndRendering(cmd);
             ++ls.layers_rendered;
         }
-        image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
+        image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
                       VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                       kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
+        image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
                       VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                       VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        map_content_ = content;
+        map.content = content;
     }
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
     vkCmdBindPipeline(
@@ -420,27 +465,25 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     }
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    const GpuBuffer& written = options.lookups ? slot.lookups : slot.visibility;
-    VkBufferCopy region{0, 0, written.size};
-    vkCmdCopyBuffer(cmd, written.buffer.get(), host_copy(slot, options.lookups).buffer.get(), 1, &region);
+    VkBufferCopy region{0, 0, slot.output.size};
+    vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.output_host.buffer.get(), 1, &region);
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                    VK_ACCESS_2_HOST_READ_BIT);
 }
 
-const GpuBuffer& DepthMapFamily::host_copy(const Slot& slot, bool lookups) const {
-    if (lookups) return direct_readback_ ? slot.lookups : slot.lookups_host;
-    return direct_readback_ ? slot.visibility : slot.visibility_host;
+const GpuBuffer& DepthMapFamily::host_copy(const Slot& slot) const {
+    return direct_readback_ ? slot.output : slot.output_host;
 }
 
 RasterLightImage DepthMapFamily::read_back(std::size_t li, bool lookups) const {
     const std::size_t n = s_.pixels;
     RasterLightImage img;
     if (!lookups) {
-        const auto* v = static_cast<const float*>(host_copy(slots_[li], false).mapped);
+        const auto* v = static_cast<const float*>(host_copy(slots_[li]).mapped);
         img.V.assign(v, v + n);
         return img;
     }
-    const auto* texels = static_cast<const gpu::LookupTexel*>(host_copy(slots_[li], true).mapped);
+    const auto* texels = static_cast<const gpu::LookupTexel*>(host_copy(slots_[li]).mapped);
     img.V.resize(n);
     for (std::size_t i = 0; i < n; ++i) img.V[i] = texels[i].V;
     DepthMapLookups& lk = img.lookups.emplace();
@@ -472,11 +515,8 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     const std::size_t n = lights.size();
     const bool any_point =
         std::any_of(lights.begin(), lights.end(), [](const Light& l) { return l.type == LightType::point; });
-    // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
-    Technique sized = t;
-    if (n == 0) sized.resolution = 1;
-    ensure_maps(sized, any_point ? 6 : 1);
-    ensure_slots(n);
+    ensure_maps(t, lights);
+    ensure_slots(n, options.lookups);
     ensure_queries(static_cast<std::uint32_t>(2 + 3 * n));
     if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
 
@@ -506,17 +546,19 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         r[0].image = {VK_NULL_HANDLE, s_.gbuffer_prim.view.get(), VK_IMAGE_LAYOUT_GENERAL};
         r[1].buffer = {s_.positions.buffer.get(), 0, VK_WHOLE_SIZE};
         r[2].buffer = {s_.indices.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[3].image = {nearest_.get(), shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-        r[4].image = {nearest_.get(), shadow_prim_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        const LightMap& map = map_of(li);
+        r[3].image = {nearest_.get(), map.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        r[4].image = {nearest_.get(), map.prim.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         // Each light its own compare sampler: a cube face clamps to its edge, a 2D map reads a
         // lit border (one sampler for all lights made a sun's lookup outside its map read the
         // edge texel wherever a point light was drawn too, on devices that filter depth).
         const VkSampler compare = compare_sampler(hardware_compare_, light.type != LightType::point);
-        r[5].image = {compare, shadow_depth_.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-        r[6].buffer = {slot.params.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[7].buffer = {slot.lookups.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[8].buffer = {slot.mask.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[9].buffer = {slot.visibility.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[5].image = {compare, map.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        r[6].buffer = {slot.params.buffer.get(), 0, slot.params.size};
+        // One output, bound to both: the lookup writes the one its mode names.
+        r[7].buffer = {slot.output.buffer.get(), 0, slot.output.size};
+        r[8].buffer = {slot.mask.buffer.get(), 0, slot.mask.size};
+        r[9].buffer = {slot.output.buffer.get(), 0, slot.output.size};
         sets_.write(li, r);
     }
     stats.setup_s += seconds_since(t0);
@@ -525,6 +567,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     if (any_point) {
         ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
             vkCmdResetQueryPool(cmd, queries_.get(), 0, 2);
+            record_map_layouts(cmd);
             record_masks(cmd, lights, t);
         });
         for (std::size_t li = 0; li < n; ++li)
@@ -534,17 +577,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     }
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
         if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(3 * n));
-        if (!any_point) {
-            // The lookup descriptors name the maps in SHADER_READ_ONLY even where no pass drew.
-            image_barrier(cmd, shadow_depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, shadow_depth_.layers,
-                          map_content_ ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
-                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
-                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-            image_barrier(cmd, shadow_prim_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, shadow_prim_.layers,
-                          map_content_ ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED,
-                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
-                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        }
+        record_map_layouts(cmd);
         for (std::size_t li = 0; li < n; ++li) record_light(cmd, t, lights[li], li, stats.lights[li], options);
     });
     stats.render_s += seconds_since(t1);

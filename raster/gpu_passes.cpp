@@ -23,6 +23,13 @@ GpuBuffer upload(const VulkanContext& ctx, const void* data, std::size_t bytes, 
     ctx.submit_and_wait([&](VkCommandBuffer cmd) {
         VkBufferCopy region{0, 0, std::max<VkDeviceSize>(bytes, 4)};
         vkCmdCopyBuffer(cmd, staging.buffer.get(), dst.buffer.get(), 1, &region);
+        // A fence wait orders later submissions but makes no device write visible to them.
+        memory_barrier(
+            cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+            VK_PIPELINE_STAGE_2_VERTEX_ATTRIBUTE_INPUT_BIT | VK_PIPELINE_STAGE_2_INDEX_INPUT_BIT |
+                VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT |
+                VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+            VK_ACCESS_2_VERTEX_ATTRIBUTE_READ_BIT | VK_ACCESS_2_INDEX_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT);
     });
     return dst;
 }

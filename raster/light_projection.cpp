@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
+#include <span>
 
 #include "common/camera.h"
 
@@ -144,13 +146,58 @@ LightProjection fit_directional(const Light& light, const Scene& scene, const Ca
     return lp;
 }
 
-// Near and far planes of a perspective light that contain the scene.
-void perspective_range(const glm::dvec3& pos, const Scene& scene, LightProjection& lp) {
+// Least depth along b.forward of the part of `box` inside the square frustum of half-angle
+// tangent `t` at `eye`, or nothing where the frustum misses the box. The least depth of that
+// convex intersection lies on a box face clipped to the frustum's four side planes.
+std::optional<double> least_depth_in_frustum(const Bounds& box, const glm::dvec3& eye, const Basis& b, double t) {
+    const std::array<glm::dvec3, 8> corners = box_corners(box);
+    std::array<glm::dvec3, 8> v;  // view coordinates: right, up, depth
+    for (int i = 0; i < 8; ++i) {
+        const glm::dvec3 d = corners[i] - eye;
+        v[i] = glm::dvec3(glm::dot(d, b.right), glm::dot(d, b.up), glm::dot(d, b.forward));
+    }
+    // Box faces by corner index (bit 0: x, bit 1: y, bit 2: z), each a loop of four corners.
+    constexpr int kFaces[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
+    // Inside where every plane's value is >= 0: t z -+ x, t z -+ y.
+    auto plane = [t](int k, const glm::dvec3& p) {
+        const double side = k < 2 ? p.x : p.y;
+        return t * p.z + ((k & 1) ? side : -side);
+    };
+    std::optional<double> least;
+    std::vector<glm::dvec3> poly, clipped;
+    for (const auto& face : kFaces) {
+        poly.assign({v[face[0]], v[face[1]], v[face[2]], v[face[3]]});
+        for (int k = 0; k < 4 && !poly.empty(); ++k) {  // Sutherland-Hodgman
+            clipped.clear();
+            for (std::size_t i = 0; i < poly.size(); ++i) {
+                const glm::dvec3 &a = poly[i], &c = poly[(i + 1) % poly.size()];
+                const double da = plane(k, a), dc = plane(k, c);
+                if (da >= 0) clipped.push_back(a);
+                if ((da >= 0) != (dc >= 0)) clipped.push_back(a + (c - a) * (da / (da - dc)));
+            }
+            poly.swap(clipped);
+        }
+        for (const auto& p : poly) least = std::min(least.value_or(p.z), p.z);
+    }
+    return least;
+}
+
+// Near and far planes of a perspective light whose layers look along `bases` with half-angle
+// tangent `t`: far beyond the box's farthest corner, near at the least depth along a layer's
+// axis of the box inside that layer's frustum. The Euclidean distance to the box is larger
+// than that depth off axis and put the box's edges in front of the near plane (lit).
+void perspective_range(const glm::dvec3& pos, const Scene& scene, std::span<const Basis> bases, double t,
+                       LightProjection& lp) {
     double far = 0;
     for (const auto& c : box_corners(scene.bounds)) far = std::max(far, glm::length(c - pos));
     far *= 1.001;
     lp.far = std::max(far, 1e-6);
-    lp.near = std::max(distance_to_box(pos, scene.bounds), lp.far * 5e-4);
+    const double floor = lp.far * 5e-4;  // the light inside or at the box: precision decides
+    std::optional<double> near;
+    if (distance_to_box(pos, scene.bounds) > 0)
+        for (const Basis& b : bases)
+            if (auto d = least_depth_in_frustum(scene.bounds, pos, b, t)) near = std::min(near.value_or(*d), *d);
+    lp.near = std::max(near.value_or(floor), floor);
 }
 
 }  // namespace
@@ -175,7 +222,6 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
 
     LightProjection lp;
     lp.perspective = true;
-    perspective_range(light.position, scene, lp);
     glm::dvec3 eye_rel = light.position - origin;
     if (light.type == LightType::spot) {
         constexpr double kMaxHalfAngle = 80.0 * 3.14159265358979323846 / 180.0;
@@ -189,6 +235,7 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
         }
         double t = std::tan(half);
         Basis b = light_basis(light.direction);
+        perspective_range(light.position, scene, std::span(&b, 1), t, lp);
         lp.view_proj.push_back(perspective_matrix(b, eye_rel, t, lp.near, lp.far));
         lp.axis.push_back(b.forward);
         lp.metres_per_texel_per_metre = 2.0 * t / resolution;
@@ -196,11 +243,16 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
     }
     // Point light: six exact 90-degree faces.
     const glm::dvec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (const auto& f : axes) {
+    std::array<Basis, 6> faces;
+    for (int i = 0; i < 6; ++i) {
+        const glm::dvec3& f = axes[i];
         glm::dvec3 up = std::abs(f.y) > 0.5 ? glm::dvec3(0, 0, 1) : glm::dvec3(0, 1, 0);
-        glm::dvec3 right = glm::cross(f, up);
-        lp.view_proj.push_back(perspective_matrix({right, up, f}, eye_rel, 1.0, lp.near, lp.far));
-        lp.axis.push_back(f);
+        faces[i] = {glm::cross(f, up), up, f};
+    }
+    perspective_range(light.position, scene, faces, 1.0, lp);
+    for (const Basis& b : faces) {
+        lp.view_proj.push_back(perspective_matrix(b, eye_rel, 1.0, lp.near, lp.far));
+        lp.axis.push_back(b.forward);
     }
     lp.metres_per_texel_per_metre = 2.0 / resolution;
     return lp;

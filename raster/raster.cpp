@@ -182,9 +182,12 @@ const std::vector<FamilyEntry>& technique_families() {
 }
 
 struct RasterSession::Impl {
-    Impl(const Scenario& scenario, const VulkanContext& ctx) : scene{scenario, ctx} {}
-    SceneOnGpu scene;
-    std::map<std::string_view, std::unique_ptr<TechniqueFamily>> families;  // made on first use
+    Impl(const Scenario& scenario, const VulkanContext& ctx)
+        : scene(std::make_unique<SceneOnGpu>(SceneOnGpu{scenario, ctx})) {}
+    // Families refer to the scene: they are dropped before it whenever it is replaced.
+    using Families = std::map<std::string_view, std::unique_ptr<TechniqueFamily>>;
+    std::unique_ptr<SceneOnGpu> scene;
+    Families families;  // made on first use
     double setup_s = 0;
     bool first_render = true;
 };
@@ -192,53 +195,68 @@ struct RasterSession::Impl {
 RasterSession::RasterSession(const Scenario& scenario, const VulkanContext& ctx)
     : impl_(std::make_unique<Impl>(scenario, ctx)) {
     auto t0 = SteadyClock::now();
-    prepare_scene(impl_->scene);
+    prepare_scene(*impl_->scene);
     impl_->setup_s = seconds_since(t0);
 }
 
 RasterSession::~RasterSession() = default;
 
 const Scenario& RasterSession::scenario() const {
-    return impl_->scene.scenario;
+    return impl_->scene->scenario;
 }
 double RasterSession::setup_s() const {
     return impl_->setup_s;
 }
 
 RasterResult RasterSession::render(const Technique& technique, const RenderOptions& options) {
-    const SceneOnGpu& s = impl_->scene;
-    check_technique_lights(technique, s.scenario.lights, s.scenario.label + ": technique");  // before any work
-    RasterResult out;
-    RasterStats& stats = out.stats;
-    stats.device = s.ctx.info();
-    stats.camera_ms = s.camera_ms;
-    // The first render pays for the session: a cold run's set-up time includes the uploads.
-    if (impl_->first_render) stats.setup_s = impl_->setup_s;
-    impl_->first_render = false;
-    if (technique.precision != impl_->scene.precision) {
-        // The vertex buffer holds the positions as the technique rounds them: upload them again
-        // and redo the camera pass; the families' resources refer to the old buffers.
-        impl_->families.clear();
-        auto t0 = SteadyClock::now();
-        impl_->scene.precision = technique.precision;
-        prepare_scene(impl_->scene);
-        stats.setup_s += seconds_since(t0);
-        stats.camera_ms = s.camera_ms;
-    }
+    const Scenario& sc = impl_->scene->scenario;
+    check_technique_lights(technique, sc.lights, sc.label + ": technique");  // before any work
     const auto& registry = technique_families();
     auto entry =
         std::find_if(registry.begin(), registry.end(), [&](const FamilyEntry& f) { return f.accepts(technique); });
     if (entry == registry.end()) throw InputError("technique: no technique family draws it");
+    RasterResult out;
+    RasterStats& stats = out.stats;
+    stats.device = impl_->scene->ctx.info();
+    // The first render pays for the session: a cold run's set-up time includes the uploads.
+    if (impl_->first_render) stats.setup_s = impl_->setup_s;
+    // A render that throws leaves the session as it was: a new precision is drawn on a scene and
+    // families of its own, kept only once the render has succeeded.
+    std::unique_ptr<SceneOnGpu> fresh_scene;
+    Impl::Families fresh_families;
+    Impl::Families* families = &impl_->families;
+    if (technique.precision != impl_->scene->precision) {
+        // The vertex buffer holds the positions as the technique rounds them: upload them again
+        // and redo the camera pass.
+        auto t0 = SteadyClock::now();
+        fresh_scene = std::make_unique<SceneOnGpu>(SceneOnGpu{sc, impl_->scene->ctx});
+        fresh_scene->precision = technique.precision;
+        prepare_scene(*fresh_scene);
+        stats.setup_s += seconds_since(t0);
+        families = &fresh_families;
+    }
+    const SceneOnGpu& s = fresh_scene ? *fresh_scene : *impl_->scene;
+    stats.camera_ms = s.camera_ms;
     stats.family = std::string(entry->name);
-    std::unique_ptr<TechniqueFamily>& family = impl_->families[entry->name];
+    std::unique_ptr<TechniqueFamily>& family = (*families)[entry->name];
     if (!family) family = entry->make(s);
     RasterFrame& f = out.frame;
-    f.width = s.scenario.width;
-    f.height = s.scenario.height;
+    f.width = sc.width;
+    f.height = sc.height;
     f.frame_origin = s.origin;
     f.A = s.A;
     f.prim = s.prim;
-    family->render(technique, s.scenario.lights, options, f, stats);
+    try {
+        family->render(technique, sc.lights, options, f, stats);
+    } catch (...) {
+        families->erase(entry->name);  // half-updated caches: made afresh next time
+        throw;
+    }
+    if (fresh_scene) {
+        impl_->families = std::move(fresh_families);  // the old families go before their scene
+        impl_->scene = std::move(fresh_scene);
+    }
+    impl_->first_render = false;
     return out;
 }
 

@@ -18,7 +18,7 @@ struct RasterLightStats {
     LightProjection projection;
     std::uint32_t layers_sampled = 0;  // bit per layer that some receiver samples
     int layers_rendered = 0;
-    bool map_reused = false;              // the map the previous render left was this one: no shadow pass
+    bool map_reused = false;              // the light's map already held what it would draw: no shadow pass
     double shadow_ms = 0, lookup_ms = 0;  // GPU time
 };
 

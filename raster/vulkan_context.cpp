@@ -344,14 +344,56 @@ void VulkanContext::submit_and_wait(const std::function<void(VkCommandBuffer)>& 
     VK_CHECK(vkWaitForFences(device_, 1, fence.ptr(), VK_TRUE, UINT64_MAX));
 }
 
+UniqueMemory VulkanContext::allocate_memory(VkDeviceSize bytes, std::uint32_t memory_type) const {
+    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    ai.allocationSize = bytes;
+    ai.memoryTypeIndex = memory_type;
+    VkDeviceMemory mem;
+    VK_CHECK(vkAllocateMemory(device_, &ai, nullptr, &mem));
+    ++allocations_;
+    return UniqueMemory(device_, mem);
+}
+
 namespace {
 UniqueMemory allocate(const VulkanContext& ctx, const VkMemoryRequirements& req, VkMemoryPropertyFlags flags) {
-    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    ai.allocationSize = req.size;
-    ai.memoryTypeIndex = ctx.memory_type(req.memoryTypeBits, flags);
-    VkDeviceMemory mem;
-    VK_CHECK(vkAllocateMemory(ctx.device(), &ai, nullptr, &mem));
-    return UniqueMemory(ctx.device(), mem);
+    return ctx.allocate_memory(req.size, ctx.memory_type(req.memoryTypeBits, flags));
+}
+
+// Host-visible buffers are read back (lookups, the camera pass): cached memory where the device
+// has it, since reading uncached, write-combined memory is many times slower.
+VkMemoryPropertyFlags buffer_memory_flags(const VulkanContext& ctx, std::uint32_t type_bits, bool host_visible) {
+    if (!host_visible) return VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    VkMemoryPropertyFlags flags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    if (ctx.has_memory_type(type_bits, flags | VK_MEMORY_PROPERTY_HOST_CACHED_BIT))
+        flags |= VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+    return flags;
+}
+
+UniqueBuffer make_buffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage) {
+    VkBufferCreateInfo ci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    ci.size = size;
+    ci.usage = usage;
+    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    VkBuffer buf;
+    VK_CHECK(vkCreateBuffer(ctx.device(), &ci, nullptr, &buf));
+    return UniqueBuffer(ctx.device(), buf);
+}
+
+UniqueImage make_image(const VulkanContext& ctx, VkFormat format, std::uint32_t width, std::uint32_t height,
+                       std::uint32_t layers, VkImageUsageFlags usage) {
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.format = format;
+    ci.extent = {width, height, 1};
+    ci.mipLevels = 1;
+    ci.arrayLayers = layers;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.tiling = VK_IMAGE_TILING_OPTIMAL;
+    ci.usage = usage;
+    ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VkImage image;
+    VK_CHECK(vkCreateImage(ctx.device(), &ci, nullptr, &image));
+    return UniqueImage(ctx.device(), image);
 }
 
 UniqueImageView create_view(const VulkanContext& ctx, VkImage image, VkFormat format, VkImageViewType type,
@@ -370,25 +412,11 @@ UniqueImageView create_view(const VulkanContext& ctx, VkImage image, VkFormat fo
 GpuBuffer create_buffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage, bool host_visible) {
     GpuBuffer b;
     b.size = std::max<VkDeviceSize>(size, 4);
-    VkBufferCreateInfo ci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-    ci.size = b.size;
-    ci.usage = usage;
-    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    VkBuffer buf;
-    VK_CHECK(vkCreateBuffer(ctx.device(), &ci, nullptr, &buf));
-    b.buffer = UniqueBuffer(ctx.device(), buf);
+    b.buffer = make_buffer(ctx, b.size, usage);
     VkMemoryRequirements req;
-    vkGetBufferMemoryRequirements(ctx.device(), buf, &req);
-    VkMemoryPropertyFlags flags = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
-    if (host_visible) {
-        // Host-visible buffers are read back (lookups, the camera pass): cached memory where the
-        // device has it, since reading uncached, write-combined memory is many times slower.
-        flags = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-        if (ctx.has_memory_type(req.memoryTypeBits, flags | VK_MEMORY_PROPERTY_HOST_CACHED_BIT))
-            flags |= VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
-    }
-    b.memory = allocate(ctx, req, flags);
-    VK_CHECK(vkBindBufferMemory(ctx.device(), buf, b.memory.get(), 0));
+    vkGetBufferMemoryRequirements(ctx.device(), b.buffer.get(), &req);
+    b.memory = allocate(ctx, req, buffer_memory_flags(ctx, req.memoryTypeBits, host_visible));
+    VK_CHECK(vkBindBufferMemory(ctx.device(), b.buffer.get(), b.memory.get(), 0));
     if (host_visible) VK_CHECK(vkMapMemory(ctx.device(), b.memory.get(), 0, VK_WHOLE_SIZE, 0, &b.mapped));
     return b;
 }
@@ -400,26 +428,95 @@ GpuImage create_image(const VulkanContext& ctx, VkFormat format, std::uint32_t w
     img.width = width;
     img.height = height;
     img.layers = layers;
-    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ci.imageType = VK_IMAGE_TYPE_2D;
-    ci.format = format;
-    ci.extent = {width, height, 1};
-    ci.mipLevels = 1;
-    ci.arrayLayers = layers;
-    ci.samples = VK_SAMPLE_COUNT_1_BIT;
-    ci.tiling = VK_IMAGE_TILING_OPTIMAL;
-    ci.usage = usage;
-    ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    VkImage image;
-    VK_CHECK(vkCreateImage(ctx.device(), &ci, nullptr, &image));
-    img.image = UniqueImage(ctx.device(), image);
+    img.image = make_image(ctx, format, width, height, layers, usage);
     VkMemoryRequirements req;
-    vkGetImageMemoryRequirements(ctx.device(), image, &req);
+    vkGetImageMemoryRequirements(ctx.device(), img.image.get(), &req);
     img.memory = allocate(ctx, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    VK_CHECK(vkBindImageMemory(ctx.device(), image, img.memory.get(), 0));
-    img.view = create_view(ctx, image, format, array ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
+    VK_CHECK(vkBindImageMemory(ctx.device(), img.image.get(), img.memory.get(), 0));
+    img.view = create_view(ctx, img.image.get(), format, array ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
                            {aspect, 0, 1, 0, layers});
     return img;
+}
+
+void MemoryArena::add(GpuBuffer& buffer, VkDeviceSize size, VkBufferUsageFlags usage, bool host_visible) {
+    buffer.size = std::max<VkDeviceSize>(size, 4);
+    buffer.buffer = make_buffer(*ctx_, buffer.size, usage);
+    Pending p;
+    p.buffer = &buffer;
+    p.host_visible = host_visible;
+    vkGetBufferMemoryRequirements(ctx_->device(), buffer.buffer.get(), &p.req);
+    p.memory_type =
+        ctx_->memory_type(p.req.memoryTypeBits, buffer_memory_flags(*ctx_, p.req.memoryTypeBits, host_visible));
+    pending_.push_back(p);
+}
+
+void MemoryArena::add(GpuImage& image, VkFormat format, std::uint32_t width, std::uint32_t height, std::uint32_t layers,
+                      VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array) {
+    image.format = format;
+    image.width = width;
+    image.height = height;
+    image.layers = layers;
+    image.image = make_image(*ctx_, format, width, height, layers, usage);
+    Pending p;
+    p.image = &image;
+    p.aspect = aspect;
+    p.array = array;
+    vkGetImageMemoryRequirements(ctx_->device(), image.image.get(), &p.req);
+    p.memory_type = ctx_->memory_type(p.req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    pending_.push_back(p);
+}
+
+void MemoryArena::commit() {
+    // Buffers and optimal images may share a block: every offset is aligned to
+    // bufferImageGranularity as well as to the resource's own alignment.
+    const VkDeviceSize granularity = std::max<VkDeviceSize>(ctx_->limits().bufferImageGranularity, 1);
+    auto align = [](VkDeviceSize v, VkDeviceSize a) { return (v + a - 1) / a * a; };
+    struct Block {
+        std::uint32_t memory_type;
+        VkDeviceSize size = 0;
+        bool host_visible = false;
+        std::vector<std::pair<std::size_t, VkDeviceSize>> placed;  // pending index, offset
+    };
+    std::vector<Block> blocks;
+    std::vector<std::size_t> open(VK_MAX_MEMORY_TYPES, SIZE_MAX);  // per memory type: the block being filled
+    for (std::size_t i = 0; i < pending_.size(); ++i) {
+        const Pending& p = pending_[i];
+        std::size_t& b = open[p.memory_type];
+        const VkDeviceSize a = std::max(p.req.alignment, granularity);
+        if (b == SIZE_MAX || (blocks[b].size > 0 && align(blocks[b].size, a) + p.req.size > kBlockBytes)) {
+            b = blocks.size();
+            blocks.push_back({p.memory_type});
+        }
+        Block& block = blocks[b];
+        const VkDeviceSize offset = align(block.size, a);
+        block.placed.emplace_back(i, offset);
+        block.size = offset + p.req.size;
+        block.host_visible = block.host_visible || p.host_visible;
+    }
+    for (Block& block : blocks) {
+        UniqueMemory memory = ctx_->allocate_memory(block.size, block.memory_type);
+        char* mapped = nullptr;
+        if (block.host_visible) {
+            void* m = nullptr;
+            VK_CHECK(vkMapMemory(ctx_->device(), memory.get(), 0, VK_WHOLE_SIZE, 0, &m));
+            mapped = static_cast<char*>(m);
+        }
+        for (const auto& [i, offset] : block.placed) {
+            const Pending& p = pending_[i];
+            if (p.buffer) {
+                VK_CHECK(vkBindBufferMemory(ctx_->device(), p.buffer->buffer.get(), memory.get(), offset));
+                if (p.host_visible) p.buffer->mapped = mapped + offset;
+            } else {
+                GpuImage& img = *p.image;
+                VK_CHECK(vkBindImageMemory(ctx_->device(), img.image.get(), memory.get(), offset));
+                img.view = create_view(*ctx_, img.image.get(), img.format,
+                                       p.array ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
+                                       {p.aspect, 0, 1, 0, img.layers});
+            }
+        }
+        blocks_.push_back(std::move(memory));
+    }
+    pending_.clear();
 }
 
 UniqueImageView create_layer_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t layer,

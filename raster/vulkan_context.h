@@ -4,6 +4,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -58,6 +59,12 @@ class VulkanContext {
     // Records with `record` into a one-time command buffer, submits and waits.
     void submit_and_wait(const std::function<void(VkCommandBuffer)>& record) const;
 
+    // vkAllocateMemory calls made through this context so far (Vulkan guarantees only
+    // maxMemoryAllocationCount, 4096, live at once).
+    std::uint64_t memory_allocations() const { return allocations_; }
+    // Every vkAllocateMemory of the raster path goes through here.
+    UniqueMemory allocate_memory(VkDeviceSize bytes, std::uint32_t memory_type) const;
+
   private:
     void release();  // destroys what the constructor made; safe on a half-made context
     static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT,
@@ -76,6 +83,7 @@ class VulkanContext {
     bool validation_ = false;
     std::vector<std::string> messages_;
     UniqueCommandPool command_pool_;
+    mutable std::atomic<std::uint64_t> allocations_{0};
 };
 
 // A buffer with its own memory, persistently mapped when host-visible.
@@ -97,6 +105,37 @@ struct GpuImage {
 };
 GpuImage create_image(const VulkanContext& ctx, VkFormat format, std::uint32_t width, std::uint32_t height,
                       std::uint32_t layers, VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array);
+// Sub-allocation: the buffers and images declared with `add` share one vkAllocateMemory per
+// memory type (blocks of up to kBlockBytes; a larger resource has a block of its own), bound
+// at offsets aligned for both kinds, when `commit` runs. Declared resources must stay where
+// they are until then; the arena owns the memory and must outlive them.
+class MemoryArena {
+  public:
+    static constexpr VkDeviceSize kBlockBytes = VkDeviceSize{256} << 20;
+    MemoryArena() = default;
+    explicit MemoryArena(const VulkanContext& ctx) : ctx_(&ctx) {}
+    // As create_buffer, unbound until commit (`mapped` is set then).
+    void add(GpuBuffer& buffer, VkDeviceSize size, VkBufferUsageFlags usage, bool host_visible);
+    // As create_image, unbound and without its view until commit.
+    void add(GpuImage& image, VkFormat format, std::uint32_t width, std::uint32_t height, std::uint32_t layers,
+             VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array);
+    void commit();
+
+  private:
+    struct Pending {
+        GpuBuffer* buffer = nullptr;
+        GpuImage* image = nullptr;
+        VkImageAspectFlags aspect = 0;
+        bool array = false;
+        VkMemoryRequirements req{};
+        std::uint32_t memory_type = 0;
+        bool host_visible = false;
+    };
+    const VulkanContext* ctx_ = nullptr;
+    std::vector<Pending> pending_;
+    std::vector<UniqueMemory> blocks_;
+};
+
 // A view of one layer, for rendering into it.
 UniqueImageView create_layer_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t layer,
                                   VkImageAspectFlags aspect);

@@ -403,6 +403,20 @@ TEST_F(Raster, AreaLightsAreDrawnFromTheirCentreOrFromPointsSpreadOverThem) {
     }
 }
 
+// V of an averaged light is the mean of N points; one point's lookups would classify it as if
+// that point alone had drawn it. Such a light has no lookup layer (the metrics then classify it
+// from V); a light drawn once keeps its lookups.
+TEST_F(Raster, AnAveragedAreaLightHasNoOneSamplesLookups) {
+    Scenario sc = perspective_scene();
+    sc.lights.push_back(test::rect({0, 5, 0}, {1, 0, 0}, {0, 0, 1}));
+    const raster::RasterResult averaged = render(sc, {{"preset", "averaged-hard-shadows"}, {"area_samples", 4}});
+    ASSERT_EQ(averaged.frame.lights.size(), 2u);
+    EXPECT_TRUE(averaged.frame.lights[0].lookups.has_value()) << "the sun is drawn once";
+    EXPECT_FALSE(averaged.frame.lights[1].lookups.has_value()) << "the rect light is the mean of 4 points";
+    const raster::RasterResult centre = render(sc, {{"bias", {{"slope", 1.5}}}});
+    EXPECT_TRUE(centre.frame.lights[1].lookups.has_value()) << "drawn once from its centre";
+}
+
 // Two frames are the same bit for bit: V and every lookup channel.
 void expect_identical(const RasterFrame& a, const RasterFrame& b, const std::string& what) {
     ASSERT_EQ(a.lights.size(), b.lights.size()) << what;
@@ -560,6 +574,74 @@ TEST_F(Raster, WorldFloat32PrecisionDiffersFarFromTheOriginAndNotAtIt) {
     EXPECT_LT(differing_pixels(near_rel, near_world), surface / 200);
     EXPECT_LT(differing_pixels(near_rel, far_rel), surface / 200);
     EXPECT_GT(differing_pixels(far_rel, far_world), surface / 20);
+}
+
+// A technique the device refuses, with a new precision, leaves the session as it was: the next
+// render finds its scene and maps in place and draws what a cold run draws.
+TEST_F(Raster, ARefusedTechniqueLeavesTheSessionAsItWas) {
+    Scenario sc = moved(perspective_scene(), {3e6, 0, -2e6});
+    raster::RasterSession session(sc, *ctx_);
+    const nlohmann::json relative = {{"bias", {{"slope", 1.5}}}};
+    const raster::Technique technique = raster::parse_technique(relative, "test");
+    session.render(technique);
+    raster::Technique refused = raster::parse_technique({{"precision", "world_float32"}}, "test");
+    refused.resolution = static_cast<int>(ctx_->limits().maxImageDimension2D) + 1;
+    EXPECT_THROW(session.render(refused), InputError);
+    const raster::RasterResult again = session.render(technique);
+    EXPECT_TRUE(again.stats.lights[0].map_reused) << "the refused precision replaced the scene and its maps";
+    expect_identical(again.frame, render(sc, relative).frame, "after a refused technique");
+    const nlohmann::json world = {{"precision", "world_float32"}};
+    expect_identical(session.render(raster::parse_technique(world, "test")).frame, render(sc, world).frame,
+                     "world_float32 after a refused technique");
+}
+
+// Every light keeps its own map: a change the maps do not depend on (a world bias) draws no
+// shadow pass for any light, sun, spot, point or an averaged area light's samples, and gives
+// what a cold run gives.
+TEST_F(Raster, EveryLightKeepsItsMapAcrossALookupOnlyChange) {
+    Scenario sc = perspective_scene();
+    sc.width = 240;
+    sc.height = 160;
+    sc.lights.push_back(test::spot({-3, 5, 3}, {0.5, -1, -0.5}, 40));
+    sc.lights.push_back(test::point({1.0, 3.0, 1.5}));
+    sc.lights.push_back(test::rect({-1, 4, 0}, {1, 0, 0}, {0, 0, 1}));
+    for (const int samples : {0, 3}) {
+        const nlohmann::json a = {{"resolution", 512}, {"area_samples", samples}, {"bias", {{"slope", 1.5}}}};
+        nlohmann::json b = a;
+        b["bias"]["world"] = 0.02;
+        raster::RasterSession session(sc, *ctx_);
+        const raster::RasterResult first = session.render(raster::parse_technique(a, "a"));
+        const raster::RasterResult second = session.render(raster::parse_technique(b, "b"));
+        ASSERT_EQ(second.stats.lights.size(), sc.lights.size());
+        for (std::size_t li = 0; li < sc.lights.size(); ++li) {
+            EXPECT_FALSE(first.stats.lights[li].map_reused) << "light " << li;
+            EXPECT_TRUE(second.stats.lights[li].map_reused) << "area_samples " << samples << ", light " << li;
+            EXPECT_EQ(second.stats.lights[li].layers_rendered, 0) << "area_samples " << samples << ", light " << li;
+        }
+        expect_identical(second.frame, render(sc, b).frame, b.dump());
+    }
+}
+
+// Buffers and maps are sub-allocated: 3 area lights of 256 samples each (768 drawn lights, 4
+// to 6 buffers each) stay far below the 4096 allocations Vulkan guarantees.
+TEST_F(Raster, ManyAreaSamplesTakeAFewMemoryAllocations) {
+    Scenario sc = perspective_scene();
+    sc.width = 64;
+    sc.height = 48;
+    sc.lights = {test::rect({-1, 4, 0}, {1, 0, 0}, {0, 0, 1}), test::rect({1, 4, 0}, {1, 0, 0}, {0, 0, 1}),
+                 test::rect({0, 5, 1}, {1, 0, 0}, {0, 0, 1})};
+    raster::RasterSession session(sc, *ctx_);
+    const std::uint64_t before = ctx_->memory_allocations();
+    const raster::RasterResult r = session.render(raster::parse_technique(
+        {{"resolution", 64}, {"area_samples", 256}, {"bias", {{"slope", 1.5}, {"constant", 8}}}}, "many"));
+    const std::uint64_t allocations = ctx_->memory_allocations() - before;
+    EXPECT_LE(allocations, 32u);
+    ASSERT_EQ(r.frame.lights.size(), 3u);
+    for (const RasterLightImage& img : r.frame.lights) {
+        // The mean of 256 hard verdicts: multiples of 1/256.
+        for (float v : img.V) ASSERT_NEAR(v * 256.0f, std::round(v * 256.0f), 1e-3f);
+        EXPECT_GT(std::count_if(img.V.begin(), img.V.end(), [](float v) { return v > 0 && v < 1; }), 0);
+    }
 }
 
 }  // namespace

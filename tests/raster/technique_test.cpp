@@ -218,5 +218,40 @@ TEST(Fits, CubeFacesSeeTheirOwnDirectionsWithExactNinetyDegreeFrusta) {
     }
 }
 
+// A perspective map clips by depth along its axis, which off axis is less than the distance to
+// the box: a light beside the scene's box, off its edge, must still have the whole box inside
+// every layer's depth range, and the near plane no closer than the box needs.
+TEST(Fits, PerspectiveNearPlaneIsTheLeastDepthAlongEachAxis) {
+    test::SceneBuilder b;
+    b.quad({-5, 0, -5}, {-5, 0, 5}, {5, 0, 5}, {5, 0, -5});
+    b.box({-1, 0, -1}, {1, 2, 1});
+    b.box({3.5, 0, -1}, {5, 2, 1});  // the box's corner (5, 2) lies 2 m along -X, sqrt 5 m away
+    const glm::dvec3 pos(7, 3, 0);
+    for (const Light& light : {test::point(pos), test::spot(pos, {-1, -0.4, 0}, 50)}) {
+        Scenario sc = test::make_scenario(b.build(), test::look_at({0, 8, 12}, {0, 0, 0}, 50), {light}, 16, 16);
+        raster::LightProjection lp =
+            raster::fit_light(light, sc.scene, sc.camera, 16, 16, raster::Fit::scene_bounds, 512, sc.camera.eye);
+        const Bounds& box = sc.scene.bounds;
+        double least = 1e300;
+        constexpr int kSteps = 40;
+        for (int i = 0; i <= kSteps; ++i)
+            for (int j = 0; j <= kSteps; ++j)
+                for (int k = 0; k <= kSteps; ++k) {
+                    if (i % kSteps && j % kSteps && k % kSteps) continue;  // the box's surface only
+                    const glm::dvec3 p = box.lo + (box.hi - box.lo) * glm::dvec3(i, j, k) / double(kSteps);
+                    for (std::size_t f = 0; f < lp.view_proj.size(); ++f) {
+                        const glm::dvec4 c = lp.view_proj[f] * glm::dvec4(p - sc.camera.eye, 1.0);
+                        if (c.w <= 0 || std::abs(c.x) > c.w || std::abs(c.y) > c.w) continue;  // not in this layer
+                        EXPECT_GE(c.z / c.w, -1e-9) << "layer " << f << " clips (" << p.x << ", " << p.y << ", " << p.z
+                                                    << ") in front of its near plane " << lp.near;
+                        EXPECT_LE(c.z / c.w, 1.0);
+                        least = std::min(least, glm::dot(p - pos, lp.axis[f]));
+                    }
+                }
+        EXPECT_LT(lp.near, std::sqrt(5.0));
+        EXPECT_NEAR(lp.near, least, 1e-9) << "the near plane as far out as the box allows";
+    }
+}
+
 }  // namespace
 }  // namespace penumbra

@@ -208,5 +208,21 @@ TEST_F(Verdict, SoftShadowMetricsRankHardPcssAndAveragedMaps) {
     EXPECT_LT(averaged.penumbra_mae, 0.08);
 }
 
+// A point light beside the scene's box, off its edge: off the faces' axes the depth along the
+// axis is less than the distance to the box, and a near plane at that distance put the block
+// at the box's edge and the cube over it in front of the map (both compared as lit). The
+// cube's shadow on the block must be there, with the d3d12-textbook preset as with any.
+TEST_F(Verdict, APointLightOffTheSceneBoxsEdgeShadowsReceiversNearThatEdge) {
+    test::SceneBuilder b;
+    b.quad({-5, 0, -5}, {-5, 0, 5}, {5, 0, 5}, {5, 0, -5});
+    b.box({3, 0, -1}, {5, 2, 1});            // a block at the box's edge
+    b.box({4, 2.3, -0.3}, {4.6, 2.6, 0.3});  // a cube over it, casting onto its top
+    Scenario sc =
+        test::make_scenario(b.build(), test::look_at({1, 7, 7}, {4, 2, 0}, 40), {test::point({7, 5, 0})}, 320, 240);
+    const metrics::LightScore s = judge(sc, {{"preset", "d3d12-textbook"}}).score;
+    EXPECT_GT(s.pixels.scored, 20000u);
+    EXPECT_LT(s.count(PixelClass::false_lit), 5u);
+}
+
 }  // namespace
 }  // namespace penumbra
