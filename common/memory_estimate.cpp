@@ -80,7 +80,7 @@ MemoryEstimate estimate_memory(const MemoryInputs& in) {
         e.terms.push_back({fmt::format("raster frame ({}, {} lights drawn)", image, in.raster_lights),
                            per_pixel(validate ? kRasterInValidate : kRasterAlone, in.raster_lights)});
         const std::uint64_t texels = mul(mul(in.shadow_resolution, in.shadow_resolution), in.shadow_layers);
-        e.terms.push_back({fmt::format("shadow map ({}^2 x {} layers x {} bytes)", in.shadow_resolution,
+        e.terms.push_back({fmt::format("shadow maps ({}^2 x {} layers x {} bytes)", in.shadow_resolution,
                                        in.shadow_layers, in.shadow_texel_bytes),
                            mul(texels, in.shadow_texel_bytes)});
     }
@@ -102,15 +102,23 @@ MemoryInputs memory_inputs(const Scenario& scenario, bool oracle, const RasterMe
     in.metrics = metrics;
     if (raster) {
         in.raster = true;
-        bool cube = false;  // point lights, and area lights (drawn from points), need 6 faces
+        // Every light keeps a map of its own while all of them fit kShadowMapBudget; beyond it one
+        // map of the most layers is shared (raster/depth_map.cpp). Point lights, and area lights
+        // (drawn from points), need 6 faces. Averaged area samples are drawn at most
+        // kAveragedSamplesAtOnce at a time, so their outputs never exist all at once.
+        bool cube = false;
+        std::uint64_t layers = 0;
         for (const Light& l : scenario.lights) {
             const bool area = is_area_light(l.type);
-            in.raster_lights += area ? static_cast<std::uint64_t>(std::max(raster->area_samples, 1)) : 1;
+            in.raster_lights +=
+                area ? static_cast<std::uint64_t>(std::clamp(raster->area_samples, 1, kAveragedSamplesAtOnce)) : 1;
             cube = cube || area || l.type == LightType::point;
+            layers += area || l.type == LightType::point ? 6 : 1;
         }
         in.shadow_resolution = static_cast<std::uint64_t>(raster->resolution);
-        in.shadow_layers = cube ? 6 : 1;
         in.shadow_texel_bytes = static_cast<std::uint64_t>(raster->depth_bytes) + 4;  // + the primitive id
+        const std::uint64_t all = mul(mul(mul(in.shadow_resolution, in.shadow_resolution), layers), in.shadow_texel_bytes);
+        in.shadow_layers = all <= kShadowMapBudget ? layers : (cube ? 6 : 1);
     }
     return in;
 }

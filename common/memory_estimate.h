@@ -12,6 +12,12 @@
 
 namespace penumbra {
 
+// The raster path's own bounds, shared with it so that the estimate follows them: the maps of
+// all lights together are kept one per light up to this size (raster/depth_map.cpp), and
+// averaged area-light samples are drawn this many at a time (raster/averaged_area.cpp).
+inline constexpr std::uint64_t kShadowMapBudget = std::uint64_t{512} << 20;
+inline constexpr int kAveragedSamplesAtOnce = 64;
+
 // What a command will hold. Counts are plain numbers so that common/ knows nothing of the
 // oracle or the raster path; the command line fills them in.
 struct MemoryInputs {
@@ -22,8 +28,9 @@ struct MemoryInputs {
     bool oracle = false;            // traces the oracle (Embree scene + oracle frame)
     bool raster = false;            // draws with the raster path
     bool metrics = false;           // scores and writes the report (validate)
-    // Raster path: lights drawn (an area light is drawn as `area_samples` lights, at least 1),
-    // the shadow map's side, layers (6 when any light needs a cube map) and bytes per texel.
+    // Raster path: lights drawn (an area light as min(area_samples, kAveragedSamplesAtOnce)
+    // lights, at least 1), the shadow maps' side, their layers together (a map per light, 6
+    // layers for a cube; one shared map beyond kShadowMapBudget) and bytes per texel.
     std::uint64_t raster_lights = 0;
     std::uint64_t shadow_resolution = 0, shadow_layers = 0, shadow_texel_bytes = 0;
 };

@@ -3,6 +3,7 @@
 // their verdicts are averaged. Punctual lights pass through unchanged, with their lookups.
 #include <algorithm>
 
+#include "common/memory_estimate.h"
 #include "raster/area_lights.h"
 #include "raster/technique_family.h"
 
@@ -12,7 +13,7 @@ namespace {
 
 // Area-light samples drawn in one pass of the depth-map family: bounds the memory and the
 // allocations of a render whatever area_samples is (one V buffer per drawn sample).
-constexpr std::size_t kSamplesPerPass = 64;
+constexpr std::size_t kSamplesPerPass = kAveragedSamplesAtOnce;  // common/memory_estimate.h: the estimate follows it
 
 // `part`'s times and warnings added to `into`.
 void add_stats(RasterStats& into, const RasterStats& part) {

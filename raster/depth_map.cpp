@@ -17,6 +17,7 @@
 
 #include "common/camera.h"
 #include "common/errors.h"
+#include "common/memory_estimate.h"
 #include "common/stopwatch.h"
 #include "raster/area_lights.h"
 #include "raster/technique_family.h"
@@ -136,7 +137,7 @@ struct MapContent {
 
 // Maps of all lights together up to this size get a map each, kept between renders; beyond it
 // the lights share one map, drawn again for each light.
-constexpr std::uint64_t kMapBudgetBytes = std::uint64_t{512} << 20;
+constexpr std::uint64_t kMapBudgetBytes = kShadowMapBudget;  // common/memory_estimate.h: the estimate follows it
 
 std::uint64_t depth_texel_bytes(DepthFormat f) {
     return f == DepthFormat::d16 ? 2 : 4;
