@@ -121,9 +121,9 @@ run sweep "$tmp/a.json" --out "$tmp/b6" --vary bias.slope=5 --vary 'bias={"const
 check "overlapping --vary keys exit 2" test "$rc" -eq 2
 check "overlapping --vary keys are named, both" grep -qF -- "--vary bias.slope and --vary bias:" <<<"$err"
 thousand=$(seq -s, 1 1000)
-run sweep "$tmp/a.json" --out "$tmp/b7" --vary bias.constant=$thousand --vary area_samples=$thousand
+run sweep "$tmp/a.json" --out "$tmp/b7" --vary bias.constant=$thousand --vary bias.slope=$thousand
 check "a 10^6-configuration product exits 2" test "$rc" -eq 2
-check "the product is named" grep -qF "bias.constant (1000 values) x area_samples (1000 values) gives 1000000" <<<"$err"
+check "the product is named" grep -qF "bias.constant (1000 values) x bias.slope (1000 values) gives 1000000" <<<"$err"
 run sweep "$tmp/a.json" --out "$tmp/b8" --vary resolution=256 --repeat 1000000000
 check "--repeat 1000000000 exits 2" test "$rc" -eq 2
 python3 -c "import json; json.dump(['d3d12-textbook'] * 1000000, open('$tmp/million.json', 'w'))"
