@@ -3,11 +3,14 @@
 #include <fmt/format.h>
 
 #include <memory>
+#include <optional>
 
 #include "app/cli.h"
 #include "common/errors.h"
 #include "common/json_reader.h"
+#include "common/memory_estimate.h"
 #include "common/output_files.h"
+#include "oracle/oracle_cache.h"
 #include "raster/vulkan_context.h"
 #include "sweep/sweep_files.h"
 
@@ -27,29 +30,36 @@ struct SweepArgs {
 
 int run_sweep_command(const SweepArgs& a) {
     const Common& c = a.common;
-    // Everything the user wrote is checked before any work starts: every configuration is parsed.
+    // Everything the user wrote is checked before any work starts: the limits on the work, then
+    // every configuration is parsed.
     if (a.vary.empty() == a.configs.empty())
         throw InputError("sweep: give --vary KEY=V1,V2,... (one or more) or --configs FILE, not both");
-    if (a.repeat < 1) throw InputError(fmt::format("--repeat: {}; at least 1", a.repeat));
+    if (a.repeat < 1 || a.repeat > sweep::kMaxRepeat)
+        throw InputError(fmt::format("--repeat: {}; expected 1 to {}", a.repeat, sweep::kMaxRepeat));
     const sweep::Shard shard = sweep::parse_shard(a.shard);
+    std::vector<sweep::Axis> axes;
+    std::vector<std::string> keys;
+    std::string product;  // names the work in a refusal
+    if (!a.configs.empty()) {
+        keys = {"configuration"};
+        product = "--configs " + escape_non_utf8(a.configs.string());
+    } else {
+        for (const auto& v : a.vary) {
+            axes.push_back(sweep::parse_axis(v));
+            keys.push_back(axes.back().key);
+            product += fmt::format("{}{} ({} values)", product.empty() ? "--vary " : " x ", axes.back().key,
+                                   axes.back().values.size());
+        }
+        sweep::check_axes(axes);
+        sweep::check_configuration_count(sweep::product_size(axes), product);
+    }
     const Scenario scenario = load_for_command(a.scenario, c);
     std::string label;
     const nlohmann::json base = technique_json(scenario, a.technique, label);
-    std::vector<sweep::Config> all;
-    std::vector<std::string> keys;
-    if (!a.configs.empty()) {
-        all = sweep::configs_from_file(a.configs, base, scenario.lights);
-        keys = {"configuration"};
-    } else {
-        std::vector<sweep::Axis> axes;
-        for (const auto& v : a.vary) {
-            axes.push_back(sweep::parse_axis(v));
-            for (const auto& k : keys)
-                if (k == axes.back().key) throw InputError(fmt::format("--vary {}: the key is varied twice", k));
-            keys.push_back(axes.back().key);
-        }
-        all = sweep::expand(base, axes, scenario.lights);
-    }
+    std::vector<sweep::Config> all = a.configs.empty() ? sweep::expand(base, axes, scenario.lights)
+                                                       : sweep::configs_from_file(a.configs, base, scenario.lights);
+    const std::size_t in_run = sweep::shard_size(all.size(), shard);
+    sweep::check_work(all.size(), in_run, a.repeat, scenario.lights.size(), memory_budget(c.max_memory), product);
     for (const auto& cfg : all) check_run_memory(scenario, c, true, &cfg.technique, true);
     std::vector<sweep::Config> mine;
     for (const auto& cfg : all)
@@ -69,7 +79,12 @@ int run_sweep_command(const SweepArgs& a) {
     raster::ContextOptions co;
     co.device = a.technique.device;
     raster::VulkanContext ctx(co);
-    const sweep::Table t = sweep::run_sweep(scenario, a.scenario.string(), keys, mine, all.size(), shard, options, ctx);
+    const nlohmann::json device = {{"name", ctx.info().name}, {"driver", ctx.info().driver}};
+    const std::string fingerprint =
+        sweep::definition_fingerprint(oracle_cache_key(scenario, options.validate.oracle), base, keys, all,
+                                      options.validate.tolerance, a.repeat, device);
+    const sweep::Table t =
+        sweep::run_sweep(scenario, a.scenario.string(), keys, mine, all.size(), shard, options, ctx, fingerprint);
     OutputTransaction out(c.out);
     sweep::write_sweep_outputs(out, t);
     out.commit();
@@ -81,11 +96,19 @@ int run_sweep_command(const SweepArgs& a) {
 
 int run_merge_command(const std::vector<std::filesystem::path>& dirs, const std::filesystem::path& out_dir,
                       bool quiet) {
+    namespace fs = std::filesystem;
     std::vector<sweep::Table> tables;
     std::vector<std::string> labels;
     for (const auto& d : dirs) {
-        labels.push_back((d / "sweep.json").string());
-        tables.push_back(sweep::table_from_json(read_json_file(d / "sweep.json"), labels.back()));
+        labels.push_back(escape_non_utf8(d.string()));
+        // The output would replace a shard's files while other shards are read: never a shard.
+        std::error_code ec;
+        if (fs::equivalent(d, out_dir, ec))
+            throw InputError(fmt::format("merge: --out {} is one of the shard folders", labels.back()));
+        std::optional<std::string> csv;
+        if (fs::exists(d / "sweep.csv", ec)) csv = read_regular_file(d / "sweep.csv", sweep::kMaxShardFileBytes);
+        tables.push_back(
+            sweep::read_shard(read_regular_file(d / "sweep.json", sweep::kMaxShardFileBytes), csv, labels.back()));
     }
     const sweep::Table t = sweep::merge(std::move(tables), labels);
     OutputTransaction out(out_dir);

@@ -2,7 +2,8 @@
 # Runs one libFuzzer target from build-fuzz for SECONDS (docs/testing.md, "Fuzzing"): seeds from
 # tests/fuzz/seeds, data/ and Debian's assimp-testmodels, the target's dictionary, inputs up to
 # 1 MB so deep nesting is reachable. Crashes land in build-fuzz/artifacts/.
-# Usage: run.sh TARGET SECONDS [libFuzzer options...]   (TARGET: gltf glb scenario technique gate)
+# Usage: run.sh TARGET SECONDS [libFuzzer options...]
+#   (TARGET: gltf glb scenario technique gate sweep_shard sweep_vary)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 target=$1
@@ -38,12 +39,12 @@ case $target in
         dict=scenario.dict
         copy_seeds "$root/tests/fuzz/seeds/scenario" "$root/data" -name '*.json'
         ;;
-    technique | gate)
+    technique | gate | sweep_shard | sweep_vary)
         dict=$target.dict
         copy_seeds "$root/tests/fuzz/seeds/$target"
         ;;
     *)
-        echo "unknown target $target (gltf glb scenario technique gate)" >&2
+        echo "unknown target $target (gltf glb scenario technique gate sweep_shard sweep_vary)" >&2
         exit 2
         ;;
 esac
