@@ -12,13 +12,13 @@
 #include "app/cli.h"
 #include "common/camera.h"
 #include "common/errors.h"
+#include "common/json_reader.h"
+#include "common/projection.h"
 
 namespace penumbra::cli {
 namespace {
 
-enum class Convention { gl, vulkan, d3d };
-
-using Mat4 = std::array<std::array<double, 4>, 4>;  // [row][column], column vectors: clip = P * V * x
+using Convention = ClipConvention;
 
 nlohmann::json vec(const glm::dvec3& v) {
     return {v.x, v.y, v.z};
@@ -37,47 +37,6 @@ nlohmann::json flat(const Mat4& m) {
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 4; ++r) j.push_back(m[r][c]);
     return j;
-}
-
-// World to view: right-handed, the camera looking down -Z (glTF), +Y up.
-Mat4 view_matrix(const Camera& cam) {
-    const glm::dvec3 r = cam.right, u = cam.up, b = -cam.forward;
-    return {{{r.x, r.y, r.z, -glm::dot(r, cam.eye)},
-             {u.x, u.y, u.z, -glm::dot(u, cam.eye)},
-             {b.x, b.y, b.z, -glm::dot(b, cam.eye)},
-             {0, 0, 0, 1}}};
-}
-
-// View to clip. sx, sy: ndc_to_image_plane (the one definition of the camera's extent). GL: NDC
-// z in [-1, 1]; Vulkan and D3D: [0, 1]. Vulkan's NDC y points down (row 0 at the top without a
-// flip); GL's and D3D's up (D3D's viewport maps +y to row 0).
-Mat4 projection_matrix(const Camera& cam, int w, int h, Convention conv) {
-    const glm::dvec2 s = ndc_to_image_plane(cam, w, h);
-    const double n = cam.znear, f = cam.zfar;
-    const double ysign = conv == Convention::vulkan ? -1.0 : 1.0;
-    Mat4 m{};
-    m[0][0] = 1.0 / s.x;
-    m[1][1] = ysign / s.y;
-    if (cam.type == ProjectionType::perspective) {
-        if (conv == Convention::gl) {
-            m[2][2] = (f + n) / (n - f);
-            m[2][3] = 2.0 * f * n / (n - f);
-        } else {
-            m[2][2] = f / (n - f);
-            m[2][3] = f * n / (n - f);
-        }
-        m[3][2] = -1.0;
-    } else {
-        if (conv == Convention::gl) {
-            m[2][2] = 2.0 / (n - f);
-            m[2][3] = (f + n) / (n - f);
-        } else {
-            m[2][2] = 1.0 / (n - f);
-            m[2][3] = n / (n - f);
-        }
-        m[3][3] = 1.0;
-    }
-    return m;
 }
 
 nlohmann::json light_json(const Light& l, std::size_t index) {
@@ -118,12 +77,13 @@ nlohmann::json light_json(const Light& l, std::size_t index) {
     return j;
 }
 
-int run_camera_command(const std::filesystem::path& scenario_file, bool allow_external, Convention conv) {
+int run_camera_command(const std::filesystem::path& scenario_file, bool allow_external, bool quiet, Convention conv) {
     Common c;
-    c.quiet = true;
+    c.quiet = quiet;  // the scene's warnings go to stderr, as every command's do
     c.allow_external_paths = allow_external;
     const Scenario sc = load_for_command(scenario_file, c);
     const Camera& cam = sc.camera;
+    const CameraProjection projection(cam, sc.width, sc.height, sc.scene.bounds);
     const char* names[] = {"gl", "vulkan", "d3d"};
     const bool perspective = cam.type == ProjectionType::perspective;
     nlohmann::json camera = {{"type", perspective ? "perspective" : "orthographic"},
@@ -133,8 +93,13 @@ int run_camera_command(const std::filesystem::path& scenario_file, bool allow_ex
                              {"forward", vec(cam.forward)},
                              {"right", vec(cam.right)},
                              {"znear", cam.znear},
-                             {"zfar", cam.zfar},
                              {"aspect", double(sc.width) / double(sc.height)}};
+    // JSON has no infinity: an infinite far plane is said so, and the matrices are its limit.
+    if (std::isinf(projection.zfar()))
+        camera["infinite_far"] = true;
+    else
+        camera["zfar"] = projection.zfar();
+    if (projection.zfar_from_scene()) camera["zfar_from_scene"] = true;
     if (perspective) {
         camera["yfov_rad"] = cam.yfov_rad;
         camera["yfov_deg"] = cam.yfov_rad * 180.0 / M_PI;
@@ -145,9 +110,9 @@ int run_camera_command(const std::filesystem::path& scenario_file, bool allow_ex
     }
     nlohmann::json lights = nlohmann::json::array();
     for (std::size_t li = 0; li < sc.lights.size(); ++li) lights.push_back(light_json(sc.lights[li], li));
-    const Mat4 view = view_matrix(cam), proj = projection_matrix(cam, sc.width, sc.height, conv);
+    const Mat4 view = projection.view(), proj = projection.matrix(conv);
     nlohmann::json j = {
-        {"scenario", sc.file.string()},
+        {"scenario", path_text(sc.file)},
         {"convention", names[static_cast<int>(conv)]},
         {"image", {{"width", sc.width}, {"height", sc.height}}},
         {"camera", camera},
@@ -183,18 +148,20 @@ Subcommand add_camera_command(CLI::App& parent) {
     struct Args {
         std::filesystem::path scenario;
         bool allow_external = false;
+        bool quiet = false;
         Convention conv = Convention::gl;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = parent.add_subcommand(
         "camera", "Print the scenario's view, projection and lights as JSON, for an engine to render the same frame");
-    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_scenario(cmd, a->scenario);
     const std::map<std::string, Convention> conventions = {
         {"gl", Convention::gl}, {"vulkan", Convention::vulkan}, {"d3d", Convention::d3d}};
     cmd->add_option("--convention", a->conv, "Matrices for gl (default), vulkan or d3d")
         ->transform(CLI::CheckedTransformer(conventions));
     cmd->add_flag("--allow-external-paths", a->allow_external, "Let glTF buffer URIs point outside the scene's folder");
-    return {cmd, [a] { return run_camera_command(a->scenario, a->allow_external, a->conv); }};
+    cmd->add_flag("-q,--quiet", a->quiet, "No warnings on stderr (the JSON is printed all the same)");
+    return {cmd, [a] { return run_camera_command(a->scenario, a->allow_external, a->quiet, a->conv); }};
 }
 
 }  // namespace penumbra::cli

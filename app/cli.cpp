@@ -2,29 +2,64 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "common/errors.h"
-#include "common/output_files.h"
 #include "common/json_reader.h"
+#include "common/output_files.h"
 #include "common/memory_estimate.h"
 #include "pipeline/validate.h"
 
 namespace penumbra::cli {
 
+std::string user_path_problem(const std::string& text) {
+    return text.empty() ? "empty; expected a value" : std::string();
+}
+
+std::string user_name_problem(const std::string& text) {
+    if (text.empty()) return "empty; expected a value";
+    if (is_valid_utf8(text)) return {};
+    return fmt::format("\"{}\" is not valid UTF-8 (names go into reports and JSON, which must be)",
+                       escape_non_utf8(text));
+}
+
+// No description: the checks need none in --help.
+const CLI::Validator kUserName(user_name_problem, ""), kUserPath(user_path_problem, "");
+
+CLI::Validator range(double lo, double hi) {
+    return CLI::Validator(
+        [lo, hi](std::string& input) -> std::string {
+            double v = 0;
+            if (!CLI::detail::lexical_cast(input, v)) return fmt::format("{} is not a number", input);
+            if (!std::isfinite(v)) return fmt::format("{} is not a finite number", input);
+            if (v < lo || v > hi) return fmt::format("{} is not in [{:g}, {:g}]", input, lo, hi);
+            return {};
+        },
+        fmt::format("in [{:g}, {:g}]", lo, hi));
+}
+
+CLI::Option* add_scenario(CLI::App* cmd, std::filesystem::path& scenario) {
+    return cmd->add_option("SCENARIO", scenario, "Scenario JSON file")->required()->check(kUserPath);
+}
+
 void add_common(CLI::App* cmd, Common& c) {
-    cmd->add_option("--out", c.out, "Output folder (created if missing)")->required()->check(output_folder_problem);
+    cmd->add_option("--out", c.out, "Output folder (created if missing)")
+        ->required()
+        ->check(kUserPath)
+        ->check(output_folder_problem);
     cmd->add_flag("--allow-external-paths", c.allow_external_paths,
                   "Let glTF buffer URIs point outside the scene's folder");
     cmd->add_option("--threads", c.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
     cmd->add_flag("-q,--quiet", c.quiet, "Print nothing but errors");
     cmd->add_option("--max-memory", c.max_memory,
-                    "Refuse runs estimated to need more memory, e.g. 8G (0: no limit; default 3/4 of the machine's)");
+                    "Refuse runs estimated to need more memory, e.g. 8G (0: no limit; default 3/4 of the machine's)")
+        ->check(kUserName);
 }
 
 void add_sampling(CLI::App* cmd, SamplingArgs& a) {
     cmd->add_option("--seed", a.seed, "Area lights: seed of the sampling pattern (default 0)");
     cmd->add_option("--area-target", a.target, "Area lights: 95% half-width E a pixel samples down to (default 1/255)")
-        ->check(CLI::Range(1e-6, 1.0))
-        ->check(finite_number_problem);
+        ->check(range(1e-6, 1.0));
     cmd->add_option("--area-max-rays", a.max_rays, "Area lights: most rays per pixel (default 4096)")
         ->check(CLI::Range(16, 1 << 20));
 }
@@ -41,20 +76,19 @@ OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
 
 void add_tolerance(CLI::App* cmd, double& tolerance) {
     cmd->add_option("--tolerance", tolerance, "tau: |error| above this plus the oracle's E is wrong")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
+        ->check(range(0.0, 1.0));
 }
 
 void add_visible_threshold(CLI::App* cmd, double& threshold) {
     cmd->add_option("--visible-threshold", threshold,
                     "A wrong pixel is also visible when |error| >= this (counts_visible, rates_visible; default 0.1)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
+        ->check(range(0.0, 1.0));
 }
 
 void add_verdict_options(CLI::App* cmd, VerdictArgs& v) {
     cmd->add_option("--cache", v.cache_dir,
-                    "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)");
+                    "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)")
+        ->check(kUserPath);
     cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
     add_tolerance(cmd, v.tolerance);
     add_visible_threshold(cmd, v.visible_threshold);
@@ -91,12 +125,15 @@ void check_run_memory(const Scenario& s, const Common& c, bool oracle, const ras
 }
 
 void add_technique(CLI::App* cmd, TechniqueArgs& t) {
-    cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")");
-    cmd->add_option("--preset", t.preset, "Start from a named preset (see below)")->check(utf8_problem);
+    cmd->add_option("--technique", t.file, "Technique JSON file (replaces the scenario's \"technique\")")
+        ->check(kUserPath);
+    cmd->add_option("--preset", t.preset, "Start from a named preset (see below)")->check(kUserName);
     cmd->add_option("--set", t.sets, "Override one technique key, e.g. --set bias.slope=1.5 (repeatable)")
+        ->check(kUserName)
         ->check(set_assignment_problem);
     cmd->add_option("--device", t.device,
-                    "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)");
+                    "Vulkan device index or name part (default: $PENUMBRA_VK_DEVICE, else lavapipe)")
+        ->check(kUserName);
     std::string text = "Presets:\n";
     for (const auto& p : raster::presets()) text += fmt::format("  {:<24}{}\n", p.name, p.description);
     cmd->footer(text);

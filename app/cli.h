@@ -19,6 +19,20 @@
 
 namespace penumbra::cli {
 
+// Every path and text a user gives on the command line passes one of these two checks before any
+// work (exit 2); both refuse an empty value. Names (presets, knobs, metrics, --set, --device) must
+// be valid UTF-8, since they are matched and written into reports. Paths are the file system's
+// bytes and any is accepted; wherever one is shown (reports, JSON, messages) it is converted by
+// path_text (common/json_reader.h), never written as path.string().
+std::string user_name_problem(const std::string& text);
+std::string user_path_problem(const std::string& text);
+extern const CLI::Validator kUserName, kUserPath;
+// A number option's range, [lo, hi] inclusive: a finite number (CLI::Range lets NaN through)
+// and a message that prints the bounds readably (CLI::Range prints DBL_MAX with 309 digits).
+CLI::Validator range(double lo, double hi);
+// The scenario every command that reads one takes as its positional SCENARIO.
+CLI::Option* add_scenario(CLI::App* cmd, std::filesystem::path& scenario);
+
 // Options every subcommand that reads a scenario takes.
 struct Common {
     std::filesystem::path out;

@@ -8,6 +8,7 @@
 #include "common/errors.h"
 #include "common/json_reader.h"
 #include "common/output_files.h"
+#include "common/ranges.h"
 #include "common/stopwatch.h"
 #include "metrics/gate.h"
 #include "metrics/metric_table.h"
@@ -40,7 +41,10 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
         throw InputError(
             fmt::format("{}: --depth needs --depth-space (linear, ndc or ndc-gl): say how the engine "
                         "stored depth",
-                        a.depth.string()));
+                        path_text(a.depth)));
+    if (a.depth.empty() && a.depth_space_given)
+        throw InputError(fmt::format("--depth-space {} without --depth: give the depth buffer it describes",
+                                     to_string(a.depth_space)));
     Scenario scenario = load_for_command(scenario_file, c);
     std::vector<std::size_t> lights;
     if (a.light >= 0) {
@@ -54,7 +58,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
         for (std::size_t li = 0; li < scenario.lights.size(); ++li) lights.push_back(li);
     }
     const nlohmann::json gate_json = a.gate_file.empty() ? scenario.gate : read_json_file(a.gate_file);
-    const std::string gate_label = a.gate_file.empty() ? scenario.label + ": gate" : a.gate_file.filename().string();
+    const std::string gate_label = a.gate_file.empty() ? scenario.label + ": gate" : path_text(a.gate_file.filename());
     const metrics::Gate gate =
         metrics::parse_gate(gate_json, gate_label, scenario.lights,
                             a.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
@@ -95,7 +99,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
         for (std::size_t k = 0; k < r.score.lights.size(); ++k)
             fmt::print("  light {} ({}): {}\n", lights[k], to_string(scenario.lights[k].type),
                        metrics::summary_line(r.score.lights[k]));
-        fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
+        fmt::print("results: {}/report.html, report.json, errors.exr\n", path_text(c.out));
     }
     return gate_exit_code(r.gate, c.quiet);
 }
@@ -112,40 +116,40 @@ Subcommand add_compare_command(CLI::App& parent) {
     CompareArgs& v = a->compare;
     CLI::App* cmd = parent.add_subcommand(
         "compare", "Judge an engine's own shadow image against the oracle: the verdict per pixel, reports and gates");
-    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
     cmd->add_option("--image", v.image,
                     "The engine's shadow factor (1 = lit), the scenario's camera and size: light<i>.V channels, one "
                     "channel per light, or one for --light")
-        ->required();
+        ->required()
+        ->check(kUserPath);
     cmd->add_option("--light", v.light, "The image holds this light only (index into the scenario's lights)")
         ->check(CLI::Range(0, 1 << 20));
-    cmd->add_option("--depth", v.depth, "The engine's depth buffer (finds where it saw another surface)");
+    cmd->add_option("--depth", v.depth, "The engine's depth buffer (finds where it saw another surface)")
+        ->check(kUserPath);
     const std::map<std::string, DepthSpace> spaces = {
         {"linear", DepthSpace::linear}, {"ndc", DepthSpace::ndc}, {"ndc-gl", DepthSpace::ndc_gl}};
     cmd->add_option("--depth-space", v.depth_space,
                     "How --depth stores depth: linear (view depth, m), ndc (depth buffer in [0, 1]), ndc-gl ([-1, 1])")
         ->transform(CLI::CheckedTransformer(spaces))
         ->each([&v](const std::string&) { v.depth_space_given = true; });
+    // Metres, as every length a scenario gives (common/ranges.h); beyond, float overflows.
     auto* texel = cmd->add_option("--texel-m", v.texel_m, "The engine's shadow-map texel at the receivers, metres")
-                      ->check(CLI::PositiveNumber)
-                      ->check(finite_number_problem);
+                      ->check(range(kMinExtent, kMaxExtent));
     cmd->add_option("--shadow-map", v.shadow_map, "Or the engine's shadow-map resolution, texels per side")
         ->check(CLI::Range(1, 65536))
         ->excludes(texel);
     cmd->add_option("--bias-m", v.bias_m,
                     "The engine's biases together as metres along the light ray (peter-panning reach; default: "
                     "estimated)")
-        ->check(CLI::Range(0.0, 1e6))
-        ->check(finite_number_problem);
+        ->check(range(0.0, 1e6));
     cmd->add_option("--filter-reach", v.filter_reach, "The engine's filter reach in texels (aliasing band, default 1)")
-        ->check(CLI::Range(0.0, 64.0))
-        ->check(finite_number_problem);
+        ->check(range(0.0, 64.0));
     cmd->add_option("--silhouette-band", v.band_px,
                     "Without --depth: pixels this close to the oracle's silhouettes are not scored (default 1)")
         ->check(CLI::Range(0, 16));
-    cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")");
-    cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file");
+    cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")")->check(kUserPath);
+    cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);
     add_verdict_options(cmd, v.verdict);
     return {cmd, [a] { return run_compare_command(a->scenario, a->common, a->compare); }};
 }

@@ -3,6 +3,9 @@
 // docs/design.md.
 #include <fmt/format.h>
 
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <new>
 #include <string>
 #include <vector>
@@ -11,6 +14,21 @@
 #include "common/errors.h"
 #include "common/output_files.h"
 #include "common/version.h"
+
+namespace {
+
+// What a command printed on stdout (camera's JSON, devices, --help) must arrive: a write error
+// (a full disk, /dev/full) is the environment's failure, not a success with an empty file.
+int check_stdout(int code) {
+    errno = 0;
+    const bool failed = std::fflush(stdout) != 0 || std::ferror(stdout);
+    if (!failed) return code;
+    fmt::print(stderr, "error: cannot write to standard output: {}\n",
+               errno != 0 ? std::strerror(errno) : "write error");
+    return penumbra::kExitEnvironment;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     using namespace penumbra;
@@ -29,12 +47,12 @@ int main(int argc, char** argv) {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         int code = app.exit(e);
-        return code == 0 ? kExitSuccess : kExitBadInput;
+        return check_stdout(code == 0 ? kExitSuccess : kExitBadInput);
     }
     install_interrupt_cleanup();  // Ctrl-C leaves no temporary file and no folder it made
     try {
         for (const auto& c : commands)
-            if (*c.app) return c.run();
+            if (*c.app) return check_stdout(c.run());
     } catch (const InputError& e) {
         fmt::print(stderr, "error: {}\n", e.what());
         return kExitBadInput;

@@ -56,7 +56,7 @@ Subcommand add_oracle_command(CLI::App& parent) {
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = parent.add_subcommand("oracle", "Trace the exact visibility of every light (Embree)");
-    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
     add_sampling(cmd, a->sampling);
     return {cmd, [a] { return run_oracle_command(a->scenario, a->common, a->sampling); }};

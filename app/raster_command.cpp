@@ -60,7 +60,7 @@ Subcommand add_raster_command(CLI::App& parent) {
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = parent.add_subcommand("raster", "Render the scenario's shadows with a technique (Vulkan)");
-    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
     add_technique(cmd, a->technique);
     return {cmd, [a] { return run_raster_command(a->scenario, a->common, a->technique); }};

@@ -113,14 +113,18 @@ Subcommand add_stress_command(CLI::App& parent) {
     StressArgs& s = a->stress;
     CLI::App* cmd = parent.add_subcommand(
         "stress", "Generated stiff and extreme scenes: the oracle's invariance and the technique's verdict on each");
-    cmd->add_option("--out", s.out, "Output folder (created if missing)")->required()->check(output_folder_problem);
+    cmd->add_option("--out", s.out, "Output folder (created if missing)")
+        ->required()
+        ->check(kUserPath)
+        ->check(output_folder_problem);
     add_technique(cmd, a->technique);
     std::string names;
     for (const auto& n : stress::case_names()) names += (names.empty() ? "" : ", ") + n;
     cmd->add_option("--cases", s.cases, "Comma-separated cases to run (default: all): " + names)->delimiter(',');
     cmd->add_option("--gate", s.gate_file,
-                    "Gate JSON: validate's checks on every light of every case, and \"oracle_invariant\"");
-    cmd->add_option("--junit", s.junit_file, "Write the suite's checks as JUnit XML to this file");
+                    "Gate JSON: validate's checks on every light of every case, and \"oracle_invariant\"")
+        ->check(kUserPath);
+    cmd->add_option("--junit", s.junit_file, "Write the suite's checks as JUnit XML to this file")->check(kUserPath);
     add_tolerance(cmd, s.tolerance);
     add_visible_threshold(cmd, s.visible_threshold);
     cmd->add_option("--seed", s.seed, "Seed of the generated scenes' random parts (default 20)");

@@ -16,6 +16,10 @@
 namespace penumbra::cli {
 namespace {
 
+// The most evaluations tune takes (docs/tune.md): each one renders and scores every scenario
+// (about a second on a CPU at 1280x720), so this is days of work, and tune keeps every evaluation.
+constexpr int kMaxBudget = 10000;
+
 struct TuneArgs {
     std::vector<std::filesystem::path> scenarios, holdout;
     Common common;
@@ -41,7 +45,8 @@ int run_tune_command(const TuneArgs& a) {
     options.precision = a.precision;
     options.lookups = !a.visibility_only;
     options.objective = {a.max_acne, a.minimize, a.then, a.tie};
-    if (a.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; give at least 1", a.budget));
+    if (a.budget < 1 || a.budget > kMaxBudget)
+        throw InputError(fmt::format("--budget: {} evaluations; give 1 to {}", a.budget, kMaxBudget));
     for (const auto& [option, path] : {std::pair{"--minimize", &a.minimize}, std::pair{"--then", &a.then}})
         if (!metrics::find_metric(*path))
             throw InputError(fmt::format("{}: no metric \"{}\" (see docs/metrics.md for the paths)", option, *path));
@@ -68,8 +73,8 @@ int run_tune_command(const TuneArgs& a) {
     co.device = a.technique.device;
     raster::VulkanContext ctx(co);
     tune::TuneReport report;
-    for (const auto& f : a.scenarios) report.scenario_files.push_back(f.string());
-    for (const auto& f : a.holdout) report.holdout_files.push_back(f.string());
+    for (const auto& f : a.scenarios) report.scenario_files.push_back(path_text(f));
+    for (const auto& f : a.holdout) report.holdout_files.push_back(path_text(f));
     report.start = start;
     tune::Evaluator evaluator(scenarios, start, options, ctx);
     report.result = tune::tune(evaluator, options);
@@ -115,7 +120,7 @@ int run_tune_command(const TuneArgs& a) {
             for (const auto& l : report.holdout[k].after.score.lights)
                 fmt::print("  hold-out {}: acne {:.5f}, peter-panning {:.5f}\n", report.holdout_files[k],
                            l.rate(metrics::PixelClass::acne), l.rate(metrics::PixelClass::peter_panning));
-        fmt::print("results: {}/technique.json, tune.json, pareto.csv, pareto.svg, report.html\n", c.out.string());
+        fmt::print("results: {}/technique.json, tune.json, pareto.csv, pareto.svg, report.html\n", path_text(c.out));
     }
     if (a.gate && !res.winner) {
         fmt::print(stderr, "gate: FAILED: no setting keeps acne <= {}; the best reachable has {:.5f}\n",
@@ -131,23 +136,26 @@ Subcommand add_tune_command(CLI::App& parent) {
     auto a = std::make_shared<TuneArgs>();
     CLI::App* cmd = parent.add_subcommand(
         "tune", "Find the bias that removes acne with the least peter-panning, against the oracle");
-    cmd->add_option("SCENARIO", a->scenarios, "Scenario JSON files; one recommendation holds for all")->required();
+    cmd->add_option("SCENARIO", a->scenarios, "Scenario JSON files; one recommendation holds for all")
+        ->required()
+        ->check(kUserPath);
     add_common(cmd, a->common);
     add_technique(cmd, a->technique);
     cmd->add_option("--knobs", a->knobs,
                     "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane "
-                    "(default constant,slope)");
+                    "(default constant,slope)")
+        ->check(kUserName);
     cmd->add_option("--max-acne", a->max_acne, "Acne rate allowed on every scenario and light (default 0.001)")
-        ->check(CLI::Range(0.0, 1.0))
-        ->check(finite_number_problem);
-    cmd->add_option("--budget", a->budget, "Most evaluations (default 80)");
+        ->check(range(0.0, 1.0));
+    cmd->add_option("--budget", a->budget, fmt::format("Most evaluations (default 80, at most {})", kMaxBudget));
     cmd->add_option("--precision", a->precision, "Bisection stops at this relative step (default 0.05)")
-        ->check(CLI::Range(1e-4, 1.0));
-    cmd->add_option("--minimize", a->minimize, "Metric minimised (default rates.peter_panning)");
-    cmd->add_option("--then", a->then, "Metric that breaks ties (default peter_panning_gap.p95)");
+        ->check(range(1e-4, 1.0));
+    cmd->add_option("--minimize", a->minimize, "Metric minimised (default rates.peter_panning)")->check(kUserName);
+    cmd->add_option("--then", a->then, "Metric that breaks ties (default peter_panning_gap.p95)")->check(kUserName);
     cmd->add_option("--tie", a->tie, "Values of --minimize within this fraction of each other are ties (default 0.01)")
-        ->check(CLI::Range(0.0, 1.0));
-    cmd->add_option("--holdout", a->holdout, "Scenarios to re-validate the recommendation on, not tuned on");
+        ->check(range(0.0, 1.0));
+    cmd->add_option("--holdout", a->holdout, "Scenarios to re-validate the recommendation on, not tuned on")
+        ->check(kUserPath);
     cmd->add_flag("--visibility-only", a->visibility_only,
                   "Evaluate from V alone, classified from the oracle's geometry (faster on GPUs; docs/tune.md)");
     cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne");

@@ -83,11 +83,11 @@ Subcommand add_validate_command(CLI::App& parent) {
     ValidateArgs& v = a->validate;
     CLI::App* cmd =
         parent.add_subcommand("validate", "Oracle + raster + metrics: the verdict per pixel, reports and CI gates");
-    cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
+    add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
     add_technique(cmd, a->technique);
-    cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")");
-    cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file");
+    cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")")->check(kUserPath);
+    cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);
     cmd->add_flag("--frames", v.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
     add_verdict_options(cmd, v.verdict);
     return {cmd, [a] { return run_validate_command(a->scenario, a->common, a->technique, a->validate); }};

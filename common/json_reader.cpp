@@ -67,6 +67,10 @@ std::string escape_non_utf8(std::string_view text) {
     return out;
 }
 
+std::string path_text(const std::filesystem::path& path) {
+    return escape_non_utf8(path.native());
+}
+
 std::string finite_number_problem(const std::string& text) {
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);

@@ -38,6 +38,9 @@ nlohmann::json read_json_file(const std::filesystem::path& file);
 // and in JSON, whatever a path or option held.
 std::string escape_non_utf8(std::string_view text);
 bool is_valid_utf8(std::string_view text);
+// A path as text for reports, JSON and messages: a path is any bytes, JSON must be UTF-8, so the
+// bytes that are not are written as \xNN. The one conversion every shown path goes through.
+std::string path_text(const std::filesystem::path& path);
 // Command-line option checks (CLI11 ->check): an empty string when `text` is fine, else what
 // is wrong. CLI::Range lets NaN through, since every comparison with NaN is false.
 std::string finite_number_problem(const std::string& text);

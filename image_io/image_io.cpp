@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "common/errors.h"
+#include "common/json_reader.h"
 #include "image_io/oiio_plugin.h"
 
 namespace penumbra {
@@ -202,17 +203,41 @@ void write_png(OutputTransaction& out, const std::string& name, int width, int h
               [&](int y, float* dst) { std::copy_n(rgb.data() + static_cast<std::size_t>(y) * row, row, dst); });
 }
 
-ImageFile read_image(const fs::path& file) {
+namespace {
+
+// What a path that is not a regular file is, for the message.
+std::string not_an_image_file(const fs::path& file) {
     std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) throw InputError(fmt::format("{}: no such image file", file.string()));
+    switch (fs::status(file, ec).type()) {
+        case fs::file_type::not_found: return "no such image file";
+        case fs::file_type::directory: return "a folder, not an image file";
+        case fs::file_type::fifo: return "a FIFO (named pipe), not an image file";
+        case fs::file_type::character:
+        case fs::file_type::block: return "a device, not an image file";
+        case fs::file_type::socket: return "a socket, not an image file";
+        default: break;
+    }
+    return ec ? fmt::format("cannot be read: {}", ec.message()) : "not a regular file, not an image file";
+}
+
+}  // namespace
+
+ImageFile read_image(const fs::path& file, const ExpectedImageSize* expected) {
+    const std::string name = path_text(file);
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec)) throw InputError(fmt::format("{}: {}", name, not_an_image_file(file)));
     ImageFile img;
     std::string error;
-    switch (oiio_plugin().read(file.c_str(), &img, &error)) {
+    const int w = expected ? expected->width : 0, h = expected ? expected->height : 0;
+    switch (oiio_plugin().read(file.c_str(), w, h, &img, &error)) {
         case OiioReadStatus::ok: return img;
-        case OiioReadStatus::bad_input: throw InputError(fmt::format("{}: {}", file.string(), error));
+        case OiioReadStatus::bad_input: throw InputError(fmt::format("{}: {}", name, error));
+        case OiioReadStatus::wrong_size:
+            throw InputError(fmt::format("{}: {}x{} pixels; expected {}", name, img.width, img.height,
+                                         expected ? expected->what : std::string("another size")));
         case OiioReadStatus::failed: break;
     }
-    throw EnvironmentError(fmt::format("{}: {}", file.string(), error));
+    throw EnvironmentError(fmt::format("{}: {}", name, error));
 }
 
 }  // namespace penumbra

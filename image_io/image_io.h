@@ -66,8 +66,16 @@ struct ImageFile {
     bool floating = false;  // stored as float or half (values are not normalised)
 };
 
+// The size a caller needs. It is checked against the file's header before any pixel is decoded:
+// a file of a few bytes may declare an image of billions of pixels.
+struct ExpectedImageSize {
+    int width = 0, height = 0;
+    std::string what;  // for the message: "{file}: WxH pixels; expected {what}"
+};
+
 // Reads any format OpenImageIO reads (first subimage, first MIP level). Throws InputError naming
-// the file when it is missing, unreadable, or deep/tiled beyond what OIIO reads as scanlines.
-ImageFile read_image(const std::filesystem::path& file);
+// the file when it is missing, not a regular file (saying what it is), unreadable, deep or a
+// volume, or, given `expected`, of another size.
+ImageFile read_image(const std::filesystem::path& file, const ExpectedImageSize* expected = nullptr);
 
 }  // namespace penumbra

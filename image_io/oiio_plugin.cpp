@@ -58,9 +58,9 @@ OiioPlugin load() {
             continue;
         }
         OiioPlugin plugin;
-        plugin.read = reinterpret_cast<OiioReadFn>(dlsym(handle, "penumbra_oiio_read"));
+        plugin.read = reinterpret_cast<OiioReadFn>(dlsym(handle, "penumbra_oiio_read_sized"));
         if (plugin.read) return plugin;
-        tried += "\n  " + p.string() + " (no penumbra_oiio_read)";
+        tried += "\n  " + p.string() + " (no penumbra_oiio_read_sized)";
     }
     throw EnvironmentError(
         fmt::format("cannot read images: OpenImageIO's plugin {} was not found or did not load; looked at:{}",

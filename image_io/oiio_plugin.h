@@ -12,12 +12,14 @@ namespace penumbra {
 
 enum class OiioReadStatus : int {
     ok,
-    bad_input,  // the file is not an image OIIO reads as a flat 2D picture (an InputError)
-    failed,     // OIIO failed for another reason
+    bad_input,   // the file is not an image OIIO reads as a flat 2D picture (an InputError)
+    failed,      // OIIO failed for another reason
+    wrong_size,  // the header's size is not the one asked for: image's width and height say it, no pixels read
 };
 
-// The plugin's one entry point, `penumbra_oiio_read`: fills `image` or writes `error`.
-using OiioReadFn = OiioReadStatus (*)(const char* path, ImageFile* image, std::string* error);
+// The plugin's one entry point, `penumbra_oiio_read_sized`: fills `image` or writes `error`.
+// width, height > 0: refuse another size from the header, before decoding (wrong_size).
+using OiioReadFn = OiioReadStatus (*)(const char* path, int width, int height, ImageFile* image, std::string* error);
 
 struct OiioPlugin {
     OiioReadFn read = nullptr;

@@ -10,8 +10,9 @@
 using penumbra::ImageFile;
 using penumbra::OiioReadStatus;
 
-extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_read(const char* path, ImageFile* image,
-                                                                                    std::string* error) {
+extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_read_sized(const char* path, int width,
+                                                                                          int height, ImageFile* image,
+                                                                                          std::string* error) {
     try {
         auto in = OIIO::ImageInput::open(path);
         if (!in) {
@@ -30,6 +31,8 @@ extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_r
         ImageFile& img = *image;
         img.width = spec.width;
         img.height = spec.height;
+        // From the header alone: nothing is decoded for an image of the wrong size.
+        if (width > 0 && height > 0 && (img.width != width || img.height != height)) return OiioReadStatus::wrong_size;
         img.format = in->format_name();
         img.bits = static_cast<int>(spec.format.size() * 8);
         img.floating = spec.format.is_floating_point();

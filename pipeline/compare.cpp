@@ -9,6 +9,7 @@
 
 #include "common/camera.h"
 #include "common/errors.h"
+#include "common/projection.h"
 #include "common/stopwatch.h"
 
 namespace penumbra {
@@ -27,18 +28,14 @@ double plane_depth(const Scene& scene, std::uint32_t prim, const glm::dvec3& eye
     return glm::dot(n, a - (eye + ray.origin)) / den;
 }
 
-// The engine's view depth at pixel i, NaN where it saw no surface.
-double engine_view_depth(const Camera& cam, const EngineFrame& f, std::size_t i) {
+// The engine's view depth at pixel i, NaN where it saw no surface. ndc and ndc-gl are read with
+// the inverse of the projection `penumbra camera` prints (a standard, not reversed, depth range;
+// GL's NDC z maps to window depth by w = (z + 1) / 2).
+double engine_view_depth(const Camera& cam, const CameraProjection& proj, const EngineFrame& f, std::size_t i) {
     const double d = (*f.depth)[i];
     if (!std::isfinite(d)) return kNaN;
-    const double n = cam.znear, far = cam.zfar;
-    if (f.depth_space == DepthSpace::linear) return d > 0 && d < far ? d : kNaN;
-    // Window depth w in [0, 1] (GL's NDC z maps to it by w = (z + 1) / 2). Perspective:
-    // w = f (z - n) / (z (f - n)), so z = n f / (f - w (f - n)); orthographic: w = (z - n) / (f - n).
-    const double w = f.depth_space == DepthSpace::ndc_gl ? 0.5 * (d + 1.0) : d;
-    if (!(w >= 0.0 && w < 1.0)) return kNaN;
-    if (cam.type == ProjectionType::orthographic) return n + w * (far - n);
-    return n * far / (far - w * (far - n));
+    if (f.depth_space == DepthSpace::linear) return d > 0 && d < cam.zfar ? d : kNaN;
+    return proj.view_depth(f.depth_space == DepthSpace::ndc_gl ? 0.5 * (d + 1.0) : d);
 }
 
 // A way the engine frame can sit against penumbra's view: engine pixel (x + dx, y + dy), or row
@@ -120,6 +117,30 @@ float footprint_from_resolution(const Scenario& sc, const OracleFrame& of, const
     return static_cast<float>(2.0 * half_tan * d / res);
 }
 
+// A verdict on too little of the surface is no verdict: refuse it (exit 2), saying why, rather
+// than pass a gate on the pixels that happen to be left.
+void check_scored_surface(const Scenario& sc, const EngineFrame& f, const Coverage& cov, const CompareOptions& opt) {
+    if (cov.surface == 0)
+        throw InputError(fmt::format("{}: the scenario's camera sees no surface: nothing to score", sc.label));
+    const double seen = 1.0 - cov.mismatch_fraction();
+    if (seen >= opt.min_scored_surface) return;
+    const std::string why =
+        cov.source == "depth"
+            ? fmt::format(
+                  "the engine's depth ({}) shows no surface, or another, at the rest; is --depth-space right (linear: "
+                  "view depth in metres; ndc: the depth buffer in [0, 1]; ndc-gl: [-1, 1]), and is the depth "
+                  "buffer the one rendered with the view `penumbra camera` prints?",
+                  to_string(f.depth_space))
+            : fmt::format(
+                  "the rest lies within --silhouette-band {} px of a silhouette; give a smaller band or the "
+                  "engine's depth",
+                  opt.silhouette_band_px);
+    throw InputError(fmt::format(
+        "{}: only {:.2f}% of the {} surface pixels the oracle sees can be scored (at least {:g}% must be): {}",
+        cov.source == "depth" ? f.depth_label : f.label, 100.0 * seen, cov.surface, 100.0 * opt.min_scored_surface,
+        why));
+}
+
 }  // namespace
 
 const char* to_string(DepthSpace s) {
@@ -188,8 +209,9 @@ Coverage engine_coverage(const Scenario& sc, const OracleFrame& of, const std::v
 
     if (f.depth) {
         cov.source = "depth";
+        const CameraProjection proj(sc.camera, sc.width, sc.height, sc.scene.bounds);
         std::vector<double> ze(n);
-        for (std::size_t i = 0; i < n; ++i) ze[i] = engine_view_depth(sc.camera, f, i);
+        for (std::size_t i = 0; i < n; ++i) ze[i] = engine_view_depth(sc.camera, proj, f, i);
         for (int y = 0; y < H; ++y)
             for (int x = 0; x < W; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * W + x;
@@ -265,6 +287,7 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
     auto t0 = SteadyClock::now();
     const std::vector<double> depth = oracle_view_depth(sc, of);
     const Coverage cov = engine_coverage(sc, of, depth, f, opt);
+    check_scored_surface(sc, f, cov, opt);
 
     // The engine's frame as a V-only RasterFrame: A and prim say where it saw the oracle's
     // surface (anything else is a coverage mismatch to the metrics).
@@ -273,6 +296,7 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
     rf.height = f.height;
     rf.frame_origin = of.frame_origin;
     const std::size_t n = of.pixel_count();
+    const CameraProjection proj(sc.camera, sc.width, sc.height, sc.scene.bounds);
     rf.A.assign(n, 0.0f);
     rf.prim.assign(n, kNoPrimitive);
     for (std::size_t i = 0; i < n; ++i) {
@@ -281,7 +305,7 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
             rf.prim[i] = of.prim[i];
         } else if (of.A[i] != 0) {
             rf.A[i] = 1.0f;  // a surface, not the oracle's one: coverage_mismatch
-        } else if (f.depth && std::isfinite(engine_view_depth(sc.camera, f, i))) {
+        } else if (f.depth && std::isfinite(engine_view_depth(sc.camera, proj, f, i))) {
             rf.A[i] = 1.0f;  // the engine saw a surface where there is none
         }
     }
@@ -303,6 +327,13 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
                 footprint_from_resolution(sc, of, depth, sc.lights[li], *opt.shadow_map_resolution);
     }
     r.score = metrics::score_frames(of, rf, r.scoring);
+    std::uint64_t scored = 0;
+    for (const auto& l : r.score.lights) scored += l.pixels.scored;
+    if (scored == 0)
+        throw InputError(
+            fmt::format("{}: no pixel can be scored: no light reaches a surface the engine's frame shows "
+                        "({} of {} surface pixels seen)",
+                        f.label, cov.surface - cov.mismatch, cov.surface));
     r.metrics_s = seconds_since(t0);
 
     r.engine = f.info;

@@ -44,6 +44,9 @@ struct CompareOptions {
     int silhouette_band_px = 1;
     // With depth: the engine saw the oracle's surface where the view depths agree to this fraction.
     double depth_tolerance = 0.01;
+    // The least fraction of the oracle's surface pixels the engine must be seen to show (coverage):
+    // below it the frame is refused (InputError), not scored (docs/compare.md, "Coverage").
+    double min_scored_surface = 0.5;
 };
 
 // Coverage of the engine frame against the oracle's (what compare leaves unscored and why).
@@ -71,7 +74,7 @@ void check_engine_frame(const Scenario& scenario, const EngineFrame& frame);
 
 // The oracle (cached), coverage, the metrics (V only), the gate. result.engine describes the
 // frame and result.report has "coverage" and "engine". Throws InputError for a bad or misaligned
-// frame.
+// frame, and for one whose coverage leaves less than min_scored_surface of the surface to score.
 ValidateResult compare(const Scenario& scenario, const EngineFrame& frame, const CompareOptions& options = {},
                        const metrics::Gate& gate = {});
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "common/errors.h"
+#include "common/json_reader.h"
 #include "image_io/image_io.h"
 
 namespace penumbra {
@@ -43,14 +44,14 @@ std::vector<std::size_t> colour_channels(const ImageFile& img) {
 EngineFrame load_engine_frame(const Scenario& sc, const std::filesystem::path& image,
                               const std::vector<std::size_t>& lights, const std::optional<std::filesystem::path>& depth,
                               DepthSpace depth_space) {
-    const ImageFile img = read_image(image);
+    // The size is checked from each file's header, before its pixels are decoded.
+    const ExpectedImageSize size{sc.width, sc.height,
+                                 fmt::format("the scenario's image size, {}x{} ({})", sc.width, sc.height, sc.label)};
+    const ImageFile img = read_image(image, &size);
     EngineFrame f;
-    f.label = image.string();
+    f.label = path_text(image);
     f.width = img.width;
     f.height = img.height;
-    if (img.width != sc.width || img.height != sc.height)
-        throw InputError(fmt::format("{}: {}x{} pixels; expected the scenario's image size, {}x{} ({})", f.label,
-                                     img.width, img.height, sc.width, sc.height, sc.label));
     nlohmann::json channels = nlohmann::json::array();
     const std::vector<std::size_t> colour = colour_channels(img);
     for (std::size_t k = 0; k < lights.size(); ++k) {
@@ -87,18 +88,12 @@ EngineFrame load_engine_frame(const Scenario& sc, const std::filesystem::path& i
         f.V.push_back(img.channels[c]);
         channels.push_back({{"light", li}, {"channel", img.channel_names[c]}});
     }
-    f.info = {{"image", image.string()},
-              {"format", img.format},
-              {"bits", img.bits},
-              {"channels", channels},
-              {"lights", lights}};
+    f.info = {
+        {"image", f.label}, {"format", img.format}, {"bits", img.bits}, {"channels", channels}, {"lights", lights}};
 
     if (depth) {
-        const ImageFile d = read_image(*depth);
-        f.depth_label = depth->string();
-        if (d.width != sc.width || d.height != sc.height)
-            throw InputError(fmt::format("{}: {}x{} pixels; expected the scenario's image size, {}x{} ({})",
-                                         f.depth_label, d.width, d.height, sc.width, sc.height, sc.label));
+        const ImageFile d = read_image(*depth, &size);
+        f.depth_label = path_text(*depth);
         std::optional<std::size_t> c;
         for (const char* name : {"depth", "Z", "R", "Y"})
             if (!c) c = channel_named(d, name);
@@ -108,7 +103,7 @@ EngineFrame load_engine_frame(const Scenario& sc, const std::filesystem::path& i
                                          f.depth_label, channel_list(d)));
         f.depth = d.channels[*c];
         f.depth_space = depth_space;
-        f.info["depth_file"] = depth->string();
+        f.info["depth_file"] = f.depth_label;
         f.info["depth_channel"] = d.channel_names[*c];
     }
     return f;

@@ -88,4 +88,118 @@ run compare "$tmp/small.json" --image "$tmp/nothing.exr" --out "$tmp/x5"
 check "a missing image exits 2" test "$rc" -eq 2
 check "missing image message" grep -q "nothing.exr: no such image file" <<<"$err"
 check "no output folders from bad runs" test ! -e "$tmp/x2" -a ! -e "$tmp/x3" -a ! -e "$tmp/x4" -a ! -e "$tmp/x5" -a ! -e "$tmp/x6"
+# Issue 32: options checked before any work, exit 2 naming the option, nothing written.
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --texel-m 1e39 --out "$tmp/y1"
+check "--texel-m 1e39 (beyond float) exits 2" test "$rc" -eq 2
+check "--texel-m 1e39 is named" grep -q -- "--texel-m: 1e39 is not in \[1e-12, 1e+15\]" <<<"$err"
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --texel-m 0 --out "$tmp/y1"
+check "--texel-m 0 exits 2" test "$rc" -eq 2
+check "--texel-m 0's range is readable" test "${#err}" -lt 200
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --bias-m nan --out "$tmp/y1"
+check "--bias-m nan exits 2" test "$rc" -eq 2
+bad=$'caf\xe9'
+# Paths are any bytes (as hostile_input.sh row 6 has them for validate): a Latin-1 name works,
+# and is shown escaped (\xNN) wherever a report or the capture kit's JSON holds it. Names are
+# refused (exit 2, before any work).
+cp "$tmp/r/raster.exr" "$tmp/$bad.exr"
+cp "$tmp/o/oracle.exr" "$tmp/$bad.depth.exr"
+cp "$tmp/small.json" "$tmp/$bad.json"
+echo '{"checks": [{"metric": "rates.acne", "max": 1}]}' >"$tmp/$bad.gate.json"
+run compare "$tmp/$bad.json" --image "$tmp/$bad.exr" --depth "$tmp/$bad.depth.exr" --depth-space linear \
+    --gate "$tmp/$bad.gate.json" --junit "$tmp/$bad.xml" --cache "$tmp/cache-$bad" --out "$tmp/ok-$bad" -q
+check "Latin-1 paths for every compare option exit 0" test "$rc" -eq 0
+check "Latin-1 paths: report.json names the files escaped" python3 - "$tmp/ok-$bad/report.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1].encode("utf-8", "surrogateescape")))
+assert r["engine"]["image"].endswith("caf\\xE9.exr") and r["engine"]["depth_file"].endswith("caf\\xE9.depth.exr"), r["engine"]
+PY
+check "Latin-1 paths: the JUnit file is written" test -s "$tmp/$bad.xml"
+run camera "$tmp/$bad.json"
+check "camera: a Latin-1 scenario path exits 0" test "$rc" -eq 0
+check "camera: the scenario is named escaped" grep -q '"scenario": ".*caf\\\\xE9.json"' "$tmp/stdout"
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --out "$tmp/y2" --max-memory $'8\xe9G'
+check "a non-UTF-8 name (--max-memory) exits 2" test "$rc" -eq 2
+check "a non-UTF-8 name is named" grep -q -- "--max-memory: .*8\\\\xE9G.* is not valid UTF-8" <<<"$err"
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --out ""
+check "--out \"\" exits 2" test "$rc" -eq 2
+check "--out \"\" says the option and that it is empty" grep -q -- "--out: empty" <<<"$err"
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --depth-space ndc --out "$tmp/y3"
+check "--depth-space without --depth exits 2" test "$rc" -eq 2
+check "--depth-space without --depth is named" grep -q -- "--depth-space ndc without --depth" <<<"$err"
+check "no output from option errors" test ! -e "$tmp/y1" -a ! -e "$tmp/y2" -a ! -e "$tmp/y3"
+
+# What is not an image file is named for what it is.
+mkfifo "$tmp/fifo"
+for what in "$tmp/r:a folder" "$tmp/fifo:a FIFO (named pipe)" "/dev/zero:a device"; do
+    run compare "$tmp/small.json" --image "${what%%:*}" --out "$tmp/y4"
+    check "${what#*:} as --image exits 2" test "$rc" -eq 2
+    check "${what#*:} as --image is named" grep -q -- "${what%%:*}: ${what#*:}, not an image file" <<<"$err"
+done
+# A 74-byte PNG that declares 20000x20000 pixels: refused from its header, not decoded (4.8 GB).
+python3 - "$tmp/huge.png" <<'PY'
+import struct, sys, zlib
+chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+ihdr = struct.pack(">IIBBBBB", 20000, 20000, 8, 0, 0, 0, 0)
+open(sys.argv[1], "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"")) +
+                              chunk(b"IEND", b""))
+PY
+for opt in --image --depth; do
+    args=(--image "$tmp/huge.png")
+    [ $opt = --depth ] && args=(--image "$tmp/r/raster.exr" --depth "$tmp/huge.png" --depth-space linear)
+    rc=$( (ulimit -v 3000000; timeout 60 "$bin" compare "$tmp/small.json" "${args[@]}" --out "$tmp/y4" \
+        >"$tmp/stdout" 2>"$tmp/stderr"); echo $?)
+    err=$(cat "$tmp/stderr")
+    check "a PNG declaring 20000x20000 as $opt exits 2 (in 3 GB)" test "$rc" -eq 2
+    check "its size is named" grep -q "huge.png: 20000x20000 pixels; expected the scenario's image size, 160x90" <<<"$err"
+done
+check "no output from bad files" test ! -e "$tmp/y4"
+
+# A depth buffer that shows no surface (all zeros; linear depth read as ndc) scores nothing:
+# exit 2 naming why, not a passed gate.
+python3 - "$tmp/zeros.pfm" "$tmp/o/oracle.exr" <<'PY'
+import struct, sys
+w, h = 160, 90
+open(sys.argv[1], "wb").write(b"Pf\n%d %d\n-1.0\n" % (w, h) + struct.pack("<%df" % (w * h), *([0.0] * (w * h))))
+PY
+echo '{"checks": [{"metric": "rates.acne", "max": 1}]}' >"$tmp/loose.json"
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --depth "$tmp/zeros.pfm" --depth-space linear \
+    --gate "$tmp/loose.json" --out "$tmp/y5"
+check "an all-zero depth exits 2" test "$rc" -eq 2
+check "an all-zero depth is named, and why" grep -q "zeros.pfm: only 0.00% of the .* surface pixels .* is --depth-space right" <<<"$err"
+run compare "$tmp/small.json" --image "$tmp/r/raster.exr" --depth "$tmp/c1/../o/oracle.exr" --depth-space ndc \
+    --out "$tmp/y5"
+check "linear depth read as ndc exits 2" test "$rc" -eq 2
+check "no output from a frame that scores nothing" test ! -e "$tmp/y5"
+
+# An infinite far plane (no zfar): camera prints a projection, not null; compare reads ndc depth
+# written through it (w = 1 - n / z) and scores the surface.
+python3 -c "
+import json; j = json.load(open('$tmp/small.json')); del j['camera']['zfar']
+json.dump(j, open('$tmp/inf.json', 'w'))"
+run camera "$tmp/inf.json" --convention vulkan
+check "camera without zfar exits 0" test "$rc" -eq 0
+check "camera without zfar prints the infinite-far projection" python3 - "$tmp/stdout" <<'PY'
+import json, sys
+j = json.load(open(sys.argv[1])); c = j["camera"]
+assert "null" not in open(sys.argv[1]).read()
+assert c["infinite_far"] is True and "zfar" not in c, c
+n = c["znear"]; P = j["projection"]
+assert P[2][2] == -1 and abs(P[2][3] + n) < 1e-12 and P[3][2] == -1, P
+PY
+# (compare on ndc depth through this projection: tests/compare, NdcDepthFromAnInfiniteFarProjectionIsScored.)
+
+# Warnings as every command gives them; results on stdout that cannot be written are an error.
+python3 -c "
+import json; j = json.load(open('$tmp/small.json')); j['lights'] = []
+json.dump(j, open('$tmp/dark.json', 'w'))"
+run camera "$tmp/dark.json"
+check "camera on a scenario without lights exits 0" test "$rc" -eq 0
+check "camera warns of no lights" grep -q "warning: dark.json: the scenario has no lights" <<<"$err"
+for cmd in "camera $tmp/small.json" "--version" "camera --help"; do
+    $bin $cmd >/dev/full 2>"$tmp/stderr"
+    rc=$?
+    err=$(cat "$tmp/stderr")
+    check "$cmd > /dev/full exits 3" test "$rc" -eq 3
+    check "$cmd > /dev/full says so" grep -q "error: cannot write to standard output" <<<"$err"
+done
 finish

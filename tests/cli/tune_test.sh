@@ -60,4 +60,18 @@ check "unknown metric is named" grep -q -- '--minimize: no metric "rates.peter_p
 check "unknown metric writes nothing" test ! -e "$tmp/t6"
 run tune "$tmp/nope.json" --out "$tmp/t7"
 check "missing scenario exits 2" test "$rc" -eq 2
+# NaN and out-of-range numbers, and a budget beyond the documented bound (it reserved memory for
+# every evaluation: exit 3 "out of memory"): exit 2 before any work, nothing written.
+n=0
+for opt in "--precision nan" "--tie nan" "--precision 2" "--max-acne nan" "--budget 1000000000" "--budget 10001"; do
+    n=$((n + 1))
+    run tune "$tmp/a.json" --out "$tmp/t8.$n" $opt
+    check "$opt exits 2" test "$rc" -eq 2
+    check "$opt is named" grep -q -- "${opt% *}: " <<<"$err"
+    check "$opt writes nothing" test ! -e "$tmp/t8.$n"
+done
+check "--budget's bound is said" grep -q -- "--budget: 10001 evaluations; give 1 to 10000" <<<"$err"
+run tune "$tmp/a.json" --out "$tmp/t8" --knobs $'constant,caf\xe9'
+check "a non-UTF-8 --knobs exits 2" test "$rc" -eq 2
+check "a non-UTF-8 --knobs is named" grep -q -- "--knobs: .* is not valid UTF-8" <<<"$err"
 finish

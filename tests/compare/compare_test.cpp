@@ -6,12 +6,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <memory>
 
+#include "common/camera.h"
 #include "common/errors.h"
+#include "common/projection.h"
 #include "image_io/image_io.h"
 #include "pipeline/compare_files.h"
 #include "tests/test_support.h"
@@ -116,24 +119,95 @@ ValidateResult* Compare::validated_ = nullptr;
 std::string Compare::setup_error_;
 
 TEST_F(Compare, ThePerfectEngineScoresNothingWrong) {
+    std::uint64_t surface = 0;
+    for (float a : truth_->frame.A) surface += a != 0;
+    std::vector<std::uint64_t> scored_in_band;
     for (bool with_depth : {false, true}) {
         EngineFrame f = perfect_engine();
         if (with_depth) f.depth = linear_depth();
         const ValidateResult r = compare(*sc_, f, no_cache());
         EXPECT_EQ(r.report["coverage"]["source"], with_depth ? "depth" : "silhouette_band");
+        // Coverage is counted over the oracle's whole surface either way. The depth is the
+        // oracle's own: nothing but its background differs. The band leaves out the silhouettes,
+        // some but a few per cent at this size.
+        EXPECT_EQ(r.report["coverage"]["surface"].get<std::uint64_t>(), surface);
         const double mismatch = r.report["coverage"]["mismatch_fraction"];
-        // The depth is the oracle's own: nothing but its background differs. The band leaves out
-        // the silhouettes, a few per cent at this size.
-        if (with_depth)
+        if (with_depth) {
             EXPECT_EQ(mismatch, 0.0);
-        else
+        } else {
+            EXPECT_GT(mismatch, 0.0);
             EXPECT_LT(mismatch, 0.1);
-        EXPECT_GT(mismatch, with_depth ? -1.0 : 0.0);
+        }
         for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
             const auto& l = r.score.lights[li];
             EXPECT_GT(l.pixels.scored, 5000u) << "light " << li;
             EXPECT_EQ(l.wrong, 0u) << "light " << li << (with_depth ? " with depth" : "");
             EXPECT_EQ(l.evidence.source, metrics::Evidence::oracle_geometry);
+            // The depth leaves out nothing the band keeps: it scores more of every light.
+            if (!with_depth)
+                scored_in_band.push_back(l.pixels.scored);
+            else
+                EXPECT_GT(l.pixels.scored, scored_in_band.at(li)) << "light " << li;
+        }
+    }
+}
+
+// An engine whose depth buffer shows no surface (all zeros read as linear depth, or a buffer
+// read in the wrong space) scores nothing: refused, not a pass on no pixels.
+TEST_F(Compare, ADepthThatShowsTooLittleOfTheSurfaceIsRefused) {
+    auto refused = [&](EngineFrame f, const std::string& says) {
+        f.label = "engine.exr";
+        f.depth_label = "depth.exr";
+        try {
+            compare(*sc_, f, no_cache());
+            ADD_FAILURE() << says << ": scored";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+        }
+    };
+    EngineFrame zeros = perfect_engine();
+    zeros.depth = std::vector<float>(static_cast<std::size_t>(kW) * kH, 0.0f);
+    refused(zeros, "depth.exr: only 0.00% of the");
+    // Linear depth read as ndc: every value above 1 is "no surface".
+    EngineFrame wrong_space = perfect_engine();
+    wrong_space.depth = linear_depth();
+    wrong_space.depth_space = DepthSpace::ndc;
+    refused(wrong_space, "is --depth-space right");
+    // The band alone may not leave out most of the surface either.
+    CompareOptions wide = no_cache();
+    wide.silhouette_band_px = 16;
+    try {
+        compare(*sc_, perfect_engine(), wide);
+        ADD_FAILURE() << "a 16-pixel band at 192x108: scored";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("--silhouette-band 16"), std::string::npos) << e.what();
+    }
+}
+
+// glTF's perspective camera may have no zfar: the projection `penumbra camera` prints is then the
+// infinite-far limit, whose depth buffer holds w = 1 - n / z. compare reads it back.
+TEST_F(Compare, NdcDepthFromAnInfiniteFarProjectionIsScored) {
+    Scenario sc = *sc_;
+    sc.camera.zfar = std::numeric_limits<double>::infinity();
+    const std::vector<float> z = linear_depth();
+    const double n = sc.camera.znear;
+    for (DepthSpace space : {DepthSpace::ndc, DepthSpace::ndc_gl}) {
+        EngineFrame f = perfect_engine();
+        std::vector<float> d(z.size(), 1.0f);  // the cleared buffer: the far plane
+        for (std::size_t i = 0; i < z.size(); ++i) {
+            if (z[i] <= 0.0f) continue;
+            const double w = 1.0 - n / z[i];
+            d[i] = static_cast<float>(space == DepthSpace::ndc ? w : 2.0 * w - 1.0);
+        }
+        f.depth = d;
+        f.depth_space = space;
+        const ValidateResult r = compare(sc, f, no_cache());
+        // Float depth buffers near 1 keep ~24 bits: within compare's 1% depth tolerance at the
+        // few metres of this scene.
+        EXPECT_LT(r.report["coverage"]["mismatch_fraction"].get<double>(), 0.001) << to_string(space);
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
+            EXPECT_GT(r.score.lights[li].pixels.scored, 5000u) << to_string(space) << " light " << li;
+            EXPECT_EQ(r.score.lights[li].wrong, 0u) << to_string(space) << " light " << li;
         }
     }
 }
@@ -206,6 +280,64 @@ TEST_F(Compare, BadFramesNameTheFileAndWhatWasExpected) {
     EngineFrame two = perfect_engine();
     two.V.pop_back();
     refused(two, "engine.exr: 2 shadow channels; expected one per light of scenario.json (3)");
+}
+
+// The matrices `penumbra camera` prints and the depth compare reads back are one projection: a
+// point at view depth z lands at window_depth(z) through each convention's P * V, and
+// view_depth inverts it, for finite and infinite far planes.
+TEST(CameraProjection, MatricesAndDepthAgreeInEveryConvention) {
+    Camera persp;
+    look_at_basis({1, 2, 3}, {0, 0, -4}, {0, 1, 0}, persp);
+    persp.znear = 0.5;
+    persp.zfar = 80;
+    Camera infinite = persp;
+    infinite.zfar = std::numeric_limits<double>::infinity();
+    Camera ortho = persp;
+    ortho.type = ProjectionType::orthographic;
+    ortho.znear = 0.0;
+    Bounds box;
+    box.grow({-5, -5, -5});
+    box.grow({5, 5, 5});
+    for (const Camera* cam : {&persp, &infinite, &ortho}) {
+        const CameraProjection p(*cam, 160, 90, box);
+        const Mat4 v = p.view();
+        for (ClipConvention conv : {ClipConvention::gl, ClipConvention::vulkan, ClipConvention::d3d}) {
+            const Mat4 m = p.matrix(conv);
+            for (double z : {0.7, 3.0, 40.0}) {
+                const glm::dvec3 x = cam->eye + z * cam->forward + 0.1 * cam->right;
+                double view[4], clip[4];
+                for (int r = 0; r < 4; ++r) view[r] = v[r][0] * x.x + v[r][1] * x.y + v[r][2] * x.z + v[r][3];
+                for (int r = 0; r < 4; ++r)
+                    clip[r] = m[r][0] * view[0] + m[r][1] * view[1] + m[r][2] * view[2] + m[r][3] * view[3];
+                const double ndc = clip[2] / clip[3];
+                const double w = conv == ClipConvention::gl ? 0.5 * (ndc + 1.0) : ndc;
+                EXPECT_NEAR(w, p.window_depth(z), 1e-12) << "z " << z;
+                EXPECT_NEAR(p.view_depth(p.window_depth(z)), z, 1e-9 * z) << "z " << z;
+                EXPECT_TRUE(std::isfinite(w)) << "z " << z;
+            }
+        }
+        EXPECT_TRUE(std::isnan(p.view_depth(1.0)));
+    }
+    // The infinite far plane is the limit of far ones.
+    Camera far = persp;
+    far.zfar = 1e12;
+    const Mat4 a = CameraProjection(infinite, 160, 90, box).matrix(ClipConvention::gl);
+    const Mat4 b = CameraProjection(far, 160, 90, box).matrix(ClipConvention::gl);
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) EXPECT_NEAR(a[r][c], b[r][c], 1e-9) << r << "," << c;
+    // An orthographic camera without zfar has no such limit: its far plane is the scene's far side.
+    Camera open_ortho = ortho;
+    open_ortho.zfar = std::numeric_limits<double>::infinity();
+    const CameraProjection po(open_ortho, 160, 90, box);
+    EXPECT_TRUE(po.zfar_from_scene());
+    double farthest = 0;
+    for (int k = 0; k < 8; ++k) {  // every corner of the box lies inside the depth range
+        const glm::dvec3 c(k & 1 ? 5 : -5, k & 2 ? 5 : -5, k & 4 ? 5 : -5);
+        const double w = po.window_depth(glm::dot(c - open_ortho.eye, open_ortho.forward));
+        EXPECT_LT(w, 1.0) << "corner " << k;
+        farthest = std::max(farthest, w);
+    }
+    EXPECT_GT(farthest, 0.98) << "the far plane hugs the scene, keeping depth precision";
 }
 
 TEST(CompareFiles, BadImageFilesNameTheFileAndWhatWasExpected) {
