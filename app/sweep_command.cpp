@@ -144,7 +144,10 @@ Subcommand add_merge_command(CLI::App& parent) {
     auto a = std::make_shared<Args>();
     CLI::App* cmd = parent.add_subcommand("merge", "Combine sweep shard folders into the files one run writes");
     cmd->add_option("DIR", a->dirs, "Shard output folders (each with sweep.json)")->required();
-    cmd->add_option("--out", a->out, "Output folder (created if missing)")->required()->check(output_folder_problem);
+    cmd->add_option("--out", a->out, "Output folder (created if missing)")
+        ->required()
+        ->check(kUserPath)
+        ->check(output_folder_problem);
     cmd->add_flag("-q,--quiet", a->quiet, "Print nothing but errors");
     return {cmd, [a] { return run_merge_command(a->dirs, a->out, a->quiet); }};
 }

@@ -1,9 +1,13 @@
 // sweep's cost and its table on a device without penumbra's command line (the GPU bundle):
 // one set-up (oracle from the cache or traced, the session) + N configurations, each a verdict
 // (a diagnostic render with lookups + the metrics) and --repeat timed renders of each kind.
-// Prints the set-up and per-configuration wall clock, then sweep.csv on stdout.
+// Prints the set-up and per-configuration wall clock, resident memory per configuration (a
+// session must not grow per render), then sweep.csv on stdout.
 // Run: build/bench/sweep_bench [--scenario FILE] [--terrain-grid N] [--device D] [--repeat 3]
 //      [--set KEY=V ...] --vary KEY=V1,V2,... [--vary ...]
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -12,6 +16,16 @@
 #include "bench/raster_bench_args.h"
 #include "common/scenario.h"
 #include "sweep/sweep.h"
+
+namespace {
+
+double peak_rss_mb() {
+    rusage u{};
+    ::getrusage(RUSAGE_SELF, &u);
+    return static_cast<double>(u.ru_maxrss) / 1024.0;  // kilobytes on Linux
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     using namespace penumbra;
@@ -63,8 +77,21 @@ int main(int argc, char** argv) {
         sweep::SweepOptions options;
         options.repeat = repeat;
         options.validate.oracle.progress = false;
-        options.progress = [](const sweep::Row& r, std::size_t done, std::size_t of) {
-            std::fprintf(stderr, "[%zu/%zu] %.2f s\n", done, of, r.seconds);
+        // Resident memory after each configuration: a session must not grow per render
+        // (issue #32). Read from /proc/self/statm (resident pages).
+        std::vector<double> rss_mb;
+        const double page_mb = static_cast<double>(::sysconf(_SC_PAGESIZE)) / (1 << 20);
+        auto resident_mb = [page_mb] {
+            long size = 0, resident = 0;
+            if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+                if (std::fscanf(f, "%ld %ld", &size, &resident) != 2) resident = 0;
+                std::fclose(f);
+            }
+            return static_cast<double>(resident) * page_mb;
+        };
+        options.progress = [&](const sweep::Row& r, std::size_t done, std::size_t of) {
+            rss_mb.push_back(resident_mb());
+            std::fprintf(stderr, "[%zu/%zu] %.2f s, resident %.1f MB\n", done, of, r.seconds, rss_mb.back());
         };
         const sweep::Table t =
             sweep::run_sweep(sc, scenario_file.string(), keys, configs, configs.size(), {}, options, ctx);
@@ -75,6 +102,15 @@ int main(int argc, char** argv) {
                     repeat);
         std::printf("# set-up %.2f s (oracle %s + session); %zu configurations %.2f s, %.3f s each\n", t.setup_s,
                     "from the cache or traced", t.rows.size(), sum, sum / static_cast<double>(t.rows.size()));
+        if (rss_mb.size() >= 20) {
+            // Growth per configuration from the 10th on (the first ones fill caches and pools).
+            const double per = (rss_mb.back() - rss_mb[9]) / static_cast<double>(rss_mb.size() - 10);
+            std::printf("# resident after configuration 10: %.1f MB, after %zu: %.1f MB (%.3f MB per configuration); "
+                        "peak %.1f MB\n",
+                        rss_mb[9], rss_mb.size(), rss_mb.back(), per, peak_rss_mb());
+        } else {
+            std::printf("# peak resident %.1f MB\n", peak_rss_mb());
+        }
         std::fputs(sweep::sweep_csv(t).c_str(), stdout);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "sweep_bench: %s\n", e.what());
