@@ -69,12 +69,14 @@ const std::vector<Preset>& presets() {
               {"filter", {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}}}},
         {"diligent-tutorial13",
          "reference 002: Diligent Engine Tutorial13. Light-space scene-extent fit, depth clip off (clamp), 2x2 "
-         "comparison filter; no bias",
+         "comparison filter; no bias. Not modelled: the tutorial draws only the cube into the map and only the "
+         "plane receives, so no surface both casts and receives; here every surface does (expect acne)",
          json{{"fit", "scene_bounds"}, {"cull", "back"}, {"filter", {{"type", "hw2x2"}}}}},
         {"camera-frustum-article",
          "reference 004: MonoGame-style article. Ortho box fitted to the camera frustum's corners in light space, "
          "float depth, constant bias subtracted in the shader (0.001: the article leaves the value to the reader), "
-         "single tap, 4096^2",
+         "single tap, 4096^2. Not modelled: the article's fit and shader bias are for a directional light; spot "
+         "and point lights get the same bias in their perspective depth, where it means other distances",
          json{{"resolution", 4096},
               {"depth_format", "d32"},
               {"fit", "camera_frustum"},
