@@ -68,6 +68,16 @@ ExpandedLights expand_area_lights(const std::vector<Light>& lights, const Techni
     return e;
 }
 
+Technique expand_light_overrides(const ExpandedLights& expanded, const Technique& technique) {
+    Technique t = technique;
+    if (technique.lights.empty()) return t;
+    t.lights.clear();
+    for (std::size_t i = 0; i < expanded.first.size(); ++i)
+        t.lights.insert(t.lights.end(), expanded.count[i],
+                        i < technique.lights.size() ? technique.lights[i] : LightOverride{});
+    return t;
+}
+
 RasterResult fold_area_lights(const ExpandedLights& expanded, RasterResult drawn) {
     if (expanded.lights.size() == expanded.first.size()) return drawn;  // nothing was expanded
     RasterResult out;

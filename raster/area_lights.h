@@ -20,6 +20,9 @@ struct ExpandedLights {
 };
 ExpandedLights expand_area_lights(const std::vector<Light>& lights, const Technique& technique);
 
+// `technique` with its per-light overrides repeated for each drawn light of their scenario light.
+Technique expand_light_overrides(const ExpandedLights& expanded, const Technique& technique);
+
 // The drawn lights' frames and statistics folded back to one per scenario light: V is the mean
 // of the drawn lights' V (each 0 where its point is behind the receiver's tangent plane); the
 // lookup channels are the first drawn light's.

@@ -17,7 +17,7 @@ class AveragedAreaFamily final : public TechniqueFamily {
         const ExpandedLights expanded = expand_area_lights({lights.begin(), lights.end()}, t);
         RasterResult drawn;
         drawn.stats = std::move(stats);
-        depth_maps_->render(t, expanded.lights, options, drawn.frame, drawn.stats);
+        depth_maps_->render(expand_light_overrides(expanded, t), expanded.lights, options, drawn.frame, drawn.stats);
         RasterResult folded = fold_area_lights(expanded, std::move(drawn));
         for (auto& img : folded.frame.lights) frame.lights.push_back(std::move(img));
         stats = std::move(folded.stats);
