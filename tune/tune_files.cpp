@@ -50,7 +50,9 @@ report::ScatterPlot pareto_plot(const TuneReport& r) {
             // An acne rate of 0 has no place on a log axis: it is drawn at the axis' low end.
             q.x = e.worst_acne;
             q.y = e.minimized;
-            q.on_front = std::find(sr->front.begin(), sr->front.end(), i) != sr->front.end();
+            // One front line joins points of one search: with several lights' searches on one plot
+            // a line would join different lights (each light's front is in pareto.csv).
+            q.on_front = res.per_light.empty() && std::find(sr->front.begin(), sr->front.end(), i) != sr->front.end();
             q.chosen = i == sr->chosen();
             q.start = sr->start && i == *sr->start;
             q.label = who + (q.start ? "start " : "") + describe(e.setting, r.options.knobs);
