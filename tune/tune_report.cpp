@@ -268,7 +268,8 @@ nlohmann::json tune_json(const TuneReport& r) {
            "per light: visible acne + peter-panning, and the mean perceptual error at re-validation"},
           {"max_acne", r.options.objective.max_acne},
           {"tie", r.options.objective.tie},
-          {"pooling", "mean over every scenario and light, weighted by scored pixels"},
+          {"pooling", per_light ? "per light: mean over every scenario, weighted by scored pixels"
+                                : "mean over every scenario and light, weighted by scored pixels"},
           {"ties_broken_towards", "the smaller bias"}}},
         {"knobs", knob_info},
         {"reference_footprint_m", res.footprint_m},
