@@ -28,11 +28,12 @@ struct TuneArgs {
     double max_acne = 0.001;
     int budget = 80;
     double precision = 0.05;
-    std::string minimize = "rates.peter_panning", then = "peter_panning_gap.p95";
+    std::string minimize = tune::kVisibleBiasError, then = "peter_panning_gap.p95";
     double tie = 0.01;
     VerdictArgs verdict;
     bool gate = false;
     bool visibility_only = false;
+    bool shared_bias = false;
 };
 
 int run_tune_command(const TuneArgs& a) {
@@ -44,11 +45,12 @@ int run_tune_command(const TuneArgs& a) {
     options.budget = a.budget;
     options.precision = a.precision;
     options.lookups = !a.visibility_only;
+    options.shared_bias = a.shared_bias;
     options.objective = {a.max_acne, a.minimize, a.then, a.tie};
     if (a.budget < 1 || a.budget > kMaxBudget)
         throw InputError(fmt::format("--budget: {} evaluations; give 1 to {}", a.budget, kMaxBudget));
     for (const auto& [option, path] : {std::pair{"--minimize", &a.minimize}, std::pair{"--then", &a.then}})
-        if (!metrics::find_metric(*path))
+        if (!metrics::find_metric(*path) && !(path == &a.minimize && *path == tune::kVisibleBiasError))
             throw InputError(fmt::format("{}: no metric \"{}\" (see docs/metrics.md for the paths)", option, *path));
     std::vector<Scenario> scenarios, holdout;
     for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
@@ -81,7 +83,9 @@ int run_tune_command(const TuneArgs& a) {
     options.progress = nullptr;
     report.options = options;
     const tune::TuneResult& res = report.result;
-    report.tuned = tune::revalidate(evaluator, start, res.recommended, options.validate);
+    // Never worse than the start, now with the perceptual error too: a light that re-validates
+    // worse keeps the start's bias (all of them with a shared bias).
+    report.tuned = tune::revalidate_never_worse(evaluator, start, report.result, options, report.scenario_files);
     report.holdout = tune::revalidate(holdout, start, res.recommended, options.validate, ctx);
     report.units = tune::api_units(report.tuned);
     report.seconds = seconds_since(t0);
@@ -90,8 +94,11 @@ int run_tune_command(const TuneArgs& a) {
     tune::write_tune_outputs(out, report);
     out.commit();
 
-    const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
+    const std::size_t chosen = res.chosen();
     const tune::Evaluation& e = res.evaluations[chosen];
+    // Per-light mode: no light without a feasible setting (the gate's question).
+    bool feasible = res.per_light.empty() ? res.winner.has_value() : true;
+    for (const auto& rl : res.per_light) feasible = feasible && rl.winner.has_value();
     if (!c.quiet) {
         fmt::print(
             "tune: {} evaluations in {:.1f} s ({:.3f} s each on average){}\n", res.evaluations.size(), report.seconds,
@@ -101,12 +108,23 @@ int run_tune_command(const TuneArgs& a) {
                 return s / static_cast<double>(res.evaluations.size());
             }(),
             res.budget_exhausted ? "; the budget ran out" : "");
-        fmt::print("{}: {}: worst acne {:.5f}, {} {:.5f}, {} {:.4g}\n",
-                   res.winner ? "recommended" : "no setting meets the acne limit; best reachable",
-                   tune::describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
-                   options.objective.then, e.then);
-        if (!report.units.empty()) {
-            const auto& u = report.units.front();
+        auto print_choice = [&](const tune::TuneResult& r, const std::string& who) {
+            const tune::Evaluation& x = r.evaluations[r.chosen()];
+            if (r.kept_start)
+                fmt::print("{}keeps the start: {}: the best setting found was worse than the start ({})\n", who,
+                           tune::describe(x.setting, options.knobs), r.why);
+            else
+                fmt::print("{}{}: {}: worst acne {:.5f}, {} {:.5f}, {} {:.4g}\n", who,
+                           r.winner ? "recommended" : "no setting meets the acne limit; best reachable",
+                           tune::describe(x.setting, options.knobs), x.worst_acne, options.objective.minimize,
+                           x.minimized, options.objective.then, x.then);
+        };
+        if (res.per_light.empty()) print_choice(res, "");
+        for (std::size_t li = 0; li < res.per_light.size(); ++li)
+            print_choice(res.per_light[li], fmt::format("light {}: ", li));
+        for (const auto& u : report.units) {
+            if (u.scenario != 0) continue;  // the bias is the same on every scenario
+            fmt::print("  light {}:\n", u.light);
             fmt::print(
                 "  Vulkan ({}): depthBiasConstantFactor {:.4g}, depthBiasSlopeFactor {:.4g}, depthBiasClamp {:.4g}\n"
                 "  D3D12: DepthBias {} (D24) / {} (D32), SlopeScaledDepthBias {:.4g}, DepthBiasClamp {:.4g}\n"
@@ -116,13 +134,23 @@ int run_tune_command(const TuneArgs& a) {
                 u.d3d12_depth_bias_d24, u.d3d12_depth_bias_d32, u.d3d12_slope, u.d3d12_clamp, u.gl_factor, u.gl_units,
                 u.constant_m, u.world_m, u.normal_offset_texels, u.normal_offset_m);
         }
+        for (const tune::Revalidation& rv : report.tuned)
+            for (std::size_t li = 0; li < rv.after.score.lights.size(); ++li) {
+                const auto vb = tune::visible_bias_error(rv.before.score.lights[li]);
+                const auto va = tune::visible_bias_error(rv.after.score.lights[li]);
+                fmt::print(
+                    "  {} light {}: visible acne + peter-panning {:.5f} -> {:.5f}, perceptual error {:.5f} -> "
+                    "{:.5f}\n",
+                    rv.scenario->label, li, vb.sum(), va.sum(), rv.before.score.lights[li].perceptual.mean,
+                    rv.after.score.lights[li].perceptual.mean);
+            }
         for (std::size_t k = 0; k < report.holdout.size(); ++k)
             for (const auto& l : report.holdout[k].after.score.lights)
                 fmt::print("  hold-out {}: acne {:.5f}, peter-panning {:.5f}\n", report.holdout_files[k],
                            l.rate(metrics::PixelClass::acne), l.rate(metrics::PixelClass::peter_panning));
         fmt::print("results: {}/technique.json, tune.json, pareto.csv, pareto.svg, report.html\n", path_text(c.out));
     }
-    if (a.gate && !res.winner) {
+    if (a.gate && !feasible) {
         fmt::print(stderr, "gate: FAILED: no setting keeps acne <= {}; the best reachable has {:.5f}\n",
                    options.objective.max_acne, e.worst_acne);
         return kExitGateFailed;
@@ -145,12 +173,16 @@ Subcommand add_tune_command(CLI::App& parent) {
                     "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane "
                     "(default constant,slope)")
         ->check(kUserName);
-    cmd->add_option("--max-acne", a->max_acne, "Acne rate allowed on every scenario and light (default 0.001)")
+    cmd->add_option("--max-acne", a->max_acne,
+                    "Cap on the acne rate of every scenario and light (visible acne under the default objective; "
+                    "default 0.001)")
         ->check(range(0.0, 1.0));
     cmd->add_option("--budget", a->budget, fmt::format("Most evaluations (default 80, at most {})", kMaxBudget));
     cmd->add_option("--precision", a->precision, "Bisection stops at this relative step (default 0.05)")
         ->check(range(1e-4, 1.0));
-    cmd->add_option("--minimize", a->minimize, "Metric minimised (default rates.peter_panning)")->check(kUserName);
+    cmd->add_option("--minimize", a->minimize,
+                    "Metric minimised (default visible_bias_error: visible acne + visible peter-panning)")
+        ->check(kUserName);
     cmd->add_option("--then", a->then, "Metric that breaks ties (default peter_panning_gap.p95)")->check(kUserName);
     cmd->add_option("--tie", a->tie, "Values of --minimize within this fraction of each other are ties (default 0.01)")
         ->check(range(0.0, 1.0));
@@ -158,7 +190,9 @@ Subcommand add_tune_command(CLI::App& parent) {
         ->check(kUserPath);
     cmd->add_flag("--visibility-only", a->visibility_only,
                   "Evaluate from V alone, classified from the oracle's geometry (faster on GPUs; docs/tune.md)");
-    cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne");
+    cmd->add_flag("--shared-bias", a->shared_bias,
+                  "One bias for every light (default: each light's own, in technique.json's \"lights\")");
+    cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne (on some light)");
     add_verdict_options(cmd, a->verdict);
     return {cmd, [a] { return run_tune_command(*a); }};
 }

@@ -75,6 +75,10 @@ int main(int argc, char** argv) {
             raster::parse_technique({{"preset", "d3d12-textbook"}, {"resolution", resolution}}, "bench");
         tune::TuneOptions options;
         options.validate.oracle.progress = false;
+        // The grid comparison of docs/tune.md ("Measured"): peter-panning under the acne cap, one
+        // bias for all lights, as it was measured.
+        options.objective.minimize = "rates.peter_panning";
+        options.shared_bias = true;
         const std::vector<Scenario> scenarios = {sc};
         std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, %zu light(s), %d^2 %s map; median of %d\n",
                     ctx.info().name.c_str(), ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height,

@@ -42,8 +42,19 @@ class AveragedAreaFamily final : public TechniqueFamily {
             const auto first = expanded.lights.begin() + static_cast<std::ptrdiff_t>(expanded.first[li]);
             into.insert(into.end(), first, first + static_cast<std::ptrdiff_t>(expanded.count[li]));
         }
+        // Each drawn light takes its scenario light's own bias (Technique::lights), in drawing order.
+        Technique once_t = t, sampled_t = t;
+        if (!t.lights.empty()) {
+            once_t.lights.clear();
+            sampled_t.lights.clear();
+            for (std::size_t li = 0; li < lights.size(); ++li) {
+                const LightOverride own = li < t.lights.size() ? t.lights[li] : LightOverride{};
+                auto& into = expanded.count[li] == 1 ? once_t.lights : sampled_t.lights;
+                into.insert(into.end(), expanded.count[li], own);
+            }
+        }
         RasterResult drawn_once;
-        punctual_->render(t, once, options, drawn_once.frame, drawn_once.stats);
+        punctual_->render(once_t, once, options, drawn_once.frame, drawn_once.stats);
         add_stats(stats, drawn_once.stats);
 
         // The samples' V summed per light in drawing order, then divided: the mean.
@@ -58,7 +69,11 @@ class AveragedAreaFamily final : public TechniqueFamily {
         for (std::size_t start = 0; start < sampled.size(); start += kSamplesPerPass) {
             const std::size_t end = std::min(sampled.size(), start + kSamplesPerPass);
             RasterResult part;
-            samples_->render(t, std::span(sampled).subspan(start, end - start), v_only, part.frame, part.stats);
+            Technique part_t = sampled_t;
+            if (!sampled_t.lights.empty())
+                part_t.lights.assign(sampled_t.lights.begin() + static_cast<std::ptrdiff_t>(start),
+                                     sampled_t.lights.begin() + static_cast<std::ptrdiff_t>(end));
+            samples_->render(part_t, std::span(sampled).subspan(start, end - start), v_only, part.frame, part.stats);
             add_stats(stats, part.stats);
             for (std::size_t j = 0; j < end - start; ++j) {
                 RasterLightImage& img = part.frame.lights[j];

@@ -536,7 +536,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
                                       t.shadow_distance);
         }
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
-        const gpu::LookupParams p = light_params(t, light, ls.projection);
+        const gpu::LookupParams p = light_params(t.for_light(li), light, ls.projection);
         std::memcpy(slots_[li].params.mapped, &p, sizeof(p));
         // Only cube maps are worth a mask pass; a single map is rendered whenever the light exists.
         const std::uint32_t initial = light.type == LightType::point ? 0u : 1u;
@@ -579,7 +579,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
         if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(3 * n));
         record_map_layouts(cmd);
-        for (std::size_t li = 0; li < n; ++li) record_light(cmd, t, lights[li], li, stats.lights[li], options);
+        for (std::size_t li = 0; li < n; ++li) record_light(cmd, t.for_light(li), lights[li], li, stats.lights[li], options);
     });
     stats.render_s += seconds_since(t1);
 

@@ -111,7 +111,59 @@ E pick(JsonObject& o, const std::string& key, E fallback, std::initializer_list<
     o.fail(key, fmt::format("\"{}\" is not one of {}", s, expected));
 }
 
+// Reads the bias keys an object gives (any subset), checked; unknown keys are errors.
+BiasOverride read_bias(JsonObject& b) {
+    BiasOverride o;
+    auto number = [&](const char* key, std::optional<double>& out, double lo, double hi, const char* what) {
+        if (b.has(key)) out = b.number_in(key, lo, hi, what);
+    };
+    number("constant", o.constant, -1e9, 1e9, "a depth-bias constant factor within +-1e9");
+    number("slope", o.slope, -1e4, 1e4, "a slope factor within +-1e4");
+    number("clamp", o.clamp, -1.0, 1.0, "a clamp within [-1, 1] depth units");
+    number("world", o.world, -1e6, 1e6, "metres within +-1e6");
+    number("normal_offset", o.normal_offset, -1e3, 1e3, "texel footprints within +-1000");
+    number("shader_depth", o.shader_depth, -1.0, 1.0, "depth units within [-1, 1]");
+    if (b.has("receiver_plane")) o.receiver_plane = b.boolean("receiver_plane", false);
+    b.finish();
+    return o;
+}
+
+void apply(const BiasOverride& o, Bias& b) {
+    if (o.constant) b.constant = *o.constant;
+    if (o.slope) b.slope = *o.slope;
+    if (o.clamp) b.clamp = *o.clamp;
+    if (o.world) b.world = *o.world;
+    if (o.normal_offset) b.normal_offset = *o.normal_offset;
+    if (o.shader_depth) b.shader_depth = *o.shader_depth;
+    if (o.receiver_plane) b.receiver_plane = *o.receiver_plane;
+}
+
+json bias_json(const BiasOverride& o) {
+    json j = json::object();
+    if (o.constant) j["constant"] = *o.constant;
+    if (o.slope) j["slope"] = *o.slope;
+    if (o.clamp) j["clamp"] = *o.clamp;
+    if (o.world) j["world"] = *o.world;
+    if (o.normal_offset) j["normal_offset"] = *o.normal_offset;
+    if (o.shader_depth) j["shader_depth"] = *o.shader_depth;
+    if (o.receiver_plane) j["receiver_plane"] = *o.receiver_plane;
+    return j;
+}
+
 }  // namespace
+
+Bias Technique::bias_for(std::size_t light) const {
+    Bias b = bias;
+    if (light < lights.size()) apply(lights[light].bias, b);
+    return b;
+}
+
+Technique Technique::for_light(std::size_t light) const {
+    Technique t = *this;
+    t.bias = bias_for(light);
+    t.lights.clear();
+    return t;
+}
 
 Technique parse_technique(const json& value, const std::string& label) {
     if (!value.is_object()) throw InputError(fmt::format("{}: expected an object", label));
@@ -146,14 +198,22 @@ Technique parse_technique(const json& value, const std::string& label) {
     t.cull = pick(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
     if (o.has("bias")) {
         JsonObject b = o.object("bias");
-        t.bias.constant = b.number_in("constant", 0.0, -1e9, 1e9, "a depth-bias constant factor within +-1e9");
-        t.bias.slope = b.number_in("slope", 0.0, -1e4, 1e4, "a slope factor within +-1e4");
-        t.bias.clamp = b.number_in("clamp", 0.0, -1.0, 1.0, "a clamp within [-1, 1] depth units");
-        t.bias.world = b.number_in("world", 0.0, -1e6, 1e6, "metres within +-1e6");
-        t.bias.normal_offset = b.number_in("normal_offset", 0.0, -1e3, 1e3, "texel footprints within +-1000");
-        t.bias.shader_depth = b.number_in("shader_depth", 0.0, -1.0, 1.0, "depth units within [-1, 1]");
-        t.bias.receiver_plane = b.boolean("receiver_plane", false);
-        b.finish();
+        apply(read_bias(b), t.bias);
+    }
+    if (o.has("lights")) {
+        const json& entries = o.get("lights");
+        if (!entries.is_array())
+            o.fail("lights", "expected an array of per-light overrides, e.g. [{\"bias\": {\"slope\": 2}}, {}]");
+        for (std::size_t i = 0; i < entries.size(); ++i) {
+            JsonObject l(entries[i], file, fmt::format("{}[{}]", o.path_of("lights"), i));
+            LightOverride lo;
+            if (l.has("bias")) {
+                JsonObject b = l.object("bias");
+                lo.bias = read_bias(b);
+            }
+            l.finish();
+            t.lights.push_back(lo);
+        }
     }
     if (o.has("filter")) {
         JsonObject f = o.object("filter");
@@ -181,11 +241,16 @@ Technique parse_technique(const json& value, const std::string& label, const std
 }
 
 void check_technique_lights(const Technique& t, const std::vector<Light>& lights, const std::string& label) {
+    // `label` is "file: technique" or a file name, as in parse_technique.
+    const char* separator = label.find(": ") != std::string::npos ? "." : ": ";
+    if (t.lights.size() > lights.size())
+        throw InputError(
+            fmt::format("{}{}lights: {} entries, but the scenario has {} light{} (entry i overrides "
+                        "lights[i])",
+                        label, separator, t.lights.size(), lights.size(), lights.size() == 1 ? "" : "s"));
     if (t.filter.type != FilterType::pcss) return;
     for (const Light& l : lights) {
         if (is_area_light(l.type)) continue;
-        // `label` is "file: technique" or a file name, as in parse_technique.
-        const char* separator = label.find(": ") != std::string::npos ? "." : ": ";
         // Name the preset when it, not the user's own keys, chose PCSS.
         std::string from_preset;
         for (const auto& p : presets())
@@ -222,6 +287,12 @@ json Technique::to_json() const {
              {"max_radius_texels", filter.max_radius_texels}}},
            {"area_samples", area_samples},
            {"precision", to_string(precision)}};
+    if (!lights.empty()) {
+        json entries = json::array();
+        for (const LightOverride& l : lights)
+            entries.push_back(l.bias == BiasOverride{} ? json::object() : json{{"bias", bias_json(l.bias)}});
+        j["lights"] = entries;
+    }
     if (!preset.empty()) j["preset"] = preset;
     return j;
 }

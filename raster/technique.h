@@ -3,6 +3,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,19 @@ struct Bias {
     bool receiver_plane = false;
 };
 
+// The bias keys one light gives over the technique's `bias` (engines set bias per light).
+struct BiasOverride {
+    std::optional<double> constant, slope, clamp, world, normal_offset, shader_depth;
+    std::optional<bool> receiver_plane;
+    bool operator==(const BiasOverride&) const = default;
+};
+
+// `lights[i]` of a technique: what light i of the scenario does differently.
+struct LightOverride {
+    BiasOverride bias;
+    bool operator==(const LightOverride&) const = default;
+};
+
 struct Filter {
     FilterType type = FilterType::none;
     int size = 3;                // pcf: taps per side
@@ -55,8 +69,16 @@ struct Technique {
     // verdicts: "averaged hard shadows" (reference 001), the raster path's own slow reference.
     int area_samples = 0;
     Precision precision = Precision::camera_relative;
+    // Per-light overrides, indexed as the scenario's lights (may be shorter than them): their
+    // keys win over `bias` for that light.
+    std::vector<LightOverride> lights;
 
-    nlohmann::json to_json() const;  // every key, resolved
+    // The bias light `light` (the scenario's index) is drawn with: `bias` under its overrides.
+    Bias bias_for(std::size_t light) const;
+    // This technique as light `light` sees it: bias_for(light) as `bias`, no overrides.
+    Technique for_light(std::size_t light) const;
+
+    nlohmann::json to_json() const;  // every key, resolved (`lights` only when it has entries)
 };
 
 struct Preset {
@@ -70,7 +92,8 @@ const std::vector<Preset>& presets();
 // A "preset" key supplies defaults for the keys the object leaves out.
 Technique parse_technique(const nlohmann::json& value, const std::string& label);
 
-// Refuses a technique that some light cannot be drawn with (InputError, exit 2). PCSS sizes
+// Refuses a technique that some light cannot be drawn with (InputError, exit 2): more `lights`
+// entries than the scenario has lights, or PCSS without a light size. PCSS sizes
 // its penumbra by the light's size: directional, spot and point lights have none, so it would
 // divide 0 by 0 (directional) or shrink to a one-texel filter (spot, point) and silently draw
 // a hard shadow (docs/raster.md, "Technique"). `label` names the technique as for

@@ -206,6 +206,11 @@ std::string plot_svg(const ScatterPlot& p, int width, int height) {
             s += fmt::format(R"(<circle cx="{:.1f}" cy="{:.1f}" r="10" fill="none" stroke="{}" stroke-width="2"/>)"
                              "\n",
                              f.px(q.x), f.py(q.y), hex(kChosen));
+        if (q.start)
+            s += fmt::format(R"(<rect x="{:.1f}" y="{:.1f}" width="16" height="16" fill="none" stroke="{}" )"
+                             R"(stroke-width="1.5"/>)"
+                             "\n",
+                             f.px(q.x) - 8, f.py(q.y) - 8, hex(kInk));
         if (!std::isnan(label[i]))
             s += fmt::format(R"(<text x="{:.1f}" y="{:.1f}" font-size="10" fill="{}">{}</text>)"
                              "\n",
@@ -217,6 +222,8 @@ std::string plot_svg(const ScatterPlot& p, int width, int height) {
     if (any_chosen)
         s += fmt::format(R"(<text x="{}" y="{}" fill="{}">◉ chosen</text>)", width - kRight - 160, kTop - 8,
                          hex(kChosen));
+    if (std::any_of(p.points.begin(), p.points.end(), [](const auto& q) { return q.start; }))
+        s += fmt::format(R"(<text x="{}" y="{}" fill="{}">□ start</text>)", width - kRight - 350, kTop - 8, hex(kInk));
     s += fmt::format(R"(<text x="{}" y="{}" fill="{}">● other</text>)"
                      "\n</svg>\n",
                      width - kRight - 80, kTop - 8, hex(kOther));
@@ -264,6 +271,8 @@ std::vector<float> plot_rgb(const ScatterPlot& p, int width, int height) {
         if (q.chosen) c.dot(f.px(q.x), f.py(q.y), 9, col, true);
         if (!std::isnan(label[i])) c.text(label[i], f.py(q.y) - 12, q.label, col);
     }
+    for (const PlotPoint& q : p.points)
+        if (q.start) c.dot(f.px(q.x), f.py(q.y), 7, kInk, true);
     const int lx = width - kRight - 300;
     c.dot(lx, kTop - 14, 3.5, kFront);
     c.text(lx + 8, kTop - 17, "pareto front", kInk);

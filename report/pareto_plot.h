@@ -13,6 +13,7 @@ struct PlotPoint {
     double x = 0, y = 0;
     bool on_front = false;
     bool chosen = false;  // drawn larger, ringed and named in the legend (the winner)
+    bool start = false;   // framed by a square and named in the legend (where the search began)
     std::string label;    // printed next to front points; empty: none
 };
 

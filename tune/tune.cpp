@@ -60,6 +60,69 @@ const metrics::Metric& metric_named(const std::string& path, const char* option)
     return *m;
 }
 
+// The objective's value for one light: kVisibleBiasError, or a metric path.
+double objective_value(const metrics::Metric* m, const metrics::LightScore& ls, const VisibleBiasError& visible) {
+    return m ? metrics::value_of(*m, ls).value_or(0.0) : visible.sum();
+}
+
+// Pools an evaluation's light outcomes: worst acne, and the objective, its tie-break and the
+// visible error weighted by scored pixels.
+void pool(Evaluation& e, const Objective& objective) {
+    double pooled_min = 0, pooled_then = 0, vis_acne = 0, vis_pp = 0, scored_total = 0;
+    e.worst_acne = 0;
+    for (const LightOutcome& o : e.lights) {
+        const double w = static_cast<double>(o.scored);
+        e.worst_acne = std::max(e.worst_acne, o.acne);
+        pooled_min += o.minimized * w;
+        pooled_then += o.then * w;
+        vis_acne += o.visible.acne * w;
+        vis_pp += o.visible.peter_panning * w;
+        scored_total += w;
+    }
+    if (scored_total > 0) {
+        e.minimized = pooled_min / scored_total;
+        e.then = pooled_then / scored_total;
+        e.visible = {vis_acne / scored_total, vis_pp / scored_total};
+    }
+    e.feasible = e.worst_acne <= objective.max_acne;
+}
+
+// An evaluation of every light seen as light `light`'s alone (its outcomes on every scenario).
+Evaluation project(const Evaluation& all, std::size_t light, const Objective& objective) {
+    Evaluation e;
+    e.setting = all.setting;
+    e.seconds = all.seconds;
+    e.render_s = all.render_s;
+    e.count_s = all.count_s;
+    for (const LightOutcome& o : all.lights)
+        if (o.light == light) e.lights.push_back(o);
+    pool(e, objective);
+    return e;
+}
+
+// Writes the tuned knobs of `b` into a light's override.
+void set_override(raster::BiasOverride& o, const raster::Bias& b, std::span<const Knob> knobs) {
+    for (Knob k : knobs) switch (k) {
+            case Knob::constant: o.constant = b.constant; break;
+            case Knob::slope: o.slope = b.slope; break;
+            case Knob::clamp: o.clamp = b.clamp; break;
+            case Knob::world: o.world = b.world; break;
+            case Knob::normal_offset: o.normal_offset = b.normal_offset; break;
+            case Knob::receiver_plane: o.receiver_plane = b.receiver_plane; break;
+        }
+}
+
+void apply_to_bias(raster::Bias& b, std::span<const Knob> knobs, const Setting& s, double footprint_m) {
+    for (Knob k : knobs) switch (k) {
+            case Knob::constant: b.constant = s[k]; break;
+            case Knob::slope: b.slope = s[k]; break;
+            case Knob::clamp: b.clamp = s[k]; break;
+            case Knob::world: b.world = s[k] * footprint_m; break;
+            case Knob::normal_offset: b.normal_offset = s[k]; break;
+            case Knob::receiver_plane: b.receiver_plane = s.receiver_plane; break;
+        }
+}
+
 }  // namespace
 
 const char* to_string(Knob k) {
@@ -127,21 +190,80 @@ raster::Technique apply_setting(const raster::Technique& base, std::span<const K
                                 double footprint_m) {
     raster::Technique t = base;
     t.preset.clear();  // the tuned bias is no longer the preset's
-    for (Knob k : knobs) switch (k) {
-            case Knob::constant: t.bias.constant = s[k]; break;
-            case Knob::slope: t.bias.slope = s[k]; break;
-            case Knob::clamp: t.bias.clamp = s[k]; break;
-            case Knob::world: t.bias.world = s[k] * footprint_m; break;
-            case Knob::normal_offset: t.bias.normal_offset = s[k]; break;
-            case Knob::receiver_plane: t.bias.receiver_plane = s.receiver_plane; break;
-        }
+    apply_to_bias(t.bias, knobs, s, footprint_m);
+    // A light's own value of a tuned knob would win over the setting: the setting is for all.
+    for (raster::LightOverride& l : t.lights) {
+        raster::BiasOverride& o = l.bias;
+        for (Knob k : knobs) switch (k) {
+                case Knob::constant: o.constant.reset(); break;
+                case Knob::slope: o.slope.reset(); break;
+                case Knob::clamp: o.clamp.reset(); break;
+                case Knob::world: o.world.reset(); break;
+                case Knob::normal_offset: o.normal_offset.reset(); break;
+                case Knob::receiver_plane: o.receiver_plane.reset(); break;
+            }
+    }
     return t;
+}
+
+raster::Technique apply_settings(const raster::Technique& base, std::span<const Knob> knobs,
+                                 std::span<const Setting> per_light, double footprint_m) {
+    raster::Technique t = base;
+    t.preset.clear();
+    if (t.lights.size() < per_light.size()) t.lights.resize(per_light.size());
+    for (std::size_t li = 0; li < per_light.size(); ++li) {
+        raster::Bias b = base.bias_for(li);
+        apply_to_bias(b, knobs, per_light[li], footprint_m);
+        set_override(t.lights[li].bias, b, knobs);
+    }
+    return t;
+}
+
+Setting setting_of(const raster::Bias& b, std::span<const Knob> knobs, double footprint_m) {
+    Setting s;
+    for (Knob k : knobs) switch (k) {
+            case Knob::constant: s[k] = b.constant; break;
+            case Knob::slope: s[k] = b.slope; break;
+            case Knob::clamp: s[k] = b.clamp; break;
+            case Knob::world: s[k] = footprint_m > 0 ? b.world / footprint_m : 0.0; break;
+            case Knob::normal_offset: s[k] = b.normal_offset; break;
+            case Knob::receiver_plane: s.receiver_plane = b.receiver_plane; break;
+        }
+    return s;
+}
+
+VisibleBiasError visible_bias_error(const metrics::LightScore& ls) {
+    return {ls.rate_visible(metrics::PixelClass::acne), ls.rate_visible(metrics::PixelClass::peter_panning)};
+}
+
+bool Objective::grows_with_bias() const {
+    return minimize.starts_with("rates.peter_panning") || minimize.starts_with("counts.peter_panning") ||
+           minimize.starts_with("peter_panning_gap");
+}
+
+std::string worse_than(const Evaluation& after, const Evaluation& before) {
+    // Rates of the same scored pixels: a difference below one pixel in 10^9 is rounding.
+    auto worse = [](double a, double b) { return a > b + 1e-12; };
+    if (after.lights.empty() || before.lights.empty())
+        return worse(after.visible.sum(), before.visible.sum())
+                   ? fmt::format("visible acne + peter-panning {:.6f}, the start's {:.6f}", after.visible.sum(),
+                                 before.visible.sum())
+                   : "";
+    for (const LightOutcome& a : after.lights)
+        for (const LightOutcome& b : before.lights)
+            if (a.scenario == b.scenario && a.light == b.light && worse(a.visible.sum(), b.visible.sum()))
+                return fmt::format(
+                    "scenario {} light {}: visible acne + peter-panning {:.6f} (acne {:.6f}, peter-panning {:.6f}), "
+                    "the start's {:.6f} (acne {:.6f}, peter-panning {:.6f})",
+                    a.scenario, a.light, a.visible.sum(), a.visible.acne, a.visible.peter_panning, b.visible.sum(),
+                    b.visible.acne, b.visible.peter_panning);
+    return "";
 }
 
 Evaluator::Evaluator(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
                      const raster::VulkanContext& ctx)
     : base_(base), options_(options) {
-    metric_named(options.objective.minimize, "--minimize");
+    if (!options.objective.visible()) metric_named(options.objective.minimize, "--minimize");
     metric_named(options.objective.then, "--then");
     for (const Scenario& s : scenarios) {
         TuneScene scene;
@@ -167,16 +289,25 @@ Evaluator::Evaluator(std::span<const Scenario> scenarios, const raster::Techniqu
     }
 }
 
+std::size_t Evaluator::light_count() const {
+    std::size_t n = 0;
+    for (const TuneScene& s : scenes_) n = std::max(n, s.scenario->lights.size());
+    return n;
+}
+
 Evaluation Evaluator::evaluate(const Setting& s) {
+    return evaluate(apply_setting(base_, options_.knobs, s, footprint_m_), s);
+}
+
+Evaluation Evaluator::evaluate(const raster::Technique& technique, const Setting& s) {
     const auto t0 = SteadyClock::now();
-    const metrics::Metric& minimize = metric_named(options_.objective.minimize, "--minimize");
+    const metrics::Metric* minimize =
+        options_.objective.visible() ? nullptr : &metric_named(options_.objective.minimize, "--minimize");
     const metrics::Metric& then = metric_named(options_.objective.then, "--then");
     Evaluation e;
     e.setting = s;
-    const raster::Technique technique = apply_setting(base_, options_.knobs, s, footprint_m_);
     raster::RenderOptions ro;
     ro.lookups = options_.lookups;
-    double pooled_min = 0, pooled_then = 0, scored_total = 0;
     for (std::size_t si = 0; si < scenes_.size(); ++si) {
         TuneScene& scene = scenes_[si];
         const auto tr = SteadyClock::now();
@@ -197,22 +328,16 @@ Evaluation Evaluator::evaluate(const Setting& s) {
             o.scenario = si;
             o.light = li;
             o.scored = ls.pixels.scored;
-            o.acne = ls.rate(metrics::PixelClass::acne);
-            o.minimized = metrics::value_of(minimize, ls).value_or(0.0);
+            o.acne_rate = ls.rate(metrics::PixelClass::acne);
+            o.visible = visible_bias_error(ls);
+            o.acne = options_.objective.visible() ? o.visible.acne : o.acne_rate;
+            o.minimized = objective_value(minimize, ls, o.visible);
             o.then = metrics::value_of(then, ls).value_or(0.0);
-            e.worst_acne = std::max(e.worst_acne, o.acne);
-            pooled_min += o.minimized * static_cast<double>(o.scored);
-            pooled_then += o.then * static_cast<double>(o.scored);
-            scored_total += static_cast<double>(o.scored);
             e.lights.push_back(o);
         }
         e.count_s += seconds_since(tc);
     }
-    if (scored_total > 0) {
-        e.minimized = pooled_min / scored_total;
-        e.then = pooled_then / scored_total;
-    }
-    e.feasible = e.worst_acne <= options_.objective.max_acne;
+    pool(e, options_.objective);
     e.seconds = seconds_since(t0);
     return e;
 }
@@ -259,8 +384,16 @@ namespace {
 class Search {
   public:
     // Evaluations are handed out by address: reserving the budget keeps them in place.
-    Search(const EvaluateFn& ev, const TuneOptions& options, TuneResult& result) : ev_(ev), opt_(options), r_(result) {
+    // `start`, when given, is evaluation 0 (it counts towards the budget).
+    Search(const EvaluateFn& ev, const TuneOptions& options, TuneResult& result, const Evaluation* start)
+        : ev_(ev), opt_(options), r_(result) {
         r_.evaluations.reserve(static_cast<std::size_t>(options.budget));
+        if (start) {
+            r_.evaluations.push_back(*start);
+            r_.start = 0;
+            start_ = start->setting;
+            if (opt_.progress) opt_.progress(r_.evaluations.back(), 0);
+        }
     }
 
     bool out_of_budget() const { return static_cast<int>(r_.evaluations.size()) >= opt_.budget; }
@@ -333,14 +466,61 @@ class Search {
     }
 
     void run(bool receiver_plane) {
+        Setting zero;
+        zero.receiver_plane = receiver_plane;
+        const Evaluation* e0 = eval(zero);
+        if (!e0) return;
+        std::optional<Setting> at;
+        if (!e0->feasible)
+            at = boundary(zero);
+        else if (opt_.objective.grows_with_bias())
+            return;  // no bias needed: any bias only adds peter-panning
+        else
+            at = zero;
+        if (opt_.objective.grows_with_bias()) return;
+        // The start, when within the cap and better, is a better place to begin from.
+        if (start_ && start_->receiver_plane == receiver_plane) {
+            const Evaluation* es = seen(*start_);
+            if (es && es->feasible && (!at || is_better(*es, *eval(*at)))) at = start_;
+        }
+        if (at) inside(*at);
+    }
+
+    // 4. When the objective counts acne too (the default), the best point can lie inside the
+    // feasible set: more bias than the cap needs removes acne the cap allows, until the
+    // peter-panning it adds costs more. Each knob's log position moves either way while that
+    // helps; steps halve from one decade down to `precision`.
+    void inside(Setting at) {
+        const double fine = std::log10(1.0 + opt_.precision);
+        for (double step = 1.0; step >= fine && !out_of_budget();) {
+            bool moved = false;
+            for (Knob k : opt_.knobs) {
+                if (!is_continuous(k) || k == Knob::clamp || moved) continue;
+                const double pk = position(k, at[k]);
+                for (double dir : {1.0, -1.0}) {
+                    if (std::isinf(pk) && dir < 0) continue;  // off: nothing to give up
+                    Setting q = at;
+                    q[k] = value_at(k, std::isinf(pk) ? std::log10(knob_range(k).lo) : pk + dir * step);
+                    if (q[k] == at[k]) continue;
+                    const Evaluation* e = eval(q);
+                    if (!e) return;
+                    if (e->feasible && is_better(*e, *eval(at))) {
+                        at = q;
+                        moved = true;
+                        break;
+                    }
+                }
+            }
+            if (!moved) step /= 2;
+        }
+    }
+
+    // Steps 1-3 from `zero` (infeasible): the best point on the boundary of the feasible set.
+    std::optional<Setting> boundary(const Setting& zero) {
         // Brackets are first narrowed to a fifth of a decade (a factor 1.58), the winner's knobs
         // then to `precision`: most evaluations go to where the optimum is.
         const double fine = std::log10(1.0 + opt_.precision);
         const double coarse = std::max(fine, 0.2);
-        Setting zero;
-        zero.receiver_plane = receiver_plane;
-        const Evaluation* e0 = eval(zero);
-        if (!e0 || e0->feasible) return;  // no bias needed: any bias only adds peter-panning
 
         // 1. Each knob alone: its least feasible value (the boundary's intercept on its axis).
         std::array<double, kContinuousKnobs> intercept;
@@ -361,7 +541,7 @@ class Search {
             intercept[index_of(k)] = position(k, s[k]);
             consider(s);
         }
-        if (!best) return;
+        if (!best) return std::nullopt;
 
         // 2. With two knobs or more, trades along the boundary: give up a step of knob a (or
         // tighten the clamp) and take back only as much of knob b as feasibility needs. Steps
@@ -423,12 +603,14 @@ class Search {
                 const Evaluation* es = eval(s);
                 if (es && es->feasible && is_better(*es, *eval(at))) at = s;
             }
+        return at;
     }
 
   private:
     const EvaluateFn& ev_;
     const TuneOptions& opt_;
     TuneResult& r_;
+    std::optional<Setting> start_;
 };
 
 std::vector<bool> receiver_plane_choices(bool start, std::span<const Knob> knobs) {
@@ -438,19 +620,30 @@ std::vector<bool> receiver_plane_choices(bool start, std::span<const Knob> knobs
 
 void recommend(TuneResult& r, const Evaluator& ev, const TuneOptions& options) {
     r.footprint_m = ev.footprint_m();
-    const std::size_t chosen = r.winner ? *r.winner : r.best_reachable;
     if (!r.evaluations.empty())
-        r.recommended = apply_setting(ev.base(), options.knobs, r.evaluations[chosen].setting, ev.footprint_m());
+        r.recommended =
+            r.start && r.chosen() == *r.start
+                ? ev.base()
+                : apply_setting(ev.base(), options.knobs, r.evaluations[r.chosen()].setting, ev.footprint_m());
+}
+
+// Never worse than the start: when the best found is worse on some light, the start stays.
+void check_against_start(TuneResult& r) {
+    if (!r.start || r.chosen() == *r.start) return;
+    r.why = worse_than(r.evaluations[r.chosen()], r.evaluations[*r.start]);
+    r.kept_start = !r.why.empty();
 }
 
 }  // namespace
 
-TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane) {
+TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane,
+                  const Evaluation* start) {
     if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
     TuneResult r;
-    Search s(evaluate, options, r);
+    Search s(evaluate, options, r, start);
     for (bool rp : receiver_plane_choices(receiver_plane, options.knobs)) s.run(rp);
     rank(r, options.knobs, options.objective);
+    check_against_start(r);
     return r;
 }
 
@@ -492,16 +685,78 @@ TuneResult tune(std::span<const Scenario> scenarios, const raster::Technique& ba
 
 TuneResult tune(Evaluator& ev, const TuneOptions& options) {
     if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
-    TuneResult r = search([&](const Setting& s) { return ev.evaluate(s); }, options, ev.base().bias.receiver_plane);
-    recommend(r, ev, options);
+    const raster::Technique& base = ev.base();
+    // The start first: it fixes the reference footprint, and no light may end worse than it.
+    Evaluation start = ev.evaluate(base, Setting{});
+    const double footprint = ev.footprint_m();
+    start.setting = setting_of(base.bias, options.knobs, footprint);
+    if (options.shared_bias) {
+        TuneResult r =
+            search([&](const Setting& s) { return ev.evaluate(s); }, options, base.bias.receiver_plane, &start);
+        recommend(r, ev, options);
+        return r;
+    }
+
+    // Each light's own search. A light's outcome depends on its own bias alone, so a render with
+    // one setting for every light serves every light's search that asks for that setting: the
+    // renders are shared, each made once.
+    TuneResult r;
+    r.footprint_m = footprint;
+    r.evaluations.push_back(start);
+    r.start = 0;
+    if (options.progress) options.progress(start, 0);
+    auto render = [&](const Setting& s) {
+        for (std::size_t i = 1; i < r.evaluations.size(); ++i)
+            if (r.evaluations[i].setting == s) return r.evaluations[i];
+        r.evaluations.push_back(ev.evaluate(s));
+        if (options.progress) options.progress(r.evaluations.back(), r.evaluations.size() - 1);
+        return r.evaluations.back();
+    };
+    TuneOptions one = options;
+    one.progress = nullptr;
+    std::vector<Setting> chosen;
+    for (std::size_t li = 0; li < ev.light_count(); ++li) {
+        const raster::Bias own = base.bias_for(li);
+        Evaluation own_start = project(start, li, options.objective);
+        own_start.setting = setting_of(own, options.knobs, footprint);
+        TuneResult rl = search([&](const Setting& s) { return project(render(s), li, options.objective); }, one,
+                               own.receiver_plane, &own_start);
+        rl.footprint_m = footprint;
+        r.budget_exhausted = r.budget_exhausted || rl.budget_exhausted;
+        chosen.push_back(rl.evaluations[rl.chosen()].setting);
+        r.per_light.push_back(std::move(rl));
+    }
+    rank(r, options.knobs, options.objective);
+    r.recommended = apply_settings(base, options.knobs, chosen, footprint);
+    // A kept light gets the start's own bias exactly (not through the footprint's round trip).
+    for (std::size_t li = 0; li < r.per_light.size(); ++li)
+        if (r.per_light[li].chosen() == 0)
+            set_override(r.recommended.lights[li].bias, base.bias_for(li), options.knobs);
     return r;
+}
+
+void keep_start(TuneResult& r, const raster::Technique& start, const TuneOptions& options,
+                std::span<const std::pair<std::size_t, std::string>> worse) {
+    if (worse.empty()) return;
+    if (r.per_light.empty()) {
+        r.kept_start = true;
+        for (const auto& [li, why] : worse) r.why += (r.why.empty() ? "" : "; ") + why;
+        r.recommended = start;
+        return;
+    }
+    for (const auto& [li, why] : worse) {
+        if (li >= r.per_light.size()) continue;
+        r.per_light[li].kept_start = true;
+        r.per_light[li].why = why;
+        set_override(r.recommended.lights[li].bias, start.bias_for(li), options.knobs);
+    }
 }
 
 TuneResult grid_search(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
                        const raster::VulkanContext& ctx, int levels) {
     Evaluator ev(scenarios, base, options, ctx);
     TuneResult r = grid([&](const Setting& s) { return ev.evaluate(s); }, options, levels, base.bias.receiver_plane);
-    recommend(r, ev, options);
+    recommend(r, ev, options);  // no start: the grid is the benchmark's reference
     return r;
 }
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common/scenario.h"
+#include "metrics/classification.h"
 #include "pipeline/validate.h"
 #include "raster/raster.h"
 #include "raster/technique.h"
@@ -51,23 +52,47 @@ struct Setting {
 // "constant=1.55e+04 slope=3.05 receiver_plane=true": the tuned knobs' values, for people.
 std::string describe(const Setting& s, std::span<const Knob> knobs);
 
-// The technique `base` with the tuned knobs of `s` in place (the others are base's own).
+// The technique `base` with the tuned knobs of `s` in place for every light (the others are
+// base's own; per-light overrides of the tuned knobs are dropped).
 raster::Technique apply_setting(const raster::Technique& base, std::span<const Knob> knobs, const Setting& s,
                                 double footprint_m);
+// The technique `base` with light i's tuned knobs set to `per_light[i]` in its override.
+raster::Technique apply_settings(const raster::Technique& base, std::span<const Knob> knobs,
+                                 std::span<const Setting> per_light, double footprint_m);
+// The tuned knobs of a bias, as a setting (world in footprints of `footprint_m`).
+Setting setting_of(const raster::Bias& bias, std::span<const Knob> knobs, double footprint_m);
+
+// The default objective: visible acne plus visible peter-panning per scored pixel, the error the
+// bias controls (docs/tune.md, "Objective"). Under it the acne cap is on visible acne.
+inline constexpr const char* kVisibleBiasError = "visible_bias_error";
+// Visible acne and visible peter-panning of one light, per scored pixel: pixels of the class
+// whose |error| reaches the scoring's visible threshold (--visible-threshold, docs/metrics.md).
+struct VisibleBiasError {
+    double acne = 0, peter_panning = 0;
+    double sum() const { return acne + peter_panning; }
+};
+VisibleBiasError visible_bias_error(const metrics::LightScore& ls);
 
 // What is minimised, subject to acne <= max_acne on every scenario and light (docs/tune.md,
 // "Objective"). Metric paths are rows of metrics/metric_table.h; both are pooled over every
 // scenario and light, weighted by scored pixels.
 struct Objective {
-    double max_acne = 0.001;
-    std::string minimize = "rates.peter_panning";
+    double max_acne = 0.001;                   // a cap: the acne rate no light may exceed (visible acne by default)
+    std::string minimize = kVisibleBiasError;  // kVisibleBiasError or a metric path
     std::string then = "peter_panning_gap.p95";
     double tie = 0.01;  // relative: values of `minimize` within 1% are a tie; then `then`, then the smaller bias
+    bool visible() const { return minimize == kVisibleBiasError; }
+    // Whether the objective only grows with the bias (peter-panning metrics): then the least
+    // feasible bias is the optimum and the search need not look past it.
+    bool grows_with_bias() const;
 };
 
 struct LightOutcome {
     std::size_t scenario = 0, light = 0;
-    double acne = 0, minimized = 0, then = 0;
+    double acne = 0;  // what the cap applies to: visible acne under kVisibleBiasError, else rates.acne
+    double minimized = 0, then = 0;
+    double acne_rate = 0;  // rates.acne
+    VisibleBiasError visible;
     std::uint64_t scored = 0;
 };
 
@@ -77,6 +102,7 @@ struct Evaluation {
     double worst_acne = 0;  // the largest acne rate over scenarios and lights
     double minimized = 0, then = 0;
     bool feasible = false;
+    VisibleBiasError visible;          // pooled over scenarios and lights, weighted by scored pixels
     double seconds = 0;                // wall clock: renders and counts
     double render_s = 0, count_s = 0;  // of which the renders (with read-back) and the counts
 };
@@ -91,6 +117,9 @@ struct TuneOptions {
     // footprint from one lookup render at the start (false: several times faster on GPUs, where
     // reading back the lookups is most of a render).
     bool lookups = true;
+    // One bias for every light (true), or each light's own (false: searched light by light,
+    // each light's outcome depending only on its own bias).
+    bool shared_bias = false;
     ValidateOptions validate;  // the oracle's settings and cache, tau, device
     // Called after each evaluation with its index (progress on a terminal).
     std::function<void(const Evaluation&, std::size_t)> progress;
@@ -111,6 +140,10 @@ class Evaluator {
     Evaluator(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
               const raster::VulkanContext& ctx);
     Evaluation evaluate(const Setting& s);
+    // The same for a whole technique (the start), labelled with `s`.
+    Evaluation evaluate(const raster::Technique& technique, const Setting& s);
+    // The most lights any scenario has.
+    std::size_t light_count() const;
     double footprint_m() const { return footprint_m_; }  // the reference footprint (world knob's unit)
     const raster::Technique& base() const { return base_; }
     std::span<const Knob> knobs() const { return options_.knobs; }
@@ -133,10 +166,30 @@ struct TuneResult {
     std::optional<std::size_t> winner;    // the best feasible evaluation; none when nothing was feasible
     std::size_t best_reachable = 0;       // the least worst_acne (when nothing was feasible)
     std::vector<std::size_t> front;       // Pareto front of (worst_acne, minimized), by worst_acne
-    raster::Technique recommended;        // the winner's technique (the best reachable's when none)
+    std::optional<std::size_t> start;     // the starting technique's evaluation, when it was given
+    // The start is kept (for this light, or for all with a shared bias): the search's best was
+    // worse than it (docs/tune.md, "Never worse than the start"); `why` says how.
+    bool kept_start = false;
+    std::string why;
+    raster::Technique recommended;  // the chosen technique
     double footprint_m = 0;
     bool budget_exhausted = false;
+    // Per-light mode: one search per light (light i: per_light[i], its evaluations that light's
+    // outcomes); `evaluations` are then the renders they shared.
+    std::vector<TuneResult> per_light;
+
+    // The chosen evaluation: the start when kept, else the winner, else the best reachable.
+    std::size_t chosen() const { return kept_start && start ? *start : winner ? *winner : best_reachable; }
 };
+
+// Keeps the start for the lights `worse` names (light index, why), found worse at re-validation:
+// their bias becomes the start's in r.recommended (all of it with a shared bias).
+void keep_start(TuneResult& r, const raster::Technique& start, const TuneOptions& options,
+                std::span<const std::pair<std::size_t, std::string>> worse);
+
+// Why `after` is worse than `before` on some light (visible acne + peter-panning, per light);
+// empty when it is not.
+std::string worse_than(const Evaluation& after, const Evaluation& before);
 
 // What the search evaluates a setting with: Evaluator::evaluate, or a function in the tests.
 using EvaluateFn = std::function<Evaluation(const Setting&)>;
@@ -144,7 +197,10 @@ using EvaluateFn = std::function<Evaluation(const Setting&)>;
 // The search (docs/tune.md, "Search") over `evaluate`, within options.budget. Deterministic: the
 // same inputs give the same evaluations in the same order. `receiver_plane` is the starting
 // technique's (used unless the knob is tuned). Fills evaluations, winner, front; not recommended.
-TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane = false);
+// `start`, when given, is the starting technique's evaluation: it goes first, and the result keeps
+// it (kept_start) when the best found is worse on some light.
+TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane = false,
+                  const Evaluation* start = nullptr);
 
 // The same objective over an exhaustive grid of `levels` values per knob (off, then levels - 1
 // log-spaced over the range), for the benchmark.

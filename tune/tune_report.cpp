@@ -26,6 +26,9 @@ nlohmann::json light_outcomes(const Evaluation& e) {
         a.push_back({{"scenario", o.scenario},
                      {"light", o.light},
                      {"acne", o.acne},
+                     {"acne_rate", o.acne_rate},
+                     {"visible_acne", o.visible.acne},
+                     {"visible_peter_panning", o.visible.peter_panning},
                      {"minimized", o.minimized},
                      {"then", o.then},
                      {"scored", o.scored}});
@@ -38,6 +41,8 @@ nlohmann::json evaluation_json(const Evaluation& e, std::span<const Knob> knobs)
             {"minimized", e.minimized},
             {"then", e.then},
             {"feasible", e.feasible},
+            {"visible_acne", e.visible.acne},
+            {"visible_peter_panning", e.visible.peter_panning},
             {"seconds", e.seconds},
             {"lights", light_outcomes(e)}};
 }
@@ -46,8 +51,17 @@ nlohmann::json revalidation_json(std::span<const Revalidation> rs, std::span<con
     nlohmann::json a = nlohmann::json::array();
     for (std::size_t k = 0; k < rs.size(); ++k) {
         nlohmann::json before = nlohmann::json::array(), after = nlohmann::json::array();
-        for (const auto& l : rs[k].before.score.lights) before.push_back(metrics::to_json(l));
-        for (const auto& l : rs[k].after.score.lights) after.push_back(metrics::to_json(l));
+        // Each light's score, with the visible error tune's rule compares.
+        auto with_visible = [](const ValidateResult& v, std::size_t li) {
+            nlohmann::json j = metrics::to_json(v.score.lights[li]);
+            const VisibleBiasError e = visible_bias_error(v.score.lights[li]);
+            j["visible_bias_error"] = {{"acne", e.acne}, {"peter_panning", e.peter_panning}, {"sum", e.sum()}};
+            return j;
+        };
+        for (std::size_t li = 0; li < rs[k].before.score.lights.size(); ++li)
+            before.push_back(with_visible(rs[k].before, li));
+        for (std::size_t li = 0; li < rs[k].after.score.lights.size(); ++li)
+            after.push_back(with_visible(rs[k].after, li));
         a.push_back(
             {{"scenario", k < files.size() ? files[k] : rs[k].scenario->label}, {"before", before}, {"after", after}});
     }
@@ -91,6 +105,41 @@ std::vector<Revalidation> revalidate(Evaluator& ev, const raster::Technique& bef
     return out;
 }
 
+std::vector<std::pair<std::size_t, std::string>> worse_lights(std::span<const Revalidation> rs,
+                                                              std::span<const std::string> files) {
+    std::vector<std::pair<std::size_t, std::string>> out;
+    auto named = [&](std::size_t li) {
+        return std::any_of(out.begin(), out.end(), [&](const auto& w) { return w.first == li; });
+    };
+    for (std::size_t k = 0; k < rs.size(); ++k) {
+        const metrics::FrameScore &b = rs[k].before.score, &a = rs[k].after.score;
+        const std::string name = k < files.size() ? files[k] : rs[k].scenario->label;
+        for (std::size_t li = 0; li < a.lights.size() && li < b.lights.size(); ++li) {
+            if (named(li)) continue;
+            const VisibleBiasError vb = visible_bias_error(b.lights[li]);
+            const VisibleBiasError va = visible_bias_error(a.lights[li]);
+            const double pb = b.lights[li].perceptual.mean, pa = a.lights[li].perceptual.mean;
+            if (va.sum() > vb.sum() + 1e-12)
+                out.emplace_back(li, fmt::format("{} light {}: visible acne + peter-panning {:.6f} against the "
+                                                 "start's {:.6f}",
+                                                 name, li, va.sum(), vb.sum()));
+            else if (pa > pb + 1e-12)
+                out.emplace_back(li, fmt::format("{} light {}: perceptual error mean {:.6f} against the start's {:.6f}",
+                                                 name, li, pa, pb));
+        }
+    }
+    return out;
+}
+
+std::vector<Revalidation> revalidate_never_worse(Evaluator& ev, const raster::Technique& start, TuneResult& r,
+                                                 const TuneOptions& options, std::span<const std::string> files) {
+    std::vector<Revalidation> rs = revalidate(ev, start, r.recommended, options.validate);
+    const auto worse = worse_lights(rs, files);
+    if (worse.empty()) return rs;
+    keep_start(r, start, options, worse);
+    return revalidate(ev, start, r.recommended, options.validate);
+}
+
 std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations) {
     std::vector<ApiBias> out;
     for (std::size_t si = 0; si < revalidations.size(); ++si) {
@@ -100,6 +149,7 @@ std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations) {
         for (std::size_t li = 0; li < f.lights.size(); ++li) {
             const auto& lk = f.lights[li].lookups;
             if (!lk) continue;
+            const raster::Bias bias = t.bias_for(li);
             ApiBias b;
             b.scenario = si;
             b.light = li;
@@ -109,17 +159,17 @@ std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations) {
             const double r_format = t.depth_format == raster::DepthFormat::d32
                                         ? float_r(b.median_depth)
                                         : raster::depth_resolution(t.depth_format);
-            b.depth_offset = t.bias.constant * r_format;
-            b.vk_constant = t.bias.constant;
-            b.vk_slope = b.d3d12_slope = b.gl_factor = t.bias.slope;
-            b.vk_clamp = b.d3d12_clamp = t.bias.clamp;
-            b.gl_units = t.bias.constant;
+            b.depth_offset = bias.constant * r_format;
+            b.vk_constant = bias.constant;
+            b.vk_slope = b.d3d12_slope = b.gl_factor = bias.slope;
+            b.vk_clamp = b.d3d12_clamp = bias.clamp;
+            b.gl_units = bias.constant;
             b.d3d12_depth_bias_d24 = std::llround(b.depth_offset / raster::depth_resolution(raster::DepthFormat::d24));
             b.d3d12_depth_bias_d32 = std::llround(b.depth_offset / float_r(b.median_depth));
             b.constant_m = b.depth_offset * b.depth_to_m;
-            b.world_m = t.bias.world;
-            b.normal_offset_texels = t.bias.normal_offset;
-            b.normal_offset_m = t.bias.normal_offset * b.footprint_m;
+            b.world_m = bias.world;
+            b.normal_offset_texels = bias.normal_offset;
+            b.normal_offset_m = bias.normal_offset * b.footprint_m;
             out.push_back(b);
         }
     }
@@ -176,7 +226,34 @@ nlohmann::json tune_json(const TuneReport& r) {
                            {"normal_offset_m", b.normal_offset_m}}}});
     nlohmann::json front = nlohmann::json::array();
     for (std::size_t i : res.front) front.push_back(i);
-    const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
+    const std::size_t chosen = res.chosen();
+    // Per-light mode: each light's search, its choice, and whether it kept the start.
+    nlohmann::json lights = nlohmann::json::array(), settings = nlohmann::json::array();
+    for (std::size_t li = 0; li < res.per_light.size(); ++li) {
+        const TuneResult& rl = res.per_light[li];
+        nlohmann::json evs = nlohmann::json::array(), fr = nlohmann::json::array();
+        for (const auto& e : rl.evaluations) evs.push_back(evaluation_json(e, knobs));
+        for (std::size_t i : rl.front) fr.push_back(i);
+        const nlohmann::json setting = to_json(rl.evaluations[rl.chosen()].setting, knobs);
+        settings.push_back(setting);
+        lights.push_back({{"light", li},
+                          {"chosen", rl.chosen()},
+                          {"setting", setting},
+                          {"feasible", rl.winner.has_value()},
+                          {"start_evaluation", 0},
+                          {"kept_start", rl.kept_start},
+                          {"why", rl.why},
+                          {"budget_exhausted", rl.budget_exhausted},
+                          {"front", fr},
+                          {"evaluations", evs}});
+    }
+    const bool per_light = !res.per_light.empty();
+    bool feasible = res.winner.has_value();
+    if (per_light) {
+        feasible = true;
+        for (const auto& rl : res.per_light) feasible = feasible && rl.winner.has_value();
+    }
+    const std::string capped = r.options.objective.visible() ? "visible acne rate" : "rates.acne";
     nlohmann::json j = {
         {"version", version_string()},
         {"scenarios", r.scenario_files},
@@ -184,20 +261,32 @@ nlohmann::json tune_json(const TuneReport& r) {
         {"objective",
          {{"minimize", r.options.objective.minimize},
           {"then", r.options.objective.then},
-          {"subject_to", fmt::format("rates.acne <= {} on every scenario and light", r.options.objective.max_acne)},
+          {"subject_to",
+           fmt::format("{} <= {} on every scenario and light (a cap)", capped, r.options.objective.max_acne)},
+          {"visible_threshold", r.options.validate.visible_threshold},
+          {"never_worse_than_start",
+           "per light: visible acne + peter-panning, and the mean perceptual error at re-validation"},
           {"max_acne", r.options.objective.max_acne},
           {"tie", r.options.objective.tie},
-          {"pooling", "mean over every scenario and light, weighted by scored pixels"},
+          {"pooling", per_light ? "per light: mean over every scenario, weighted by scored pixels"
+                                : "mean over every scenario and light, weighted by scored pixels"},
           {"ties_broken_towards", "the smaller bias"}}},
         {"knobs", knob_info},
         {"reference_footprint_m", res.footprint_m},
         {"budget", r.options.budget},
         {"budget_exhausted", res.budget_exhausted},
-        {"feasible", res.winner.has_value()},
+        {"feasible", feasible},
+        {"mode", per_light ? "per_light" : "shared_bias"},
         {"start", r.start.to_json()},
+        {"start_evaluation", res.start ? nlohmann::json(*res.start) : nlohmann::json()},
+        {"lights", lights},
         {"recommendation",
-         {{"evaluation", chosen},
-          {"setting", res.evaluations.empty() ? nlohmann::json() : to_json(res.evaluations[chosen].setting, knobs)},
+         {{"evaluation", per_light ? nlohmann::json() : nlohmann::json(chosen)},
+          {"kept_start", res.kept_start},
+          {"why", res.why},
+          {"setting", per_light                 ? settings
+                      : res.evaluations.empty() ? nlohmann::json()
+                                                : to_json(res.evaluations[chosen].setting, knobs)},
           {"technique", res.recommended.to_json()},
           {"units", units}}},
         {"evaluations", evaluations},
@@ -211,22 +300,25 @@ nlohmann::json tune_json(const TuneReport& r) {
 
 std::string pareto_csv(const TuneReport& r) {
     const auto knobs = std::span<const Knob>(r.options.knobs);
-    std::string s = "evaluation";
+    std::string s = "light,evaluation";
     for (Knob k : knobs) s += fmt::format(",{}", to_string(k));
-    s += fmt::format(",worst_acne,{},{},feasible,on_front,chosen\n", r.options.objective.minimize,
+    s += fmt::format(",worst_acne,{},{},feasible,on_front,chosen,start\n", r.options.objective.minimize,
                      r.options.objective.then);
-    const TuneResult& res = r.result;
-    const std::size_t chosen = res.winner ? *res.winner : res.best_reachable;
-    for (std::size_t i = 0; i < res.evaluations.size(); ++i) {
-        const Evaluation& e = res.evaluations[i];
-        s += fmt::format("{}", i);
-        for (Knob k : knobs)
-            s += k == Knob::receiver_plane ? fmt::format(",{}", e.setting.receiver_plane)
-                                           : fmt::format(",{:.9g}", e.setting[k]);
-        const bool front = std::find(res.front.begin(), res.front.end(), i) != res.front.end();
-        s += fmt::format(",{:.9g},{:.9g},{:.9g},{},{},{}\n", e.worst_acne, e.minimized, e.then, e.feasible, front,
-                         i == chosen);
-    }
+    // One row per evaluation of each light's search (per-light mode), or of the shared search.
+    auto rows = [&](const TuneResult& res, const std::string& light) {
+        for (std::size_t i = 0; i < res.evaluations.size(); ++i) {
+            const Evaluation& e = res.evaluations[i];
+            s += fmt::format("{},{}", light, i);
+            for (Knob k : knobs)
+                s += k == Knob::receiver_plane ? fmt::format(",{}", e.setting.receiver_plane)
+                                               : fmt::format(",{:.9g}", e.setting[k]);
+            const bool front = std::find(res.front.begin(), res.front.end(), i) != res.front.end();
+            s += fmt::format(",{:.9g},{:.9g},{:.9g},{},{},{},{}\n", e.worst_acne, e.minimized, e.then, e.feasible,
+                             front, i == res.chosen(), res.start && i == *res.start);
+        }
+    };
+    if (r.result.per_light.empty()) rows(r.result, "all");
+    for (std::size_t li = 0; li < r.result.per_light.size(); ++li) rows(r.result.per_light[li], std::to_string(li));
     return s;
 }
 

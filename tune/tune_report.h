@@ -42,6 +42,18 @@ std::vector<Revalidation> revalidate(std::span<const Scenario> scenarios, const 
 std::vector<Revalidation> revalidate(Evaluator& ev, const raster::Technique& before, const raster::Technique& after,
                                      const ValidateOptions& options);
 
+// The lights (scenario light index) on which `after` re-validated worse than `before` on some
+// scenario: more visible acne + peter-panning, or a larger mean perceptual error; with why,
+// naming the scenario by `files` (docs/tune.md, "Never worse than the start").
+std::vector<std::pair<std::size_t, std::string>> worse_lights(std::span<const Revalidation> rs,
+                                                              std::span<const std::string> files);
+
+// Re-validates r.recommended against `start` on the evaluator's scenes, keeping the start for
+// each light that came out worse (worse_lights, keep_start), then validating again: what tune
+// recommends is never worse than the start on any light. `files` name the scenarios.
+std::vector<Revalidation> revalidate_never_worse(Evaluator& ev, const raster::Technique& start, TuneResult& r,
+                                                 const TuneOptions& options, std::span<const std::string> files);
+
 // The bias of `r.after` in API units, per light (the lookups of its re-validation give the depths).
 std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations);
 

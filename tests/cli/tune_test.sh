@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # penumbra tune end to end: the files, technique.json accepted by validate, hold-out scenarios,
-# determinism across thread counts, --gate, and bad input (exit 2 naming it, nothing written).
+# determinism across thread counts, --gate, per-light bias and --shared-bias, "keeps the start",
+# and bad input (exit 2 naming it, nothing written).
 # Usage: tune_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
 fail_detail() { echo "(rc $rc: $(head -c 400 <<<"$err"))"; }
@@ -18,10 +19,20 @@ for f in technique.json tune.json pareto.csv pareto.svg pareto.png report.html; 
 done
 check "tune.json has every evaluation" python3 -c "
 import json, sys; j = json.load(open('$tmp/t1/tune.json'))
-assert 1 <= len(j['evaluations']) <= 14 and j['front'] and j['holdout'] and j['revalidation']
+assert j['mode'] == 'per_light' and len(j['lights']) == 3 and j['start_evaluation'] == 0
+assert all(1 <= len(l['evaluations']) <= 14 for l in j['lights'])
+assert j['evaluations'] and j['front'] and j['holdout'] and j['revalidation']
 assert j['recommendation']['units'][0]['d3d12']['DepthBias_D24'] >= 0"
-check "pareto.csv has a row per evaluation" test "$(($(wc -l <"$tmp/t1/pareto.csv") - 1))" -eq \
-    "$(python3 -c "import json; print(len(json.load(open('$tmp/t1/tune.json'))['evaluations']))")"
+check "technique.json carries each light's bias" python3 -c "
+import json; t = json.load(open('$tmp/t1/technique.json'))
+assert len(t['lights']) == 3 and all('constant' in l['bias'] and 'slope' in l['bias'] for l in t['lights'])"
+check "no light re-validates worse than the start" python3 -c "
+import json; j = json.load(open('$tmp/t1/tune.json'))
+for b, a in zip(j['revalidation'][0]['before'], j['revalidation'][0]['after']):
+    assert a['visible_bias_error']['sum'] <= b['visible_bias_error']['sum'] + 1e-12, (a, b)
+    assert a['perceptual']['mean'] <= b['perceptual']['mean'] + 1e-12, (a, b)"
+check "pareto.csv has a row per evaluation of each light" test "$(($(wc -l <"$tmp/t1/pareto.csv") - 1))" -eq \
+    "$(python3 -c "import json; print(sum(len(l['evaluations']) for l in json.load(open('$tmp/t1/tune.json'))['lights']))")"
 check "the terminal shows the hold-out result" grep -q "hold-out" "$tmp/stdout"
 check "report.html renders cleanly in Chromium" html_check "$tmp/t1/report.html"
 check "the plot renders in Chromium" timeout 120 chromium --headless --no-sandbox --disable-gpu \
@@ -40,8 +51,34 @@ a, b = (json.load(open(f'$tmp/{d}/tune.json'))['evaluations'] for d in ('t1', 't
 strip = lambda es: [{k: v for k, v in e.items() if k != 'seconds'} for e in es]
 assert strip(a) == strip(b)"
 
-# --gate: nothing feasible within one evaluation (no bias at all leaves acne): exit 1.
-run tune "$tmp/a.json" --out "$tmp/t3" --set resolution=512 --budget 1 --gate -q
+# --shared-bias: one bias for every light, as before per-light tuning.
+run tune "$tmp/a.json" --out "$tmp/ts" "${small[@]}" --shared-bias -q
+check "--shared-bias exits 0" test "$rc" -eq 0
+check "--shared-bias gives one bias, no per-light entries" python3 -c "
+import json; j = json.load(open('$tmp/ts/tune.json')); t = json.load(open('$tmp/ts/technique.json'))
+assert j['mode'] == 'shared_bias' and j['lights'] == [] and 'lights' not in t
+assert 1 <= len(j['evaluations']) <= 14 and j['start_evaluation'] == 0"
+
+# Never worse than the start: a cap of no visible acne at all costs more peter-panning than the
+# start's acne on some light, which then keeps the start, and says so.
+run tune "$tmp/a.json" --out "$tmp/tk" "${small[@]}" --preset d3d12-textbook --max-acne 0
+check "a kept start exits 0" test "$rc" -eq 0
+check "tune says it keeps the start" grep -q "keeps the start: " "$tmp/stdout"
+check "tune.json says which light kept the start, and why" python3 -c "
+import json; j = json.load(open('$tmp/tk/tune.json'))
+kept = [l for l in j['lights'] if l['kept_start']]
+assert kept and all(l['why'] for l in kept), j['lights']"
+check "a kept light's bias is the start's" python3 -c "
+import json; j = json.load(open('$tmp/tk/tune.json')); t = json.load(open('$tmp/tk/technique.json'))
+for l in j['lights']:
+    if l['kept_start']:
+        b = t['lights'][l['light']]['bias']
+        assert b['constant'] == 100000 and b['slope'] == 1.0, b"
+
+# --gate: nothing feasible within one evaluation (the start, with no bias at all, leaves acne):
+# exit 1.
+run tune "$tmp/a.json" --out "$tmp/t3" --set resolution=512 --set bias.constant=0 --set bias.slope=0 --budget 1 \
+    --gate -q
 check "--gate without a feasible setting exits 1" test "$rc" -eq 1
 check "--gate prints the best reachable" grep -q "best reachable" <<<"$err"
 

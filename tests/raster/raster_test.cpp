@@ -417,6 +417,48 @@ TEST_F(Raster, AnAveragedAreaLightHasNoOneSamplesLookups) {
     EXPECT_TRUE(centre.frame.lights[1].lookups.has_value()) << "drawn once from its centre";
 }
 
+// Per-light bias: a render with `lights: [{bias A}, {bias B}]` gives light 0 what the shared bias A
+// gives it and light 1 what the shared bias B gives it, bit for bit; area lights drawn as
+// several points carry their light's override to each.
+TEST_F(Raster, EachLightIsDrawnWithItsOwnBias) {
+    Scenario sc = perspective_scene();
+    sc.width = 240;
+    sc.height = 160;
+    sc.lights = {test::directional({-0.4, -1, -0.3}), test::point({0.5, 3, 1.5})};
+    const nlohmann::json a = {{"constant", 2}, {"slope", 0.2}, {"normal_offset", 0.5}};
+    const nlohmann::json b = {{"constant", 20000}, {"slope", 3.0}, {"world", 0.05}};
+    const nlohmann::json base = {{"resolution", 512}, {"depth_format", "d24"}};
+    auto with = [&](nlohmann::json extra) {
+        nlohmann::json t = base;
+        t.merge_patch(extra);
+        return render(sc, t);
+    };
+    const raster::RasterResult shared_a = with({{"bias", a}}), shared_b = with({{"bias", b}});
+    const raster::RasterResult own = with({{"lights", {{{"bias", a}}, {{"bias", b}}}}});
+    // The two biases differ where it shows: else the test could not tell them apart.
+    ASSERT_NE(shared_a.frame.lights[0].V, shared_b.frame.lights[0].V);
+    ASSERT_NE(shared_a.frame.lights[1].V, shared_b.frame.lights[1].V);
+    EXPECT_EQ(own.frame.lights[0].V, shared_a.frame.lights[0].V);
+    EXPECT_EQ(own.frame.lights[1].V, shared_b.frame.lights[1].V);
+    EXPECT_EQ(own.frame.lights[0].lookups->bias_m, shared_a.frame.lights[0].lookups->bias_m);
+    EXPECT_EQ(own.frame.lights[1].lookups->bias_m, shared_b.frame.lights[1].lookups->bias_m);
+    // A partial override keeps the shared keys it does not name.
+    const raster::RasterResult partial = with({{"bias", b}, {"lights", {{{"bias", a}}, nlohmann::json::object()}}});
+    EXPECT_EQ(partial.frame.lights[1].V, shared_b.frame.lights[1].V);
+
+    sc.lights = {test::rect({0, 5, 0}, {1, 0, 0}, {0, 0, 1}), test::directional({-0.4, -1, -0.3})};
+    const nlohmann::json averaged = {{"resolution", 512}, {"area_samples", 4}};
+    auto avg = [&](nlohmann::json extra) {
+        nlohmann::json t = averaged;
+        t.merge_patch(extra);
+        return render(sc, t);
+    };
+    const raster::RasterResult avg_a = avg({{"bias", a}}), avg_b = avg({{"bias", b}});
+    const raster::RasterResult avg_own = avg({{"lights", {{{"bias", b}}, {{"bias", a}}}}});
+    EXPECT_EQ(avg_own.frame.lights[0].V, avg_b.frame.lights[0].V);
+    EXPECT_EQ(avg_own.frame.lights[1].V, avg_a.frame.lights[1].V);
+}
+
 // Two frames are the same bit for bit: V and every lookup channel.
 void expect_identical(const RasterFrame& a, const RasterFrame& b, const std::string& what) {
     ASSERT_EQ(a.lights.size(), b.lights.size()) << what;

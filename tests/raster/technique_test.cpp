@@ -52,6 +52,42 @@ TEST(Technique, ErrorsNameTheKeyPath) {
                 HasSubstr("technique.shadow_distance"));
 }
 
+// Engines set bias per light: `lights[i].bias` overrides the technique's `bias` for light i,
+// key by key; bad entries are refused naming their path, and to_json gives the same technique.
+TEST(Technique, PerLightBiasOverridesTheSharedOneKeyByKey) {
+    const nlohmann::json j = {
+        {"preset", "d3d12-textbook"},
+        {"lights", {{{"bias", {{"constant", 5}, {"receiver_plane", true}}}}, nlohmann::json::object()}}};
+    const raster::Technique t = parse_technique(j, "s.json: technique");
+    ASSERT_EQ(t.lights.size(), 2u);
+    EXPECT_EQ(t.bias_for(0).constant, 5);
+    EXPECT_EQ(t.bias_for(0).slope, 1.0);  // the preset's, not overridden
+    EXPECT_TRUE(t.bias_for(0).receiver_plane);
+    EXPECT_EQ(t.bias_for(1).constant, 100000);  // {}: the shared bias
+    EXPECT_EQ(t.bias_for(7).constant, 100000);  // beyond the entries: the shared bias
+    EXPECT_EQ(t.for_light(0).bias.constant, 5);
+    EXPECT_TRUE(t.for_light(0).lights.empty());
+    const raster::Technique back = parse_technique(t.to_json(), "round trip");
+    EXPECT_EQ(back.lights, t.lights);
+    EXPECT_EQ(back.to_json(), t.to_json());
+    EXPECT_FALSE(parse_technique({{"resolution", 512}}, "t").to_json().contains("lights"));
+
+    EXPECT_THAT(error_of({{"lights", {{{"bias", {{"slop", 1}}}}}}}),
+                HasSubstr("s.json: technique.lights[0].bias.slop: unknown key"));
+    EXPECT_THAT(error_of({{"lights", {nlohmann::json::object(), {{"shadow", 1}}}}}),
+                HasSubstr("s.json: technique.lights[1].shadow: unknown key"));
+    EXPECT_THAT(error_of({{"lights", {{{"bias", {{"constant", "x"}}}}}}}),
+                HasSubstr("technique.lights[0].bias.constant"));
+    EXPECT_THAT(error_of({{"lights", 3}}), HasSubstr("technique.lights: expected an array"));
+    try {
+        parse_technique({{"lights", {nlohmann::json::object(), nlohmann::json::object()}}}, "s.json: technique",
+                        {test::directional({0, -1, 0})});
+        ADD_FAILURE() << "two entries for one light were accepted";
+    } catch (const InputError& e) {
+        EXPECT_THAT(e.what(), HasSubstr("s.json: technique.lights: 2 entries, but the scenario has 1 light"));
+    }
+}
+
 // PCSS sizes the penumbra by the light; a light without a size would divide 0 by 0
 // (directional) or shrink the filter to one texel (spot, point): refused, naming both.
 TEST(Technique, PcssIsRefusedForLightsWithoutASize) {
