@@ -39,7 +39,7 @@ set(penumbra_public_headers
   raster/vulkan_context.h
   report/report.h
   stress/cases.h stress/stress_files.h stress/suite.h
-  sweep/sweep.h sweep/sweep_files.h
+  sweep/sweep.h sweep/sweep_files.h sweep/sweep_table.h
   tune/tune.h tune/tune_files.h tune/tune_report.h)
 foreach(header ${penumbra_public_headers})
   get_filename_component(dir ${header} DIRECTORY)
