@@ -50,6 +50,9 @@ case $target in
 esac
 # -rss_limit_mb: a finding is any input that makes the loader use 4 GB (the targets cap scenes
 # at 1 GB); -timeout: any input that takes 20 s.
-cd "$build"  # with -jobs, libFuzzer writes fuzz-<n>.log into the current folder
+# With -jobs, libFuzzer writes fuzz-<n>.log into the current folder: one folder per target, so
+# that campaigns of two targets at once do not write into each other's log.
+mkdir -p "$build/logs/$target"
+cd "$build/logs/$target"
 exec "$bin" "$corpus" "$seeds" -dict="$root/tests/fuzz/$dict" -max_len=1048576 -timeout=20 -rss_limit_mb=4096 \
     -max_total_time="$seconds" -artifact_prefix="$build/artifacts/$target-" -print_final_stats=1 "$@"
