@@ -1,0 +1,61 @@
+// report.html's legend shows each class in the colour its pixels have in the class image
+// (issue 40): the page's CSS colour and the PNG's sRGB bytes come from two encoders (report's
+// css_colour and image_io's table), so a wrong transfer curve in either shows as a mismatch.
+#include <OpenImageIO/imageio.h>
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <array>
+#include <fstream>
+
+#include "common/output_files.h"
+#include "report/report.h"
+#include "report/report_files.h"
+#include "tests/metrics/synthetic_frames.h"
+#include "tests/test_support.h"
+
+namespace penumbra::report {
+namespace {
+
+TEST(ReportLegend, TheSwatchOfAClassIsThePngColourOfItsPixels) {
+    Scenario scenario;
+    scenario.width = 64;
+    scenario.height = 40;
+    scenario.lights.push_back(test::directional({0, -1, 0}));
+    test::Frames frames(64, 40);
+    frames.shadow(5, 0.01f);  // peter-panning (bias 0, footprint 0.01 m)
+    frames.rl().V[9] = 0.0f;  // acne: the receiver's own triangle in front
+    frames.lk().ref_depth[9] = 0.7f;
+    frames.lk().stored_depth[9] = 0.6999f;
+    const metrics::FrameScore score = frames.score();
+    ReportInputs in;
+    in.version = "test";
+    in.scenario = &scenario;
+    in.scenario_file = "scenes/legend.json";
+    in.technique = {{"resolution", 1024}};
+    in.scoring = {metrics::ScoringOptions{}};
+    in.timing = {{"oracle_s", 0.1}, {"raster_s", 0.2}, {"metrics_s", 0.01}, {"raster_ms", {{"shadow", 1.0}}}};
+    const nlohmann::json r = report_json(in, score);
+    test::TempDir dir;
+    {
+        OutputTransaction out(dir.path());
+        write_report(out, in, frames.o, frames.r, score, r);
+        out.commit();
+    }
+    std::ifstream html(dir / "report.html");
+    const std::string page((std::istreambuf_iterator<char>(html)), std::istreambuf_iterator<char>());
+    auto png = OIIO::ImageInput::open((dir / "light0.classes.png").string());
+    ASSERT_TRUE(png);
+    const int w = png->spec().width, h = png->spec().height;
+    ASSERT_EQ(png->spec().nchannels, 3);
+    std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
+    ASSERT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data()));
+    for (const auto& [pixel, name] : {std::pair{5, "peter_panning"}, std::pair{9, "acne"}}) {
+        const unsigned char* p = &pixels[3 * static_cast<std::size_t>(pixel)];
+        const std::string swatch = fmt::format("background:#{:02x}{:02x}{:02x}\"></span>{}<", p[0], p[1], p[2], name);
+        EXPECT_NE(page.find(swatch), std::string::npos) << swatch;
+    }
+}
+
+}  // namespace
+}  // namespace penumbra::report
