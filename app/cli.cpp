@@ -6,8 +6,8 @@
 
 #include "common/errors.h"
 #include "common/json_reader.h"
-#include "common/output_files.h"
 #include "common/memory_estimate.h"
+#include "common/output_files.h"
 #include "pipeline/validate.h"
 
 namespace penumbra::cli {

@@ -105,9 +105,10 @@ int main(int argc, char** argv) {
         if (rss_mb.size() >= 20) {
             // Growth per configuration from the 10th on (the first ones fill caches and pools).
             const double per = (rss_mb.back() - rss_mb[9]) / static_cast<double>(rss_mb.size() - 10);
-            std::printf("# resident after configuration 10: %.1f MB, after %zu: %.1f MB (%.3f MB per configuration); "
-                        "peak %.1f MB\n",
-                        rss_mb[9], rss_mb.size(), rss_mb.back(), per, peak_rss_mb());
+            std::printf(
+                "# resident after configuration 10: %.1f MB, after %zu: %.1f MB (%.3f MB per configuration); "
+                "peak %.1f MB\n",
+                rss_mb[9], rss_mb.size(), rss_mb.back(), per, peak_rss_mb());
         } else {
             std::printf("# peak resident %.1f MB\n", peak_rss_mb());
         }

@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <glm/vec3.hpp>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <initializer_list>
 #include <set>
 #include <string>
 #include <string_view>

@@ -117,7 +117,8 @@ MemoryInputs memory_inputs(const Scenario& scenario, bool oracle, const RasterMe
         }
         in.shadow_resolution = static_cast<std::uint64_t>(raster->resolution);
         in.shadow_texel_bytes = static_cast<std::uint64_t>(raster->depth_bytes) + 4;  // + the primitive id
-        const std::uint64_t all = mul(mul(mul(in.shadow_resolution, in.shadow_resolution), layers), in.shadow_texel_bytes);
+        const std::uint64_t all =
+            mul(mul(mul(in.shadow_resolution, in.shadow_resolution), layers), in.shadow_texel_bytes);
         in.shadow_layers = all <= kShadowMapBudget ? layers : (cube ? 6 : 1);
     }
     return in;

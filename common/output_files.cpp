@@ -1,15 +1,15 @@
 #include "common/output_files.h"
 
 #include <fcntl.h>
-#include <stdio.h>  // renameat2
 #include <fmt/format.h>
+#include <stdio.h>  // renameat2
 #include <unistd.h>
 #include <xxhash.h>
 
+#include <atomic>
+#include <cerrno>
 #include <climits>
 #include <csignal>
-#include <cerrno>
-#include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -251,8 +251,8 @@ void OutputTransaction::commit() {
     for (const Staged& f : files_) {
         const fs::file_status st = fs::symlink_status(f.final_path, ec);
         if (fs::exists(st) && fs::is_directory(st))
-            throw InputError(fmt::format("{}: is a folder; the output file of that name cannot replace it",
-                                         f.final_path.string()));
+            throw InputError(
+                fmt::format("{}: is a folder; the output file of that name cannot replace it", f.final_path.string()));
         if (!fs::is_regular_file(fs::symlink_status(f.tmp, ec)))
             throw EnvironmentError(fmt::format("{}: was not written", f.final_path.string()));
     }
@@ -284,8 +284,7 @@ void OutputTransaction::commit() {
         }
         if (ec) {
             undo();
-            throw EnvironmentError(
-                fmt::format("{}: cannot move into place: {}", f.final_path.string(), ec.message()));
+            throw EnvironmentError(fmt::format("{}: cannot move into place: {}", f.final_path.string(), ec.message()));
         }
         moved.push_back({&f, exchanged});
     }

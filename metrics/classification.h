@@ -128,9 +128,9 @@ struct LightScore {
 };
 
 struct LightErrorImage {
-    std::vector<float> error;       // raster V - oracle V where scored, 0 elsewhere
-    std::vector<std::uint8_t> cls;  // PixelClass per pixel
-    std::vector<float> perceptual;  // per-pixel perceptual error
+    std::vector<float> error;        // raster V - oracle V where scored, 0 elsewhere
+    std::vector<std::uint8_t> cls;   // PixelClass per pixel
+    std::vector<float> perceptual;   // per-pixel perceptual error
     float visible_threshold = 0.1f;  // the ScoringOptions' one: maps draw fainter errors paler
 };
 

@@ -235,11 +235,15 @@ std::optional<std::string> reading_line(const LightScore& s) {
         case PixelClass::peter_panning:
             cure = "shadows pulled off their casters by too much bias; lower it, or run `penumbra tune`";
             break;
-        case PixelClass::aliasing: cure = "along shadow edges; raise the resolution, fit the map tighter or filter"; break;
+        case PixelClass::aliasing:
+            cure = "along shadow edges; raise the resolution, fit the map tighter or filter";
+            break;
         case PixelClass::false_shadow:
             cure = "shadow where nothing occludes (outside the map, clipped or culled receivers); check the fit";
             break;
-        default: cure = "shadows missing (casters clipped, culled or outside the map); check the fit and culling"; break;
+        default:
+            cure = "shadows missing (casters clipped, culled or outside the map); check the fit and culling";
+            break;
     }
     return fmt::format("{} {:.1f}% of scored pixels (visible): {}", to_string(top), 100.0 * s.rate_visible(top), cure);
 }

@@ -174,9 +174,10 @@ std::optional<CachedOracle> OracleCache::load(const std::string& key, std::strin
         std::error_code ec;
         fs::remove(file, ec);
         if (damaged)
-            *damaged = fmt::format("{}: the cached oracle was damaged (its checksum or layout did not match) and was "
-                                   "removed; traced again",
-                                   file.string());
+            *damaged = fmt::format(
+                "{}: the cached oracle was damaged (its checksum or layout did not match) and was "
+                "removed; traced again",
+                file.string());
         return std::nullopt;
     }
     std::error_code ec;
@@ -207,8 +208,8 @@ std::optional<std::string> OracleCache::store(const std::string& key, const Orac
             // Paths in `info` may hold bytes that are not UTF-8 (a Latin-1 folder): replaced, not thrown.
             const std::string text = info.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
             const std::uint64_t info_len = text.size();
-            ok = std::fwrite(kMagic, 1, 8, f.get()) == 8 && write(key.data(), 32) && write(size, sizeof size) && write(&lights, 4) &&
-                 write(&frame.frame_origin, sizeof frame.frame_origin) && write(&info_len, 8) &&
+            ok = std::fwrite(kMagic, 1, 8, f.get()) == 8 && write(key.data(), 32) && write(size, sizeof size) &&
+                 write(&lights, 4) && write(&frame.frame_origin, sizeof frame.frame_origin) && write(&info_len, 8) &&
                  write(text.data(), text.size());
             for_each_channel(frame, [&](const auto& channel) {
                 ok = ok && channel.size() == frame.pixel_count() &&

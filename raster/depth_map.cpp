@@ -579,7 +579,8 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
         if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(3 * n));
         record_map_layouts(cmd);
-        for (std::size_t li = 0; li < n; ++li) record_light(cmd, t.for_light(li), lights[li], li, stats.lights[li], options);
+        for (std::size_t li = 0; li < n; ++li)
+            record_light(cmd, t.for_light(li), lights[li], li, stats.lights[li], options);
     });
     stats.render_s += seconds_since(t1);
 

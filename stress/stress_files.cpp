@@ -62,9 +62,8 @@ std::string html_page(const std::vector<StressCase>& cases, const SuiteResult& r
     }
     // "Suite passed" must say what passed: the oracle's invariance, and the technique's gate
     // only when one was given (the technique's rates are otherwise reported, not judged).
-    const bool gated = std::any_of(result.cases.begin(), result.cases.end(), [](const CaseResult& r) {
-        return r.gate && !r.gate->outcomes.empty();
-    });
+    const bool gated = std::any_of(result.cases.begin(), result.cases.end(),
+                                   [](const CaseResult& r) { return r.gate && !r.gate->outcomes.empty(); });
     const std::string verdict = fmt::format(
         "Suite {}: {}.", result.passed ? "passed" : "FAILED",
         gated ? "the oracle's invariance and the technique's gate"
@@ -101,9 +100,8 @@ version's outside uncertain pixels (docs/stress.md).</p>
                        result.cases.size(), stress.at("image").at("width").get<int>(),
                        stress.at("image").at("height").get<int>(), escape_markup(result.device), result.seconds,
                        result.cases.size() - stress.at("oracle_invariant_failures").get<std::size_t>(),
-                       result.cases.size(), escape_markup(verdict),
-                       escape_markup(stress.at("technique").dump()), highest, rows,
-                       escape_markup(stress.at("version").get<std::string>()));
+                       result.cases.size(), escape_markup(verdict), escape_markup(stress.at("technique").dump()),
+                       highest, rows, escape_markup(stress.at("version").get<std::string>()));
 }
 
 }  // namespace

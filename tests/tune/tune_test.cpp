@@ -7,11 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <string_view>
-
 #include <cmath>
 #include <cstdio>
 #include <glm/geometric.hpp>
+#include <string_view>
 
 #include "common/errors.h"
 #include "raster/raster.h"
