@@ -280,8 +280,8 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
     for (auto c : metrics::kErrorClasses)
         legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
     legend.push_back({0.5f * (class_colour(PixelClass::acne) + glm::vec3(0.36f)),
-                      fmt::format("paler: faint, |error| < {:g}", e.visible_threshold)});
-    legend.push_back({glm::vec3(0.36f), "correct (the truth's shading)"});
+                      fmt::format("paler: faint, error under {:g}", e.visible_threshold)});  // the font has no '|'
+    legend.push_back({glm::vec3(0.36f), "correct (shaded as the truth)"});
     for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
         legend.push_back({class_colour(c), std::string(to_string(c))});
     int h = 0;
