@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cstring>
 #include <glm/geometric.hpp>
 
@@ -132,25 +133,52 @@ TEST(GltfLoader, KeepsExternalFilesInsideTheScenesFolder) {
     EXPECT_EQ(load_gltf(g.write(dir, "sub/scene.gltf"), allow).triangle_count(), 2u);
 }
 
-// The malformed files of Debian's assimp-testmodels: each must be refused cleanly.
-class MalformedAssimpModel : public ::testing::TestWithParam<const char*> {};
+// The malformed files of Debian's assimp-testmodels: each must be refused cleanly, with the file,
+// the glTF element and the reason named (not the file alone).
+struct MalformedModel {
+    const char* file;    // under /usr/share/assimp/models/glTF2
+    const char* reason;  // the element and what is wrong with it
+};
 
-TEST_P(MalformedAssimpModel, IsRefusedWithTheFileNamed) {
-    auto file = test::assimp_model(GetParam());
+class MalformedAssimpModel : public ::testing::TestWithParam<MalformedModel> {};
+
+TEST_P(MalformedAssimpModel, IsRefusedWithTheFileTheElementAndTheReasonNamed) {
+    auto file = test::assimp_model(GetParam().file);
     // Not optional: scripts/install-deps.sh installs it, and a missing model must not pass.
     ASSERT_FALSE(file.empty()) << "assimp-testmodels is not installed (scripts/install-deps.sh installs it)";
     std::string err = error_of(file);
-    EXPECT_NE(err.find(file.filename().string() + ": "), std::string::npos) << "message: " << err;
+    EXPECT_NE(err.find(file.filename().string() + ": " + GetParam().reason), std::string::npos) << "message: " << err;
 }
 
-INSTANTIATE_TEST_SUITE_P(AssimpTestModels, MalformedAssimpModel,
-                         ::testing::Values("IndexOutOfRange/IndexOutOfRange.gltf",
-                                           "IndexOutOfRange/AllIndicesOutOfRange.gltf", "MissingBin/BoxTextured.gltf",
-                                           "BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb",
-                                           "RecursiveNodes/RecursiveNodes.gltf", "wrongTypes/badArray.gltf",
-                                           "wrongTypes/badNumber.gltf", "wrongTypes/badObject.gltf",
-                                           "wrongTypes/badString.gltf", "wrongTypes/badUint.gltf",
-                                           "wrongTypes/badExtension.gltf", "SchemaFailures/sceneWrongType.gltf"));
+INSTANTIATE_TEST_SUITE_P(
+    AssimpTestModels, MalformedAssimpModel,
+    ::testing::Values(
+        MalformedModel{"IndexOutOfRange/IndexOutOfRange.gltf",
+                       "meshes[0].primitives[0].indices: index 255 (element 0 of accessors[0]) is out of range"},
+        MalformedModel{"IndexOutOfRange/AllIndicesOutOfRange.gltf",
+                       "meshes[0].primitives[0].indices: index 65535 (element 0 of accessors[0]) is out of range"},
+        MalformedModel{"MissingBin/BoxTextured.gltf", "not a valid glTF 2.0 file: File not found : BoxTextured0.bin"},
+        MalformedModel{"BoxWithInfinites-glTF-Binary/BoxWithInfinites.glb",
+                       "accessors[2]: element 0 of meshes[0].primitives[0].attributes.POSITION is not finite"},
+        MalformedModel{"RecursiveNodes/RecursiveNodes.gltf", "nodes[0]: node hierarchy has a cycle"},
+        MalformedModel{"wrongTypes/badArray.gltf", "meshes[0].primitives: expected an array of objects"},
+        MalformedModel{"wrongTypes/badNumber.gltf", "materials[0].normalTexture.index: missing required property"},
+        MalformedModel{"wrongTypes/badObject.gltf", "materials[0].pbrMetallicRoughness: expected an object"},
+        MalformedModel{"wrongTypes/badString.gltf", "scenes[0].name: expected a string, got 42"},
+        MalformedModel{
+            "wrongTypes/badUint.gltf",
+            "materials[0].pbrMetallicRoughness.baseColorTexture.index: expected a non-negative integer, got -1"},
+        MalformedModel{
+            "wrongTypes/badExtension.gltf",
+            "materials[0].pbrMetallicRoughness.baseColorTexture.extensions.KHR_texture_transform: expected an "
+            "object"},
+        MalformedModel{"SchemaFailures/sceneWrongType.gltf", "scene: expected a non-negative integer, got \"hello\""}),
+    [](const auto& p) {
+        std::string name = std::filesystem::path(p.param.file).stem().string();
+        for (char& c : name)
+            if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+        return name;
+    });
 
 }  // namespace
 }  // namespace penumbra
