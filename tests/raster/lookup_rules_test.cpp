@@ -45,20 +45,22 @@ TEST(LookupTie, AReferenceEqualToTheStoredDepthIsLit) {
                                            {"filter", {{"type", "none"}}},
                                            {"bias", nlohmann::json::object()}},
                                           ctx);
-    std::size_t surface = 0, dark = 0, ties = 0;
+    std::size_t surface = 0, ties = 0, dark_ties = 0;
     const auto& light = r.frame.lights[0];
     for (std::size_t i = 0; i < r.frame.pixel_count(); ++i) {
         if (r.frame.prim[i] == kNoPrimitive) continue;
         ++surface;
-        dark += light.V[i] < 1.0f;
-        ties += light.lookups->ref_depth[i] == light.lookups->stored_depth[i];
+        if (light.lookups->ref_depth[i] != light.lookups->stored_depth[i]) continue;
+        ++ties;
+        dark_ties += light.V[i] < 1.0f;
     }
     ASSERT_GT(surface, 50000u);
     // The premise: most lookups are exact ties (else this scene would not test the compare).
     EXPECT_GT(static_cast<double>(ties), 0.3 * static_cast<double>(surface)) << ties << " of " << surface;
-    // Nothing occludes the plane and ties are lit: only pixels where rounding put the reference
-    // above the stored depth may be dark.
-    EXPECT_LT(static_cast<double>(dark), 0.02 * static_cast<double>(surface)) << dark << " of " << surface;
+    // Nothing occludes the plane, and a tie is lit, on every device. (Pixels where rounding put
+    // the reference above the stored depth may be dark: 3.6% of the plane on the H100, under 2%
+    // on lavapipe, so only the ties are asserted.)
+    EXPECT_EQ(dark_ties, 0u) << dark_ties << " of " << ties << " ties are dark";
     EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().size() << " validation messages";
 }
 
