@@ -17,10 +17,7 @@ std::string user_path_problem(const std::string& text) {
 }
 
 std::string user_name_problem(const std::string& text) {
-    if (text.empty()) return "empty; expected a value";
-    if (is_valid_utf8(text)) return {};
-    return fmt::format("\"{}\" is not valid UTF-8 (names go into reports and JSON, which must be)",
-                       escape_non_utf8(text));
+    return text.empty() ? "empty; expected a value" : utf8_problem(text);
 }
 
 // No description: the checks need none in --help.

@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <memory>
 
@@ -88,10 +87,8 @@ int run_stress_command(const StressArgs& a, const TechniqueArgs& t) {
         }
         fmt::print("stress: {} cases on {} in {:.1f} s; the oracle invariant holds on {} of them; {}\n", cases.size(),
                    result.device, result.seconds, holds,
-                   std::any_of(result.cases.begin(), result.cases.end(),
-                               [](const auto& r) { return r.gate && !r.gate->outcomes.empty(); })
-                       ? "the technique's gate is judged"
-                       : "no gate: the technique's verdicts are reported, not judged");
+                   result.technique_gated() ? "the technique's gate is judged"
+                                            : "no gate: the technique's verdicts are reported, not judged");
         fmt::print("results: {}/report.html, stress.json\n", a.out.string());
     }
     for (const auto& line : failures) fmt::print(stderr, "{}\n", line);

@@ -2,8 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <algorithm>
-
 #include "report/report.h"
 #include "report/report_files.h"
 
@@ -62,8 +60,7 @@ std::string html_page(const std::vector<StressCase>& cases, const SuiteResult& r
     }
     // "Suite passed" must say what passed: the oracle's invariance, and the technique's gate
     // only when one was given (the technique's rates are otherwise reported, not judged).
-    const bool gated = std::any_of(result.cases.begin(), result.cases.end(),
-                                   [](const CaseResult& r) { return r.gate && !r.gate->outcomes.empty(); });
+    const bool gated = result.technique_gated();
     const std::string verdict = fmt::format(
         "Suite {}: {}.", result.passed ? "passed" : "FAILED",
         gated ? "the oracle's invariance and the technique's gate"

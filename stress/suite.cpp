@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "common/errors.h"
@@ -99,6 +100,11 @@ StressGate parse_stress_gate(const nlohmann::json& value, const std::string& lab
     if (checks.empty() && !g.oracle_invariant)
         throw InputError(fmt::format("{}: the gate checks nothing (no checks and oracle_invariant false)", label));
     return g;
+}
+
+bool SuiteResult::technique_gated() const {
+    return std::any_of(cases.begin(), cases.end(),
+                       [](const CaseResult& r) { return r.gate && !r.gate->outcomes.empty(); });
 }
 
 bool CaseResult::passed(const StressGate& g) const {

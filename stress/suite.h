@@ -68,6 +68,8 @@ struct SuiteResult {
     double seconds = 0;
     std::string device;
     bool passed = true;  // every case's oracle invariant (when gated) and gate checks
+    // Whether a gate judged the technique on some case; else its verdicts are only reported.
+    bool technique_gated() const;
 };
 
 // Refuses, before any work, a technique some case cannot be drawn with (InputError).
