@@ -71,7 +71,10 @@ const std::vector<Preset>& presets() {
          "reference 002: Diligent Engine Tutorial13. Light-space scene-extent fit, depth clip off (clamp), 2x2 "
          "comparison filter; no bias. Not modelled: the tutorial draws only the cube into the map and only the "
          "plane receives, so no surface both casts and receives; here every surface does (expect acne)",
-         json{{"fit", "scene_bounds"}, {"cull", "back"}, {"filter", {{"type", "hw2x2"}}}}},
+         json{{"fit", "scene_bounds"},
+              {"cull", "back"},
+              {"bias", {{"constant", 0}, {"slope", 0}}},
+              {"filter", {{"type", "hw2x2"}}}}},
         {"camera-frustum-article",
          "reference 004: MonoGame-style article. Ortho box fitted to the camera frustum's corners in light space, "
          "float depth, constant bias subtracted in the shader (0.001: the article leaves the value to the reader), "
@@ -81,7 +84,7 @@ const std::vector<Preset>& presets() {
               {"depth_format", "d32"},
               {"fit", "camera_frustum"},
               {"cull", "none"},
-              {"bias", {{"shader_depth", 0.001}}},
+              {"bias", {{"constant", 0}, {"slope", 0}, {"shader_depth", 0.001}}},
               {"filter", {{"type", "none"}}}}},
         {"pcss",
          "reference 001 / Fernando 2005: percentage-closer soft shadows from the area light's centre, 16-tap "
@@ -93,6 +96,19 @@ const std::vector<Preset>& presets() {
          "reference 001: 16 hard shadow maps from points spread over the area light, averaged; slope bias 1.5, "
          "2048^2",
          json{{"bias", {{"slope", 1.5}, {"constant", 2}}}, {"filter", {{"type", "none"}}}, {"area_samples", 16}}},
+        {"no-bias",
+         "no bias of any kind, back-face culling, a single tap: penumbra's default before the biased default. "
+         "Every surface that both casts and receives shows acne; the setup to see a scene's raw acne",
+         json{{"cull", "back"},
+              {"bias",
+               {{"constant", 0},
+                {"slope", 0},
+                {"clamp", 0},
+                {"world", 0},
+                {"normal_offset", 0},
+                {"shader_depth", 0},
+                {"receiver_plane", false}}},
+              {"filter", {{"type", "none"}}}}},
     };
     return kPresets;
 }

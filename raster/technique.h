@@ -62,7 +62,11 @@ struct Technique {
     Fit fit = Fit::scene_bounds;
     double shadow_distance = 0;  // camera_frustum: metres of view depth the map covers (0: all)
     Cull cull = Cull::back;
-    Bias bias;
+    // The default bias is what a careful engine ships, not none (46-49% acne on every real model
+    // tried): Filament's polygon offset, LightManager::ShadowOptions polygonOffsetConstant 0.5
+    // and polygonOffsetSlope 2.0 (../shared/reference/engines.md, section 6). The `no-bias`
+    // preset keeps the bias-free setup.
+    Bias bias{.constant = 0.5, .slope = 2.0};
     Filter filter;
     // Area lights: 0 renders one map from the light's centre (filtered by `filter`, e.g. pcss);
     // N > 0 renders N maps from points spread over the light and averages their (filtered)

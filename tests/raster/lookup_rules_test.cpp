@@ -111,7 +111,8 @@ TEST(ShaderDepthBias, MovesTheReferenceTowardsTheLight) {
                                             {test::directional({std::cos(elev), -std::sin(elev), 0.3})}, 320, 240);
     auto dark_fraction = [&](double shader_depth) {
         const raster::RasterResult r = render(sc,
-                                              {{"resolution", 1024},
+                                              {{"preset", "no-bias"},
+                                               {"resolution", 1024},
                                                {"depth_format", "d32"},
                                                {"filter", {{"type", "none"}}},
                                                {"bias", {{"shader_depth", shader_depth}}}},
@@ -170,7 +171,8 @@ TEST(ReceiverPlane, ComparesThePlanesDepthAtTheTexelCentre) {
     const Scenario sc = test::make_scenario(b.build(), test::look_at({0, 8, 8}, {0, 0, 0}, 50),
                                             {test::directional({std::cos(e), -std::sin(e), 0.3})}, 320, 240);
     const raster::RasterResult r = render(sc,
-                                          {{"resolution", 1024},
+                                          {{"preset", "no-bias"},
+                                           {"resolution", 1024},
                                            {"depth_format", "d32"},
                                            {"filter", {{"type", "none"}}},
                                            {"bias", {{"receiver_plane", true}}}},

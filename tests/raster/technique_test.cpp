@@ -33,7 +33,19 @@ TEST(Technique, DefaultsAreDocumented) {
     EXPECT_EQ(t.fit, raster::Fit::scene_bounds);
     EXPECT_EQ(t.cull, raster::Cull::back);
     EXPECT_EQ(t.filter.type, raster::FilterType::none);
-    EXPECT_EQ(t.bias.constant, 0.0);
+    // What a careful engine ships (Filament's polygon offset), not no bias (issue 31).
+    EXPECT_EQ(t.bias.constant, 0.5);
+    EXPECT_EQ(t.bias.slope, 2.0);
+    EXPECT_EQ(t.bias.normal_offset, 0.0);
+    // The bias-free setup stays available as a preset: every bias key zero.
+    const raster::Bias none = parse_technique({{"preset", "no-bias"}}, "s.json: technique").bias;
+    EXPECT_EQ(none.constant, 0.0);
+    EXPECT_EQ(none.slope, 0.0);
+    EXPECT_EQ(none.clamp, 0.0);
+    EXPECT_EQ(none.world, 0.0);
+    EXPECT_EQ(none.normal_offset, 0.0);
+    EXPECT_EQ(none.shader_depth, 0.0);
+    EXPECT_FALSE(none.receiver_plane);
 }
 
 TEST(Technique, ErrorsNameTheKeyPath) {

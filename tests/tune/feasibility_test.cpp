@@ -19,8 +19,8 @@ TEST(TuneFeasibility, AcneExactlyAtTheLimitIsFeasible) {
     const std::vector<Scenario> sc = {test::make_scenario(b.build(), test::look_at({-1, 5, 3}, {-1, 0, 0}, 40),
                                                           {test::directional({std::sin(t), -std::cos(t), 0})}, 160,
                                                           120)};
-    const raster::Technique technique =
-        raster::parse_technique({{"resolution", 512}, {"depth_format", "d24"}, {"fit", "scene_bounds"}}, "test");
+    const raster::Technique technique = raster::parse_technique(
+        {{"preset", "no-bias"}, {"resolution", 512}, {"depth_format", "d24"}, {"fit", "scene_bounds"}}, "test");
     raster::VulkanContext ctx;
     TuneOptions o;
     o.knobs = {Knob::constant};

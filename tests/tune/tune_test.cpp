@@ -276,7 +276,9 @@ TuneOptions plane_options(std::vector<Knob> knobs) {
 }
 
 raster::Technique plane_technique(const char* format) {
-    return raster::parse_technique({{"resolution", 512}, {"depth_format", format}, {"fit", "scene_bounds"}}, "test");
+    // No bias to start from: the least bias found is the knob's alone.
+    return raster::parse_technique(
+        {{"preset", "no-bias"}, {"resolution", 512}, {"depth_format", format}, {"fit", "scene_bounds"}}, "test");
 }
 
 // A nearest lookup compares the receiver with its texel's centre, up to half a texel away along

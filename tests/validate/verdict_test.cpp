@@ -103,7 +103,7 @@ Scenario plane_and_box(double elevation_deg = 35) {
 }
 
 TEST_F(Verdict, ZeroBiasIsAcne) {
-    Judged j = judge(plane_and_box(35), {{"resolution", 1024}, {"depth_format", "d32"}});
+    Judged j = judge(plane_and_box(35), {{"preset", "no-bias"}, {"resolution", 1024}, {"depth_format", "d32"}});
     expect_dominant(j.score, PixelClass::acne);
     EXPECT_GT(j.score.rate(PixelClass::acne), 0.1);
 }
