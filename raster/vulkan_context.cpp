@@ -71,7 +71,32 @@ const char* kNoDevice =
     "no Vulkan device found; install a driver (on Debian: apt-get install mesa-vulkan-drivers for the "
     "lavapipe CPU device) or check VK_ICD_FILENAMES";
 
+// The Vulkan loader loads the driver's library on vkCreateInstance and unloads it with the
+// last instance. NVIDIA's driver (libnvidia-tls) takes static TLS on every load, which glibc
+// never gives back on unload: after 29 load/unload cycles in one process (raster_tests on an
+// H100, driver 580) the next load fails with "cannot allocate memory in static TLS block" and
+// vkCreateInstance finds no driver. One bare instance kept for the life of the process keeps
+// the driver loaded, so later instances reuse it. Failures here are left to the real instance.
+void keep_driver_loaded() {
+    struct Anchor {
+        VkInstance instance = VK_NULL_HANDLE;
+        Anchor() {
+            VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+            app.pApplicationName = "penumbra";
+            app.apiVersion = VK_API_VERSION_1_3;
+            VkInstanceCreateInfo ci{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+            ci.pApplicationInfo = &app;
+            if (vkCreateInstance(&ci, nullptr, &instance) != VK_SUCCESS) instance = VK_NULL_HANDLE;
+        }
+        ~Anchor() {
+            if (instance) vkDestroyInstance(instance, nullptr);
+        }
+    };
+    static const Anchor anchor;
+}
+
 VkInstance make_instance(bool validation, bool with_messenger) {
+    keep_driver_loaded();
     VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
     app.pApplicationName = "penumbra";
     app.apiVersion = VK_API_VERSION_1_3;
@@ -99,7 +124,11 @@ VkInstance make_instance(bool validation, bool with_messenger) {
     }
     VkInstance instance = VK_NULL_HANDLE;
     VkResult r = vkCreateInstance(&ci, nullptr, &instance);
-    if (r == VK_ERROR_INCOMPATIBLE_DRIVER) throw EnvironmentError(kNoDevice);
+    if (r == VK_ERROR_INCOMPATIBLE_DRIVER)
+        throw EnvironmentError(
+            fmt::format("{} (the loader found no driver it could load; VK_LOADER_DEBUG=error,driver "
+                        "says why)",
+                        kNoDevice));
     VK_CHECK(r);
     return instance;
 }

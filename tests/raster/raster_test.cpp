@@ -622,6 +622,21 @@ TEST_F(Raster, WorldFloat32PrecisionDiffersFarFromTheOriginAndNotAtIt) {
     EXPECT_GT(differing_pixels(far_rel, far_world), surface / 20);
 }
 
+// Contexts one after another each find their device: the driver stays loaded between them.
+// NVIDIA's takes static TLS on every load that glibc never returns, and the 30th context of a
+// process found no driver (raster/vulkan_context.cpp, keep_driver_loaded).
+TEST(VulkanContexts, FortyInARowEachFindTheirDevice) {
+    for (int i = 0; i < 40; ++i) {
+        raster::ContextOptions o;
+        o.validation = true;
+        try {
+            raster::VulkanContext ctx(o);
+        } catch (const std::exception& e) {
+            FAIL() << "context " << i << ": " << e.what();
+        }
+    }
+}
+
 // A technique the device refuses, with a new precision, leaves the session as it was: the next
 // render finds its scene and maps in place and draws what a cold run draws.
 TEST_F(Raster, ARefusedTechniqueLeavesTheSessionAsItWas) {
