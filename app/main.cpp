@@ -43,6 +43,7 @@ int main(int argc, char** argv) {
         cli::add_stress_command(app),
     };
 
+    set_command_line(argc, argv);  // shown in the reports a run writes
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

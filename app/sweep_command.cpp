@@ -79,7 +79,7 @@ int run_sweep_command(const SweepArgs& a) {
     raster::ContextOptions co;
     co.device = a.technique.device;
     raster::VulkanContext ctx(co);
-    const nlohmann::json device = {{"name", ctx.info().name}, {"driver", ctx.info().driver}};
+    const nlohmann::json device = {{"name", ctx.info().name}, {"type", ctx.info().type}, {"driver", ctx.info().driver}};
     const std::string fingerprint =
         sweep::definition_fingerprint(oracle_cache_key(scenario, options.validate.oracle), base, keys, all,
                                       options.validate.tolerance, a.repeat, device);

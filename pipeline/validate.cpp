@@ -16,6 +16,7 @@ report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResul
                                    const nlohmann::json& oracle_info) {
     report::ReportInputs in;
     in.version = version_string();
+    in.command_line = command_line();
     in.scenario = &scenario;
     in.scenario_file = scenario.file;
     in.technique = r.engine.is_null() ? r.technique.to_json() : nlohmann::json{{"engine", r.engine}};

@@ -47,6 +47,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
                         {"lights", lights},
                         {"scoring", scoring},
                         {"timing", in.timing}};
+    if (!in.command_line.empty()) r["command_line"] = in.command_line;
     if (in.raster.contains("device")) r["device"] = in.raster["device"];
     if (in.gate) {
         nlohmann::json checks = nlohmann::json::array();

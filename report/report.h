@@ -19,7 +19,8 @@
 namespace penumbra::report {
 
 struct ReportInputs {
-    std::string version;  // penumbra's
+    std::string version;       // penumbra's
+    std::string command_line;  // the run's, shown at the top of report.html; empty: not shown
     const Scenario* scenario = nullptr;
     std::filesystem::path scenario_file;
     nlohmann::json technique;                      // resolved, every key

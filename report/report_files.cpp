@@ -14,13 +14,47 @@ namespace {
 
 using metrics::PixelClass;
 
+// Correct pixels keep the shading of the truth, lit to shadowed, so the scene stays recognisable.
+constexpr float kTruthShadow = 0.16f, kTruthLit = 0.56f;
+constexpr glm::vec3 kCorrectLit{kTruthLit}, kCorrectShadow{kTruthShadow};
+glm::vec3 truth_shade(float v) {
+    return glm::vec3(kTruthShadow + (kTruthLit - kTruthShadow) * v);
+}
+
+// What each class means, in words a reader of the class map needs (docs/metrics.md).
+const char* class_meaning(PixelClass c) {
+    switch (c) {
+        case PixelClass::aliasing:
+            return "wrong within the filter's reach of a true shadow edge: the map's texels are too coarse there "
+                   "(raise the resolution, fit the map tighter, or filter)";
+        case PixelClass::acne:
+            return "a surface shadowing itself: the map holds this very surface in front of it (too little bias)";
+        case PixelClass::peter_panning:
+            return "lit where it should be shadowed, near the occluder: the bias pushed the receiver past its "
+                   "caster (too much bias)";
+        case PixelClass::false_shadow: return "shadowed where nothing occludes the light, for another reason";
+        case PixelClass::false_lit:
+            return "lit where an occluder blocks the light: casters clipped, culled or outside the map";
+        case PixelClass::correct: return "within the tolerance of the truth; drawn in the truth's own shading";
+        case PixelClass::uncertain: return "not scored: the truth is within float error of a shadow boundary";
+        case PixelClass::coverage_mismatch:
+            return "not scored: the raster camera saw another surface than the oracle (silhouettes)";
+        case PixelClass::back_facing:
+            return "not scored: the surface faces away from the light or lies outside its cone; dark in both";
+        case PixelClass::background: return "no surface";
+    }
+    return "";
+}
+
 glm::vec3 class_colour(PixelClass c) {
     switch (c) {
         case PixelClass::background: return {0.0f, 0.0f, 0.0f};
-        case PixelClass::back_facing: return {0.09f, 0.09f, 0.12f};
+        // Not scored: colours no shading of the truth takes (greys) and no error class uses, so
+        // neither reads as a shadow nor as a correct pixel (issue 33).
+        case PixelClass::back_facing: return {0.04f, 0.06f, 0.3f};
         case PixelClass::uncertain: return {0.6f, 0.1f, 0.6f};
-        case PixelClass::coverage_mismatch: return {0.3f, 0.3f, 0.3f};
-        case PixelClass::correct: return {0.35f, 0.35f, 0.35f};
+        case PixelClass::coverage_mismatch: return {0.45f, 0.25f, 0.06f};
+        case PixelClass::correct: return kCorrectLit;
         case PixelClass::aliasing: return {1.0f, 0.8f, 0.05f};
         case PixelClass::acne: return {0.95f, 0.08f, 0.05f};
         case PixelClass::peter_panning: return {0.05f, 0.75f, 1.0f};
@@ -86,7 +120,7 @@ std::vector<float> class_image(const OracleLightImage& o, const metrics::LightEr
         const auto c = static_cast<PixelClass>(e.cls[i]);
         // Correct pixels keep the shading of the truth, so the scene stays recognisable; a wrong
         // pixel whose error is below the visible threshold is drawn halfway to it (paler).
-        const glm::vec3 truth(0.16f + 0.4f * o.V[i]);
+        const glm::vec3 truth = truth_shade(o.V[i]);
         glm::vec3 col = c == PixelClass::correct ? truth : class_colour(c);
         if (c > PixelClass::correct && std::abs(e.error[i]) < e.visible_threshold) col = 0.5f * (col + truth);
         for (int k = 0; k < 3; ++k) rgb[3 * i + k] = col[k];
@@ -184,11 +218,34 @@ std::string evidence_text(const metrics::ClassificationEvidence& e) {
                        to_string(e.bias_reach_source));
 }
 
+// The light's dominant visible class and the one-line reading of it, or what the light shows
+// when nothing dominates.
+std::string light_reading(const metrics::LightScore& l) {
+    if (auto line = metrics::reading_line(l)) return *line;
+    if (l.pixels.scored == 0) return "nothing scored";
+    return l.wrong_visible == 0 ? "no visible error" : "visible errors below 1% in every class";
+}
+
+std::string dominant_class(const metrics::LightScore& l) {
+    PixelClass top = PixelClass::correct;
+    std::uint64_t most = 0;
+    for (auto c : metrics::kErrorClasses)
+        if (l.count_visible(c) > most) {
+            most = l.count_visible(c);
+            top = c;
+        }
+    if (most == 0) return "none";
+    return fmt::format(R"(<span class="swatch" style="background:{}"></span>{})", css_colour(class_colour(top)),
+                       to_string(top));
+}
+
 std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, const nlohmann::json& report,
                       const OutputTransaction& out) {
+    auto src = [&](const std::string& file) {
+        return "data:image/png;base64," + base64_encode(out.written_bytes(file));
+    };
     auto img = [&](const std::string& file, const std::string& alt) {
-        return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(out.written_bytes(file)),
-                           escape_markup(alt));
+        return fmt::format(R"(<img src="{}" alt="{}">)", src(file), escape_markup(alt));
     };
     std::string h = R"(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>penumbra report</title>
@@ -196,8 +253,11 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
 body{font-family:system-ui,sans-serif;background:#16181d;color:#e6e6e6;margin:2em;max-width:1400px}
 h1,h2{font-weight:600} table{border-collapse:collapse;margin:.5em 0 1em} td,th{padding:.25em .8em;border-bottom:1px solid #333;text-align:right}
 th:first-child,td:first-child{text-align:left} img{max-width:100%;display:block;margin:.5em 0;image-rendering:pixelated}
-pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{color:#ff5252} .swatch{display:inline-block;width:.9em;height:.9em;margin-right:.4em;vertical-align:middle}
-.grid{display:grid;grid-template-columns:1fr 1fr;gap:1em}
+pre{background:#0e0f12;padding:1em;overflow:auto;white-space:pre-wrap;word-break:break-all} .pass{color:#4caf50} .fail{color:#ff5252} .swatch{display:inline-block;width:.9em;height:.9em;margin-right:.4em;vertical-align:middle}
+.grid{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,1fr);gap:1em} .scroll{overflow-x:auto;max-width:100%}
+a{color:#8ab4f8} nav{margin:.5em 0 1em} td.reading{text-align:left;max-width:36em}
+.strip{display:flex;flex-wrap:wrap;gap:1em} .strip a{color:#e6e6e6;text-decoration:none;width:min(24em,100%)} .strip img{margin:.2em 0}
+.classmap{display:grid;grid-template-columns:minmax(0,3fr) minmax(0,1fr);gap:1em} dl.classes dt{font-weight:600;margin-top:.5em} dl.classes dd{margin:0 0 0 1.3em;color:#bbb}
 </style></head><body>
 )";
     const Scenario& sc = *in.scenario;
@@ -206,6 +266,37 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
     if (in.raster.contains("device"))
         h += fmt::format("Raster device: {}. ", escape_markup(in.raster["device"].value("name", "?")));
     h += fmt::format("penumbra {}.</p>\n", escape_markup(report.value("version", "")));
+    if (!in.command_line.empty()) h += fmt::format("<p>Made by <code>{}</code></p>\n", escape_markup(in.command_line));
+
+    // Contents, then the answer: one row per light, the class maps as thumbnails.
+    h += "<nav>Contents: <a href=\"#summary\">summary</a>";
+    if (in.gate) h += " &middot; <a href=\"#gate\">gate</a>";
+    for (std::size_t li = 0; li < score.lights.size(); ++li)
+        h += fmt::format(" &middot; <a href=\"#light-{0}\">light {0}</a>", li);
+    h += " &middot; <a href=\"#classes\">the classes</a> &middot; <a href=\"#timing\">timing</a> &middot; <a "
+         "href=\"#technique\">technique</a> &middot; <a href=\"#scoring\">scoring</a></nav>\n";
+    h += "<h2 id=\"summary\">Summary</h2>\n<div class=\"scroll\"><table id=\"summary-table\"><tr><th>light</th>"
+         "<th title=\"wrong pixels, of the scored\">wrong</th><th title=\"wrong with |error| at least the visible "
+         "threshold\">visibly wrong</th><th>dominant visible class</th><th>reading</th></tr>\n";
+    for (std::size_t li = 0; li < score.lights.size(); ++li) {
+        const metrics::LightScore& l = score.lights[li];
+        const double scored = std::max<double>(1.0, static_cast<double>(l.pixels.scored));
+        h += fmt::format(
+            "<tr><td><a href=\"#light-{}\">{} ({})</a></td><td>{:.3f}%</td><td>{:.3f}% ({} px)</td><td>{}</td><td "
+            "class=\"reading\">{}</td></tr>\n",
+            li, li, escape_markup(to_string(sc.lights[li].type)), 100.0 * l.wrong_fraction,
+            100.0 * static_cast<double>(l.wrong_visible) / scored, l.wrong_visible, dominant_class(l),
+            escape_markup(light_reading(l)));
+    }
+    h += "</table></div>\n<div class=\"strip\">\n";
+    for (std::size_t li = 0; li < score.lights.size(); ++li)
+        h += fmt::format(
+            R"x(<a href="#light-{0}"><img class="thumb" src="{1}" alt="class map, light {0}, thumbnail">light {0}</a>)x"
+            "\n",
+            li, src(light_file(li, "classes")));
+    h += "</div>\n<details><summary>Technique as JSON</summary><pre>" + escape_markup(report["technique"].dump()) +
+         "</pre></details>\n";
+
     if (in.gate) {
         const bool passed = in.gate->passed;
         h += fmt::format(
@@ -220,8 +311,10 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
     }
     for (std::size_t li = 0; li < score.lights.size(); ++li) {
         const metrics::LightScore& l = score.lights[li];
-        h += fmt::format("<h2>Light {} ({})</h2>\n", li, escape_markup(to_string(sc.lights[li].type)));
-        h += fmt::format("<p>Classes from {}.</p>\n", escape_markup(evidence_text(l.evidence)));
+        h += fmt::format("<h2 id=\"light-{}\">Light {} ({})</h2>\n", li, li,
+                         escape_markup(to_string(sc.lights[li].type)));
+        h += fmt::format("<p>{}. Classes from {}.</p>\n", escape_markup(light_reading(l)),
+                         escape_markup(evidence_text(l.evidence)));
         h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th>"
              "<th title=\"|error| at least the visible threshold\">visible</th><th>visible rate</th></tr>\n";
         for (auto c : metrics::kErrorClasses) {
@@ -236,16 +329,33 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
             if (m.path.starts_with("pixels."))
                 h += fmt::format("<tr><td title=\"{}\">{} pixels</td><td>{}</td></tr>\n", escape_markup(m.meaning),
                                  m.path.substr(7), number(m.read(l)));
-        h += "</table><table><tr><th>metric</th><th>value</th><th>unit</th></tr>\n" + metric_rows(l) +
-             "</table></div>\n";
+        h += "</table><div class=\"scroll\"><table><tr><th>metric</th><th>value</th><th>unit</th></tr>\n" +
+             metric_rows(l) + "</table></div></div>\n";
         h += "<div>" + rate_chart(l) + "</div></div>\n";
-        h += "<h3>Classes</h3>" + img(light_file(li, "classes"), fmt::format("class map, light {}", li));
+        h += "<h3>Classes</h3><div class=\"classmap\"><div>" +
+             img(light_file(li, "classes"), fmt::format("class map, light {}", li)) +
+             "</div><div><a href=\"#classes\">What each colour means</a></div></div>";
         h += "<h3>Signed error (red: raster darker, blue: raster brighter)</h3>" +
              img(light_file(li, "error"), fmt::format("error map, light {}", li));
         h += "<h3>Oracle and raster</h3>" +
              img(light_file(li, "compare"), fmt::format("oracle and raster, light {}", li));
     }
-    h += "<h2>Timing</h2>\n<table>\n";
+    // The classes in words, with the colours the class maps draw them in.
+    h += "<h2 id=\"classes\">The classes</h2>\n<dl class=\"classes\">\n";
+    auto term = [&](glm::vec3 colour, const std::string& name, const char* meaning) {
+        h += fmt::format("<dt><span class=\"swatch\" style=\"background:{}\"></span>{}</dt><dd>{}</dd>\n",
+                         css_colour(colour), name, meaning);
+    };
+    for (auto c : metrics::kErrorClasses) term(class_colour(c), std::string(to_string(c)), class_meaning(c));
+    term(kCorrectLit, "correct, lit", class_meaning(PixelClass::correct));
+    term(kCorrectShadow, "correct, in shadow", class_meaning(PixelClass::correct));
+    for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
+        term(class_colour(c), std::string(to_string(c)), class_meaning(c));
+    h += fmt::format(
+        "</dl>\n<p>An error class drawn paler is a faint error: wrong, but with |error| under the visible threshold "
+        "{:g} (<code>counts_visible</code> leaves it out).</p>\n",
+        score.images.empty() ? 0.1 : score.images[0].visible_threshold);
+    h += "<h2 id=\"timing\">Timing</h2>\n<table>\n";
     const auto& t = report["timing"];
     h += fmt::format("<tr><td>oracle ({})</td><td>{:.3f} s</td></tr>\n",
                      t.value("oracle_cached", false) ? "cached" : "traced", t.value("oracle_s", 0.0));
@@ -253,8 +363,10 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
     for (const auto& [k, v] : t["raster_ms"].items())
         h += fmt::format("<tr><td>GPU {}</td><td>{:.2f} ms</td></tr>\n", escape_markup(k), v.get<double>());
     h += fmt::format("<tr><td>metrics</td><td>{:.3f} s</td></tr>\n</table>\n", t.value("metrics_s", 0.0));
-    h += "<h2>Technique</h2>\n<pre>" + escape_markup(report["technique"].dump(2)) + "</pre>\n";
-    h += "<h2>Scoring</h2>\n<pre>" + escape_markup(report["scoring"].dump(2)) + "</pre>\n";
+    if (in.raster.contains("device") && in.raster["device"].value("type", "") == "cpu")
+        h += "<p>The raster device is a CPU (lavapipe): its \"GPU\" times are the CPU's.</p>\n";
+    h += "<h2 id=\"technique\">Technique</h2>\n<pre>" + escape_markup(report["technique"].dump(2)) + "</pre>\n";
+    h += "<h2 id=\"scoring\">Scoring</h2>\n<pre>" + escape_markup(report["scoring"].dump(2)) + "</pre>\n";
     h += image_check_script();
     h += R"(</body></html>
 )";
@@ -264,11 +376,25 @@ pre{background:#0e0f12;padding:1em;overflow:auto} .pass{color:#4caf50} .fail{col
 }  // namespace
 
 const char* image_check_script() {
+    // Marks the body for tests (tests/cli/harness.sh, html_check): data-images "ok" when every
+    // image decoded; data-layout "ok" when nothing is wider than the window, else what
+    // overflows. A table may be wider only inside a box that scrolls it (overflow-x auto).
     return R"(<script>
 window.addEventListener("load", function () {
   var broken = Array.prototype.filter.call(document.images, function (i) { return !i.complete || i.naturalWidth === 0; });
   broken.forEach(function (i) { console.error("image did not load: " + i.alt); });
   document.body.setAttribute("data-images", broken.length === 0 ? "ok" : "broken");
+  var width = document.documentElement.clientWidth, wide = [];
+  if (document.documentElement.scrollWidth > width) wide.push("page " + document.documentElement.scrollWidth + "px");
+  Array.prototype.forEach.call(document.querySelectorAll("table, img, pre, svg, h1, h2, p"), function (e) {
+    for (var a = e.parentElement; a; a = a.parentElement) {
+      var o = getComputedStyle(a).overflowX;
+      if (o === "auto" || o === "scroll") return;
+    }
+    var r = e.getBoundingClientRect();
+    if (r.right > width + 0.5) wide.push(e.tagName.toLowerCase() + " " + Math.round(r.right) + "px");
+  });
+  document.body.setAttribute("data-layout", wide.length === 0 ? "ok" : "wider than " + width + "px: " + wide.join(", "));
 });
 </script>
 )";
@@ -279,9 +405,10 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
     std::vector<LegendEntry> legend;
     for (auto c : metrics::kErrorClasses)
         legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
-    legend.push_back({0.5f * (class_colour(PixelClass::acne) + glm::vec3(0.36f)),
+    legend.push_back({0.5f * (class_colour(PixelClass::acne) + truth_shade(0.5f)),
                       fmt::format("paler: faint, error under {:g}", e.visible_threshold)});  // the font has no '|'
-    legend.push_back({glm::vec3(0.36f), "correct (shaded as the truth)"});
+    legend.push_back({kCorrectLit, "correct, lit"});
+    legend.push_back({kCorrectShadow, "correct, in shadow"});
     for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
         legend.push_back({class_colour(c), std::string(to_string(c))});
     int h = 0;

@@ -41,7 +41,7 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
     t.columns = verdict_columns(scenario);
     t.total = total;
     t.repeat = options.repeat;
-    t.device = {{"name", ctx.info().name}, {"driver", ctx.info().driver}};
+    t.device = {{"name", ctx.info().name}, {"type", ctx.info().type}, {"driver", ctx.info().driver}};
     t.shard = shard;
     const auto t0 = SteadyClock::now();
     auto oracle = std::make_shared<const OracleRun>(oracle_for(scenario, options.validate));

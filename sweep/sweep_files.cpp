@@ -64,7 +64,8 @@ std::string html_page(const Table& t, const std::string& svg, const std::string&
     std::string h = R"(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>penumbra sweep</title>
 <style>body{font-family:sans-serif;margin:24px;max-width:1300px}table{border-collapse:collapse}
-td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}</style></head><body>
+td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}
+.scroll{overflow-x:auto;max-width:100%}svg{max-width:100%;height:auto}.note{color:#a60}</style></head><body>
 <h1>penumbra sweep</h1>
 )";
     h += fmt::format(
@@ -73,7 +74,21 @@ td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}
         "lookup penumbra reads back. Blue: the Pareto front of error against production time.</p>\n",
         report::escape_markup(t.scenario), report::escape_markup(t.device.value("name", std::string())),
         report::escape_markup(t.device.value("driver", std::string())), t.rows.size(), t.repeat);
-    h += svg + csv_table;
+    // lavapipe's "GPU" times are a CPU's: they rank configurations on this machine only.
+    if (t.device.value("type", std::string()) == "cpu")
+        h += "<p class=\"note\">This device is a CPU (lavapipe): its \"GPU\" times are the CPU's time to "
+             "rasterise, which rank configurations on this machine and say little about a GPU's cost. Run the "
+             "sweep with <code>--device</code> on a GPU for engine costs.</p>\n";
+    h += svg;
+    // Every point of the front, by name: the plot's labels may overlap.
+    const std::vector<bool> on = front(t);
+    h += "<h2>Pareto front</h2>\n<ol>\n";
+    for (std::size_t i = 0; i < t.rows.size(); ++i)
+        if (on[i])
+            h += fmt::format("<li>{}: wrong {:.5f}, production {:.3f} ms</li>\n",
+                             report::escape_markup(label_of(t, t.rows[i])), t.rows[i].verdict[0],
+                             median(t.rows[i].production_ms));
+    h += "</ol>\n" + csv_table;
     h += report::image_check_script();
     h += "</body></html>\n";
     return h;
@@ -81,7 +96,8 @@ td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}
 
 std::string table_html(const Table& t) {
     const std::vector<bool> on = front(t);
-    std::string h = "<h2>Configurations</h2>\n<table><tr>";
+    // The table scrolls inside its own box: a sweep over many keys is wider than the page.
+    std::string h = "<h2>Configurations</h2>\n<div class=\"scroll\"><table><tr>";
     for (const auto& k : t.keys) h += "<th>" + report::escape_markup(k) + "</th>";
     for (const auto& c : t.columns) h += "<th>" + report::escape_markup(c) + "</th>";
     h += "<th>production ms</th><th>diagnostic ms</th><th>front</th></tr>\n";
@@ -93,7 +109,7 @@ std::string table_html(const Table& t) {
         h += fmt::format("<td>{:.3f}</td><td>{:.3f}</td><td>{}</td></tr>\n", median(r.production_ms),
                          median(r.diagnostic_ms), on[i] ? "&#9679;" : "");
     }
-    return h + "</table>\n";
+    return h + "</table></div>\n";
 }
 
 }  // namespace

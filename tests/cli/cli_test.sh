@@ -203,8 +203,12 @@ check "the scenario's gate names its light" grep -q '^light 1: rates.false_lit' 
 # a page with a broken image shows that this check can fail.
 check "chromium is installed" test -x "$(command -v chromium)"
 check "report.html renders cleanly in Chromium" html_check "$tmp/g2/report.html"
+check "report.html shows the command that made it" grep -q "Made by <code>penumbra validate " "$tmp/g2/report.html"
+check "report.json records the command line" grep -q '"command_line": "penumbra validate ' "$tmp/g2/report.json"
 sed 's#data:image/png;base64,[^"]*#data:image/png;base64,AAAA#' "$tmp/g2/report.html" >"$tmp/broken.html"
 check "a broken report is caught" fails html_check "$tmp/broken.html"
+sed 's#<h2>#<table style="width:3000px"><tr><td>wide</td></tr></table><h2>#' "$tmp/g2/report.html" >"$tmp/wide.html"
+check "a report wider than 1280 px is caught" fails html_check "$tmp/wide.html"
 unset PENUMBRA_CACHE_DIR
 
 # Usage errors.

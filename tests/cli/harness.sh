@@ -33,11 +33,15 @@ require_tool() {
     echo "FAIL: $1 is missing ($2): scripts/install-deps.sh installs it"
     return 1
 }
-# The page opens in headless Chromium with every image decoded and no console message (pages
-# carry report::image_check_script()).
+# The page opens in headless Chromium at 1280 px with every image decoded, no console message
+# and nothing wider than the window (pages carry report::image_check_script()).
 html_check() {  # html_check FILE -> 0 when clean
-    timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 --dump-dom "file://$1" \
-        >"$tmp/dom.html" 2>"$tmp/browser.log" || return 1
+    timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-logging=stderr --v=0 --window-size=1280,900 \
+        --dump-dom "file://$1" >"$tmp/dom.html" 2>"$tmp/browser.log" || return 1
+    if ! grep -q 'data-layout="ok"' "$tmp/dom.html"; then
+        echo "  layout: $(grep -o 'data-layout="[^"]*"' "$tmp/dom.html")"
+        return 1
+    fi
     grep -q 'data-images="ok"' "$tmp/dom.html" && ! grep -q ':CONSOLE' "$tmp/browser.log"
 }
 finish() {

@@ -27,6 +27,8 @@ TEST(ReportLegend, TheSwatchOfAClassIsThePngColourOfItsPixels) {
     frames.rl().V[9] = 0.0f;  // acne: the receiver's own triangle in front
     frames.lk().ref_depth[9] = 0.7f;
     frames.lk().stored_depth[9] = 0.6999f;
+    frames.ol().V[20] = 0.0f;  // a correct shadow: dark in both
+    frames.rl().V[20] = 0.0f;
     const metrics::FrameScore score = frames.score();
     ReportInputs in;
     in.version = "test";
@@ -50,7 +52,11 @@ TEST(ReportLegend, TheSwatchOfAClassIsThePngColourOfItsPixels) {
     ASSERT_EQ(png->spec().nchannels, 3);
     std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
     ASSERT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data()));
-    for (const auto& [pixel, name] : {std::pair{5, "peter_panning"}, std::pair{9, "acne"}}) {
+    // Correct pixels are drawn in the truth's shading: the legend's "correct" swatches are colours
+    // the map has (issue 33: a grey that occurred nowhere).
+    ASSERT_EQ(frames.ol().V[0], 1.0f);
+    for (const auto& [pixel, name] : {std::pair{5, "peter_panning"}, std::pair{9, "acne"}, std::pair{0, "correct, lit"},
+                                      std::pair{20, "correct, in shadow"}}) {
         const unsigned char* p = &pixels[3 * static_cast<std::size_t>(pixel)];
         const std::string swatch = fmt::format("background:#{:02x}{:02x}{:02x}\"></span>{}<", p[0], p[1], p[2], name);
         EXPECT_NE(page.find(swatch), std::string::npos) << swatch;

@@ -80,7 +80,7 @@ TEST(Report, WritesEveryFileWithLegendsAndEmbeddedImages) {
     EXPECT_EQ(text.find("src=\"light0"), std::string::npos) << "images must be embedded, not linked";
     std::size_t images = 0;
     for (std::size_t at = 0; (at = text.find("data:image/png;base64,", at)) != std::string::npos; ++at) ++images;
-    EXPECT_EQ(images, 3u);
+    EXPECT_EQ(images, 4u);  // the three maps, and the class map's thumbnail in the summary
     EXPECT_EQ(text.find("Gate"), std::string::npos);  // no gate given, none shown
 }
 
@@ -116,6 +116,13 @@ TEST(Report, TheLightObjectsAndThePageReadTheTypedScore) {
     EXPECT_NE(html.find(">acne_depth.max</td><td>not measured</td>"), std::string::npos) << "a table row";
     EXPECT_NE(html.find(">peter_panning_gap.max</td><td>0.01</td><td>metres</td>"), std::string::npos);
     EXPECT_NE(html.find("id=\"gate\">FAILED"), std::string::npos);
+    // The answer first (issue 33): the summary, a row per light, and the class maps as
+    // thumbnails come before the first light's section.
+    const std::size_t summary = html.find("id=\"summary-table\""), first_light = html.find("id=\"light-0\"");
+    ASSERT_NE(summary, std::string::npos);
+    EXPECT_LT(summary, first_light);
+    EXPECT_LT(html.find("alt=\"class map, light 0, thumbnail\""), first_light);
+    EXPECT_LT(html.find("<a href=\"#light-0\">0 (directional)</a>"), first_light);
     EXPECT_NE(junit_xml(f.in).find("acne_depth.max is not measured for this light"), std::string::npos);
 }
 
