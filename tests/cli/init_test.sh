@@ -5,6 +5,7 @@
 # no overwrite without --force; a bad model is exit 2 with nothing written.
 # Usage: init_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
+export PENUMBRA_CACHE_DIR="$tmp/cache"
 fail_detail() { echo "(rc=$rc: ${err:0:300})"; }
 
 models=/usr/share/assimp/models/glTF2
