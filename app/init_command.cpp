@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
+#include <glm/vector_relational.hpp>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -158,6 +159,11 @@ int run_init_command(const InitArgs& a) {
         throw InputError(fmt::format("--out {}: is a folder; expected the scenario file to write", out_text));
     if (fs::exists(a.out, ec) && !a.force)
         throw InputError(fmt::format("--out {}: exists; pass --force to overwrite it", out_text));
+    if (fs::equivalent(a.out, a.model, ec))  // --force would replace the model with its scenario
+        throw InputError(fmt::format("--out {}: is the model itself", out_text));
+    const fs::path out_parent = fs::absolute(a.out).parent_path();
+    if (std::string p = output_folder_problem(out_parent.string()); !p.empty())
+        throw InputError(fmt::format("--out {}: {}", out_text, p));
     std::string ext = a.model.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
     if (ext != ".gltf" && ext != ".glb")
@@ -208,6 +214,9 @@ int run_init_command(const InitArgs& a) {
                    largest, hint->unit, hint->scale * a.scale, out_text, hint->scale * a.scale, largest * hint->scale);
     }
 
+    const ModelView framed = frame_bounds(b, a.width, a.height);
+    const Receiver ground = ground_plane(b);
+
     ordered_json doc;
     doc["scene"] = scene_text;
     if (a.scale != 1.0) doc["scale"] = a.scale;
@@ -217,7 +226,7 @@ int run_init_command(const InitArgs& a) {
         doc["camera"] = {{"gltf_camera", *index}};
         camera_line = fmt::format("the model's own, cameras[{}]", *index);
     } else {
-        const ModelView v = frame_bounds(b, a.width, a.height);
+        const ModelView& v = framed;
         doc["camera"] = {{"type", "perspective"}, {"eye", vec(v.eye, quantum)}, {"target", vec(v.target, quantum)},
                          {"up", vec({0, 1, 0})},  {"yfov_deg", v.yfov_deg},     {"znear", rounded(v.znear, quantum)}};
         camera_line =
@@ -237,12 +246,27 @@ int run_init_command(const InitArgs& a) {
             fmt::format("a sun at elevation {:g} deg, azimuth {:g} deg (--sun ELEV,AZIM)", sun.elevation, sun.azimuth);
     }
     if (a.ground) {
-        const Receiver g = ground_plane(b);
+        const Receiver& g = ground;
         doc["receivers"] = ordered_json::array({{{"type", "plane"},
                                                  {"center", vec(g.center, quantum)},
                                                  {"normal", vec(g.normal)},
                                                  {"size", {rounded(g.size.x, quantum), rounded(g.size.y, quantum)}}}});
     }
+
+    // A camera or ground around a model too small or too far out would leave the scenario's
+    // limits (znear, sizes, coordinates): refused, pointing at --scale.
+    const bool framed_camera = !doc["camera"].contains("gltf_camera");
+    const glm::dvec3 ground_reach = glm::abs(ground.center) + 0.5 * glm::dvec3(ground.size.x, 0, ground.size.y);
+    const bool too_small = b.radius() < 1e-9 && (framed_camera || a.ground);
+    const bool too_far =
+        (framed_camera && glm::any(glm::greaterThan(glm::abs(framed.eye), glm::dvec3(kMaxCoordinate)))) ||
+        (a.ground &&
+         (glm::any(glm::greaterThan(ground_reach, glm::dvec3(kMaxCoordinate))) || ground.size.x > kMaxExtent));
+    if (too_small || too_far)
+        throw InputError(
+            fmt::format("{}: {:.4g} m across, {:.4g} m from the origin: a camera or ground around it "
+                        "would leave the scenario's limits; --scale brings its units to metres",
+                        model_label, largest, glm::length(b.center())));
 
     OutputTransaction tx(out_dir);
     const std::string name = a.out.filename().string();
@@ -261,10 +285,7 @@ int run_init_command(const InitArgs& a) {
     if (!a.quiet) {
         fmt::print("camera: {}\n", camera_line);
         fmt::print("lights: {}\n", lights_line);
-        if (a.ground) {
-            const Receiver g = ground_plane(b);
-            fmt::print("ground: a {:.4g} m square plane at y = {:.4g} m\n", g.size.x, g.center.y);
-        }
+        if (a.ground) fmt::print("ground: a {:.4g} m square plane at y = {:.4g} m\n", ground.size.x, ground.center.y);
         fmt::print("wrote {}\n", out_text);
         fmt::print("next: penumbra validate {} --out run --preset d3d12-textbook\n", out_text);
     }
@@ -302,7 +323,7 @@ Subcommand add_init_command(CLI::App& parent) {
         "other units than metres.\n"
         "Example:\n"
         "  penumbra init model.glb --out shadows/scenario.json --ground\n"
-        "  penumbra validate shadows/scenario.json --out shadows/run --preset d3d12-textbook");
+        "  penumbra validate shadows/scenario.json --out shadows/run --preset d3d12-textbook\n");
     return {cmd, [a] { return run_init_command(*a); }};
 }
 

@@ -116,6 +116,28 @@ run init "$tmp/model.obj" --out "$tmp/obj/scenario.json"
 check "a model that is not glTF is exit 2" test "$rc" -eq 2
 check "a model that is not glTF is said so" grep -q "model.obj: expected a glTF 2.0 file (.gltf or .glb)" <<<"$err"
 
+run init "$box" --out ""
+check "an empty --out is exit 2" test "$rc" -eq 2
+cp "$box" "$tmp/self.gltf"
+cp "$(dirname "$box")/BoxTextured0.bin" "$tmp/"
+run init "$tmp/self.gltf" --out "$tmp/self.gltf" --force
+check "--out naming the model itself is exit 2, even with --force" test "$rc" -eq 2
+check "--out naming the model itself is said so" grep -q "self.gltf: is the model itself" <<<"$err"
+check "the model is untouched" cmp -s "$box" "$tmp/self.gltf"
+touch "$tmp/a-file"
+run init "$box" --out "$tmp/a-file/scenario.json"
+check "--out under a file is exit 2" test "$rc" -eq 2
+# A model a millionth of a micrometre across: no camera or ground fits the scenario's limits.
+python3 -c "
+import json, sys
+g = json.load(open('$box'))
+g['nodes'][0]['matrix'] = [v * 1e-13 for v in g['nodes'][0]['matrix'][:12]] + g['nodes'][0]['matrix'][12:]
+json.dump(g, open('$tmp/tiny.gltf', 'w'))"
+run init "$tmp/tiny.gltf" --out "$tmp/tiny/scenario.json" --ground
+check "a model too small to frame is exit 2" test "$rc" -eq 2
+check "a model too small to frame points at --scale" grep -q "tiny.gltf: .* m across, .*--scale brings its units to metres" <<<"$err"
+check "a model too small to frame writes nothing" test ! -e "$tmp/tiny"
+
 # The model's own KHR_lights_punctual lights are taken as they are.
 python3 - "$box" "$tmp/lit" <<'PY'
 import json, os, shutil, sys
