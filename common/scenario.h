@@ -1,4 +1,5 @@
-// The scenario file of docs/scenario.md: scene, image, camera, lights, optional technique and gate.
+// The scenario file of docs/scenario.md: scene (and its scale), image, camera, lights, optional receivers,
+// technique and gate.
 #pragma once
 
 #include <cstdint>
