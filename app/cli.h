@@ -109,5 +109,6 @@ Subcommand add_camera_command(CLI::App& parent);
 Subcommand add_sweep_command(CLI::App& parent);
 Subcommand add_merge_command(CLI::App& parent);
 Subcommand add_stress_command(CLI::App& parent);
+Subcommand add_init_command(CLI::App& parent);
 
 }  // namespace penumbra::cli

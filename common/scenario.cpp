@@ -127,7 +127,63 @@ Light read_light(JsonObject o) {
     return l;
 }
 
+// `key` as an array of `n` extents in [kMinExtent, kMaxExtent] metres.
+glm::dvec3 extents(JsonObject& o, const std::string& key, int n) {
+    const nlohmann::json& v = o.get(key);
+    if (!v.is_array() || v.size() != static_cast<std::size_t>(n))
+        o.fail(key, fmt::format("expected an array of {} sizes in metres", n));
+    glm::dvec3 out(0.0);
+    for (int i = 0; i < n; ++i) {
+        if (!v[i].is_number()) o.fail(key, fmt::format("element {} is not a number", i));
+        out[i] = v[i].get<double>();
+        if (!(out[i] >= kMinExtent && out[i] <= kMaxExtent))
+            o.fail(key, fmt::format("element {} is {}; expected a size in [1e-12, 1e15] m", i, json_excerpt(v[i])));
+    }
+    return out;
+}
+
+Receiver read_receiver(JsonObject o) {
+    Receiver r;
+    std::string type = o.string("type");
+    if (type == "plane") {
+        o.only_keys({"type", "center", "normal", "size"});
+        r.type = ReceiverType::plane;
+        r.center = position(o, "center");
+        r.normal = o.has("normal") ? glm::normalize(o.nonzero_vec3("normal")) : glm::dvec3(0, 1, 0);
+        r.size = extents(o, "size", 2);
+    } else if (type == "box") {
+        o.only_keys({"type", "center", "size"});
+        r.type = ReceiverType::box;
+        r.center = position(o, "center");
+        r.size = extents(o, "size", 3);
+    } else {
+        o.fail("type", fmt::format("expected \"plane\" or \"box\", got \"{}\"", type));
+    }
+    // Every corner within the coordinate limit (a huge plane at a huge centre would leave it).
+    const double reach = glm::length(0.5 * r.size);
+    for (int c = 0; c < 3; ++c)
+        if (std::abs(r.center[c]) + reach > kMaxCoordinate)
+            o.fail("size", fmt::format("reaches beyond the {:g} m coordinate limit", kMaxCoordinate));
+    o.finish();
+    return r;
+}
+
 }  // namespace
+
+void scale_scene(Scene& scene, double scale) {
+    if (scale == 1.0) return;
+    for (glm::dvec3& p : scene.positions) p *= scale;
+    if (!scene.bounds.empty()) scene.bounds = {scene.bounds.lo * scale, scene.bounds.hi * scale};
+    // The cameras scale with the model so that they show the same picture (inf stays inf).
+    for (Camera& c : scene.cameras) {
+        c.eye *= scale;
+        c.znear *= scale;
+        c.zfar *= scale;
+        c.xmag *= scale;
+        c.ymag *= scale;
+    }
+    for (Light& l : scene.lights) l.position *= scale;
+}
 
 Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     Scenario s;
@@ -135,7 +191,7 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     s.label = file.filename().string();
     nlohmann::json root = read_json_file(file);
     JsonObject top(root, s.label, "");
-    top.only_keys({"scene", "image", "camera", "lights", "technique", "gate"});
+    top.only_keys({"scene", "scale", "image", "camera", "lights", "receivers", "technique", "gate"});
 
     std::string scene_rel = top.string("scene");
     if (scene_rel.empty()) top.fail("scene", "empty path");
@@ -174,6 +230,14 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
             listed.push_back(l);
         }
     }
+    s.scale =
+        top.number_in("scale", 1.0, kMinScale, kMaxScale, "expected a factor in [1e-6, 1e6] (model units to metres)");
+    if (top.has("receivers")) {
+        const nlohmann::json& receivers = top.get("receivers");
+        if (!receivers.is_array()) top.fail("receivers", "expected an array of receivers (planes and boxes)");
+        for (std::size_t i = 0; i < receivers.size(); ++i)
+            s.receivers.push_back(read_receiver(JsonObject(receivers[i], s.label, fmt::format("receivers[{}]", i))));
+    }
     top.get("camera");  // presence is checked before the scene is loaded
     top.finish();
 
@@ -181,6 +245,14 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     gltf_options.allow_external_paths = options.allow_external_paths;
     gltf_options.max_memory_bytes = options.max_memory_bytes;
     s.scene = load_gltf(s.scene_file, gltf_options);
+    scale_scene(s.scene, s.scale);
+    if (!s.scene.bounds.empty())
+        for (const glm::dvec3& corner : {s.scene.bounds.lo, s.scene.bounds.hi})
+            for (int c = 0; c < 3; ++c)
+                if (std::abs(corner[c]) > kMaxCoordinate)
+                    top.fail("scale", fmt::format("the scaled scene reaches {:g} m, beyond the {:g} m coordinate limit",
+                                                  corner[c], kMaxCoordinate));
+    for (const Receiver& r : s.receivers) add_receiver(s.scene, r);
 
     const std::string scene_label = s.scene_file.filename().string();
     s.camera = read_camera(top.object("camera"), s.scene, scene_label);

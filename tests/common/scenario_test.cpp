@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <glm/geometric.hpp>
+
 #include "common/errors.h"
 #include "tests/test_support.h"
 
@@ -155,6 +157,120 @@ TEST_F(ScenarioTest, TakesCamerasAndLightsFromTheGltf) {
 
     doc["camera"] = {{"gltf_camera", 3}};
     EXPECT_NE(error_of(doc).find("camera.gltf_camera: the scene has 1 cameras"), std::string::npos);
+}
+
+// Receivers (docs/scenario.md, "Receivers"): triangles of the one scene both paths draw.
+TEST_F(ScenarioTest, AddsPlaneAndBoxReceiversToTheScene) {
+    auto doc = valid();
+    doc["receivers"] = {{{"type", "plane"}, {"center", {0, -1, 0}}, {"size", {10, 4}}},
+                        {{"type", "box"}, {"center", {3, 0.5, 0}}, {"size", {1, 1, 2}}}};
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    Scenario s = load_scenario(dir_ / "scenario.json");
+    ASSERT_EQ(s.receivers.size(), 2u);
+    ASSERT_EQ(s.scene.triangle_count(), 2u + 2u + 12u);  // the glTF's quad, the plane, the box
+    // The plane: double-sided, facing +Y (its default normal), 10 m along x and 4 m along z.
+    for (std::uint32_t t = 2; t < 4; ++t) {
+        const auto& tri = s.scene.triangles[t];
+        const glm::dvec3 a = s.scene.positions[tri.x], b = s.scene.positions[tri.y], c = s.scene.positions[tri.z];
+        EXPECT_GT(glm::cross(b - a, c - a).y, 0.0);
+        EXPECT_TRUE(s.scene.double_sided[t]);
+        EXPECT_EQ(s.scene.triangle_node[t], kReceiverNode);
+    }
+    EXPECT_DOUBLE_EQ(s.scene.bounds.lo.x, -5.0);
+    EXPECT_DOUBLE_EQ(s.scene.bounds.lo.y, -1.0);
+    EXPECT_DOUBLE_EQ(s.scene.bounds.lo.z, -2.0);
+    // The box: single-sided triangles facing away from its centre, its corners at centre +- size/2.
+    const glm::dvec3 centre(3, 0.5, 0);
+    for (std::uint32_t t = 4; t < 16; ++t) {
+        const auto& tri = s.scene.triangles[t];
+        const glm::dvec3 a = s.scene.positions[tri.x], b = s.scene.positions[tri.y], c = s.scene.positions[tri.z];
+        EXPECT_GT(glm::dot(glm::cross(b - a, c - a), (a + b + c) / 3.0 - centre), 0.0) << "triangle " << t;
+        EXPECT_FALSE(s.scene.double_sided[t]);
+    }
+    EXPECT_DOUBLE_EQ(s.scene.bounds.hi.x, 5.0);  // the plane's edge; the box reaches 3.5
+    EXPECT_DOUBLE_EQ(s.scene.bounds.hi.y, 1.0);
+    EXPECT_DOUBLE_EQ(s.scene.bounds.hi.z, 2.0);
+}
+
+TEST_F(ScenarioTest, RefusesMalformedReceiversNamingThePath) {
+    auto with = [&](nlohmann::json receivers) {
+        auto doc = valid();
+        doc["receivers"] = std::move(receivers);
+        return error_of(doc);
+    };
+    EXPECT_EQ(with({{"type", "plane"}}), "scenario.json: receivers: expected an array of receivers (planes and boxes)");
+    EXPECT_EQ(with({{{"type", "disc"}, {"center", {0, 0, 0}}}}),
+              "scenario.json: receivers[0].type: expected \"plane\" or \"box\", got \"disc\"");
+    EXPECT_EQ(with({{{"type", "plane"}, {"center", {0, 0, 0}}}}),
+              "scenario.json: receivers[0].size: missing required key");
+    EXPECT_EQ(with({{{"type", "plane"}, {"center", {0, 0, 0}}, {"size", {1, 2, 3}}}}),
+              "scenario.json: receivers[0].size: expected an array of 2 sizes in metres");
+    EXPECT_EQ(with({{{"type", "box"}, {"center", {0, 0, 0}}, {"size", {1, 0, 1}}}}),
+              "scenario.json: receivers[0].size: element 1 is 0; expected a size in [1e-12, 1e15] m");
+    EXPECT_EQ(with({{{"type", "box"}, {"center", {0, 0, 0}}, {"size", {1, -2, 1}}}}),
+              "scenario.json: receivers[0].size: element 1 is -2; expected a size in [1e-12, 1e15] m");
+    EXPECT_EQ(with({{{"type", "plane"}, {"center", {0, 0, 0}}, {"normal", {0, 0, 0}}, {"size", {1, 1}}}}),
+              "scenario.json: receivers[0].normal: zero vector");
+    EXPECT_EQ(with({{{"type", "box"}, {"center", {0, 0, 0}}, {"normal", {0, 1, 0}}, {"size", {1, 1, 1}}}}),
+              "scenario.json: receivers[0].normal: unknown key");
+    EXPECT_EQ(with({{{"type", "box"}, {"center", {0, 0}}, {"size", {1, 1, 1}}}}),
+              "scenario.json: receivers[0].center: expected an array of 3 numbers");
+    EXPECT_EQ(with({{{"type", "box"}, {"center", {0, 0, 9e14}}, {"size", {1, 1, 5e14}}}}),
+              "scenario.json: receivers[0].size: reaches beyond the 1e+15 m coordinate limit");
+    EXPECT_EQ(with({{{"type", "box"}, {"center", {0, 0, 0}}, {"size", {1, 1, 1}}}, 3}),
+              "scenario.json: receivers[1]: expected an object, got number");
+}
+
+// "scale": the model's units to metres, applied to everything the glTF places.
+TEST_F(ScenarioTest, ScalesTheGltfSceneItsCamerasAndLights) {
+    test::GltfFixture g;
+    g.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.05}, {"zfar", 100}}}}};
+    g.doc["extensionsUsed"] = {"KHR_lights_punctual"};
+    g.doc["extensions"] = {{"KHR_lights_punctual", {{"lights", {{{"type", "point"}}}}}}};
+    g.doc["nodes"].push_back(
+        {{"camera", 0}, {"translation", {0, 2, 3}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+    g.doc["scenes"][0]["nodes"] = {0, 1};
+    g.write(dir_);
+    auto doc = valid();
+    doc["scale"] = 0.001;
+    doc["camera"] = {{"gltf_camera", 0}};
+    doc["lights"] = "gltf";
+    doc["receivers"] = {{{"type", "plane"}, {"center", {0, -1, 0}}, {"size", {4, 4}}}};  // metres, not scaled
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    Scenario s = load_scenario(dir_ / "scenario.json");
+    EXPECT_DOUBLE_EQ(s.scale, 0.001);
+    EXPECT_DOUBLE_EQ(s.scene.positions[1].x, 0.001);  // the quad's corner (1, 0, 0)
+    EXPECT_DOUBLE_EQ(s.scene.positions[2].z, -0.001);
+    EXPECT_DOUBLE_EQ(s.scene.positions[4].x, -2.0);  // the plane, as written
+    EXPECT_DOUBLE_EQ(s.scene.bounds.hi.x, 2.0);
+    EXPECT_NEAR(s.camera.eye.y, 0.002, 1e-15);
+    EXPECT_NEAR(s.camera.eye.z, 0.003, 1e-15);
+    EXPECT_NEAR(s.camera.znear, 0.05e-3, 1e-15);
+    EXPECT_NEAR(s.camera.zfar, 0.1, 1e-12);
+    EXPECT_NEAR(s.camera.yfov_rad, 0.8, 1e-12);  // angles do not scale
+    ASSERT_EQ(s.lights.size(), 1u);
+    EXPECT_NEAR(s.lights[0].position.z, 0.003, 1e-15);
+}
+
+TEST_F(ScenarioTest, RefusesScalesOutOfRange) {
+    for (double bad : {0.0, -1.0, 1e-7, 2e6}) {
+        auto doc = valid();
+        doc["scale"] = bad;
+        EXPECT_NE(error_of(doc).find("scenario.json: scale: expected a factor in [1e-6, 1e6] (model units to metres)"),
+                  std::string::npos)
+            << bad;
+    }
+    auto doc = valid();
+    doc["scale"] = "mm";
+    EXPECT_EQ(error_of(doc), "scenario.json: scale: expected a number, got string");
+    // A scene near the coordinate limit scaled beyond it.
+    test::GltfFixture g;
+    g.doc["nodes"][0]["translation"] = {1e12, 0, 0};
+    g.write(dir_);
+    doc = valid();
+    doc["scale"] = 1e4;
+    EXPECT_EQ(error_of(doc),
+              "scenario.json: scale: the scaled scene reaches 1e+16 m, beyond the 1e+15 m coordinate limit");
 }
 
 }  // namespace
