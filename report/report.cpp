@@ -48,6 +48,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
                         {"scoring", scoring},
                         {"timing", in.timing}};
     if (in.raster.contains("device")) r["device"] = in.raster["device"];
+    if (!in.fingerprint.is_null()) r["fingerprint"] = in.fingerprint;
     if (in.gate) {
         nlohmann::json checks = nlohmann::json::array();
         for (const auto& o : in.gate->outcomes)
