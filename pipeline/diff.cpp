@@ -191,7 +191,8 @@ Run read_run(const fs::path& path) {
                         "folder of validate, compare or stress",
                         path_text(path)));
     }
-    return parse_run(read_json_file(file), file);
+    // Labelled with the whole path: both runs' files are usually called report.json.
+    return parse_run(parse_json_strict(read_regular_file(file, kMaxJsonFileBytes), path_text(file)), file);
 }
 
 Run parse_run(const nlohmann::json& doc, const fs::path& file) {
