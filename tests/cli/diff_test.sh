@@ -76,6 +76,20 @@ check "... and writing nothing" test ! -e "$tmp/d4"
 run diff "$tmp/textbook" "$tmp/diligent" --gate-worse 2
 check "a tolerance above 1: exit 2" test "$rc" -eq 2
 
+# Stress runs: paired by case and light, compared on all wrong pixels (stress.json has no visible counts).
+run stress --out "$tmp/st1" -q --cases far_1e7,object_1cm --preset d3d12-textbook
+run stress --out "$tmp/st2" -q --cases far_1e7,object_1cm --preset diligent-tutorial13
+run diff "$tmp/st1" "$tmp/st2/stress.json" --out "$tmp/d5"
+check "stress: diligent-tutorial13 after d3d12-textbook is worse: exit 1" test "$rc" -eq 1
+check "stress: the case, light and class are named" grep -q "worse: object_1cm light 0 (directional): acne rate" <<<"$err"
+check "stress: diff.html shows the cases' class maps" test "$(grep -o 'data:image/png' "$tmp/d5/diff.html" | wc -l)" -eq 6
+run stress --out "$tmp/st3" -q --cases far_1e7,needles --preset d3d12-textbook
+run diff "$tmp/st1" "$tmp/st3"
+check "stress: other cases: exit 2" test "$rc" -eq 2
+check "stress: other cases are named" grep -q "cases only in A: object_1cm; cases only in B: needles" <<<"$err"
+run diff "$tmp/st1" "$tmp/textbook"
+check "a stress run against a validate run: exit 2" test "$rc" -eq 2
+
 run diff --help
 check "diff --help lists its outputs" grep -q "diff.json" "$tmp/stdout"
 check "diff --help has an example" grep -q "Example" "$tmp/stdout"
