@@ -148,8 +148,9 @@ std::uint64_t parse_cache_size(const std::string& text, const std::string& what)
     std::size_t digits = 0;
     while (digits < text.size() && (std::isdigit(static_cast<unsigned char>(text[digits])) || text[digits] == '.'))
         ++digits;
-    if (digits == 0 || text.find('.') != text.rfind('.')) return bad();
-    const double value = std::strtod(text.substr(0, digits).c_str(), nullptr);
+    const std::string number = text.substr(0, digits);
+    if (number.find_first_of("0123456789") == std::string::npos || number.find('.') != number.rfind('.')) return bad();
+    const double value = std::strtod(number.c_str(), nullptr);
     std::string suffix = text.substr(digits);
     if (!suffix.empty() && (suffix.back() == 'B' || suffix.back() == 'b')) suffix.pop_back();
     if (!suffix.empty() && suffix.back() == 'i') suffix.pop_back();

@@ -122,7 +122,7 @@ TEST(OracleCache, SizesTakeBinarySuffixes) {
     EXPECT_EQ(parse_cache_size("1.5K", "x"), 1536u);
     EXPECT_EQ(parse_cache_size("1000", "x"), 1000u);
     EXPECT_EQ(parse_cache_size("0", "x"), 0u);
-    for (const char* bad : {"", "G", "2X", "-1", "1..2", "2 G"})
+    for (const char* bad : {"", "G", ".", "2X", "-1", "1..2", "2 G"})
         EXPECT_THROW(parse_cache_size(bad, "PENUMBRA_CACHE_MAX"), InputError) << bad;
 }
 
