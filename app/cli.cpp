@@ -8,6 +8,7 @@
 #include "common/json_reader.h"
 #include "common/memory_estimate.h"
 #include "common/output_files.h"
+#include "oracle/oracle_cache.h"
 #include "pipeline/validate.h"
 
 namespace penumbra::cli {
@@ -22,6 +23,15 @@ std::string user_name_problem(const std::string& text) {
 
 // No description: the checks need none in --help.
 const CLI::Validator kUserName(user_name_problem, ""), kUserPath(user_path_problem, "");
+
+std::string cache_size_problem(const std::string& text) {
+    try {
+        parse_cache_size(text, "--cache-max");
+        return {};
+    } catch (const InputError& e) {
+        return e.what();
+    }
+}
 
 CLI::Validator range(double lo, double hi) {
     return CLI::Validator(
@@ -86,6 +96,10 @@ void add_verdict_options(CLI::App* cmd, VerdictArgs& v) {
     cmd->add_option("--cache", v.cache_dir,
                     "Oracle cache folder (default: $PENUMBRA_CACHE_DIR, $XDG_CACHE_HOME/penumbra, ~/.cache/penumbra)")
         ->check(kUserPath);
+    cmd->add_option("--cache-max", v.cache_max,
+                    "Oracle cache size cap, e.g. 2G; least recently used entries go (0: no cap; default: "
+                    "$PENUMBRA_CACHE_MAX, else 2G)")
+        ->check(cache_size_problem);
     cmd->add_flag("--no-cache", v.no_cache, "Trace the oracle and keep nothing");
     add_tolerance(cmd, v.tolerance);
     add_visible_threshold(cmd, v.visible_threshold);
@@ -97,6 +111,9 @@ ValidateOptions validate_options(const Common& c, const VerdictArgs& v) {
     o.oracle = oracle_settings(c, v.sampling);
     o.use_cache = !v.no_cache;
     o.cache_dir = v.cache_dir;
+    if (!v.no_cache)
+        o.cache_max_bytes =
+            v.cache_max.empty() ? OracleCache::default_max_bytes() : parse_cache_size(v.cache_max, "--cache-max");
     o.tolerance = v.tolerance;
     o.visible_threshold = v.visible_threshold;
     return o;

@@ -30,6 +30,8 @@ extern const CLI::Validator kUserName, kUserPath;
 // A number option's range, [lo, hi] inclusive: a finite number (CLI::Range lets NaN through)
 // and a message that prints the bounds readably (CLI::Range prints DBL_MAX with 309 digits).
 CLI::Validator range(double lo, double hi);
+// --cache-max: a size (oracle/oracle_cache.h, parse_cache_size), or what is wrong with it.
+std::string cache_size_problem(const std::string& text);
 // The scenario every command that reads one takes as its positional SCENARIO.
 CLI::Option* add_scenario(CLI::App* cmd, std::filesystem::path& scenario);
 
@@ -62,12 +64,13 @@ void check_run_memory(const Scenario& s, const Common& c, bool oracle, const ras
 // its area-light sampling and tau.
 struct VerdictArgs {
     std::filesystem::path cache_dir;
+    std::string cache_max;  // --cache-max; empty: $PENUMBRA_CACHE_MAX or 2 GiB
     bool no_cache = false;
     double tolerance = 1.0 / 255.0;
     double visible_threshold = 0.1;
     SamplingArgs sampling;
 };
-// --cache, --no-cache, --tolerance and the sampling options.
+// --cache, --cache-max, --no-cache, --tolerance and the sampling options.
 void add_verdict_options(CLI::App* cmd, VerdictArgs& v);
 // --tolerance (tau), as validate, compare, tune, sweep and stress take it.
 void add_tolerance(CLI::App* cmd, double& tolerance);
@@ -110,5 +113,7 @@ Subcommand add_sweep_command(CLI::App& parent);
 Subcommand add_merge_command(CLI::App& parent);
 Subcommand add_stress_command(CLI::App& parent);
 Subcommand add_init_command(CLI::App& parent);
+Subcommand add_diff_command(CLI::App& parent);
+Subcommand add_cache_command(CLI::App& parent);
 
 }  // namespace penumbra::cli

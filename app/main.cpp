@@ -40,7 +40,8 @@ int main(int argc, char** argv) {
         cli::add_oracle_command(app),  cli::add_raster_command(app), cli::add_validate_command(app),
         cli::add_devices_command(app), cli::add_tune_command(app),   cli::add_compare_command(app),
         cli::add_camera_command(app),  cli::add_sweep_command(app),  cli::add_merge_command(app),
-        cli::add_stress_command(app),  cli::add_init_command(app),
+        cli::add_stress_command(app),  cli::add_init_command(app),   cli::add_diff_command(app),
+        cli::add_cache_command(app),
     };
 
     set_command_line(argc, argv);  // shown in the reports a run writes

@@ -6,6 +6,7 @@
 #include "app/cli.h"
 #include "common/errors.h"
 #include "common/json_reader.h"
+#include "common/memory_estimate.h"
 #include "common/output_files.h"
 #include "common/stopwatch.h"
 #include "metrics/gate.h"
@@ -22,6 +23,20 @@ struct ValidateArgs {
     bool frames = false;
     VerdictArgs verdict;
 };
+
+// Where the cached oracle lives and what the cache holds, so that its disk use is never a surprise.
+std::optional<std::string> cache_line(const nlohmann::json& oracle_info) {
+    const nlohmann::json& c = oracle_info.value("cache", nlohmann::json::object());
+    if (!c.contains("total_bytes")) return std::nullopt;
+    const auto max = c.at("max_bytes").get<std::uint64_t>();
+    const auto entries = c.at("entries").get<std::size_t>();
+    const std::string held = fmt::format("the cache holds {} in {} {} (cap {}; `penumbra cache list`)",
+                                         format_bytes(c.at("total_bytes").get<std::uint64_t>()), entries,
+                                         entries == 1 ? "entry" : "entries", max == 0 ? "none" : format_bytes(max));
+    if (!c.contains("file")) return fmt::format("oracle cache: {}: not kept; {}", c.at("dir").get<std::string>(), held);
+    return fmt::format("oracle cache: {} ({}); {}", c.at("file").get<std::string>(),
+                       format_bytes(c.at("bytes").get<std::uint64_t>()), held);
+}
 
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
                          const ValidateArgs& v) {
@@ -65,6 +80,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
                        metrics::summary_line(r.score.lights[li]));
             if (auto hint = metrics::reading_line(r.score.lights[li])) fmt::print("    hint: {}\n", *hint);
         }
+        if (auto line = cache_line(r.oracle->info)) fmt::print("{}\n", *line);
         fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
     }
     return gate_exit_code(r.gate, c.quiet);

@@ -6,13 +6,16 @@
 #include <xxhash.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
 
+#include "common/errors.h"
 #include "common/output_files.h"
 
 namespace penumbra {
@@ -26,6 +29,8 @@ namespace {
 constexpr const char* kOracleAlgorithm = "penumbra-oracle-5";
 // 2: an XXH3-64 checksum of every byte after the magic ends the entry.
 constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '2'};
+// Every version of the entry format starts with these: what `cache clear` recognises as ours.
+constexpr std::string_view kMagicFamily = "PNBORCL";
 // A temporary of a store that was killed is removed by a later store once it is this old, or
 // at once when the process that wrote it is gone.
 constexpr auto kStaleTemporary = std::chrono::hours(1);
@@ -85,26 +90,91 @@ bool is_stale_temporary(const std::string& name, fs::file_time_type written, fs:
     return gone || now - written > kStaleTemporary;
 }
 
-}  // namespace
+// `oracle-<32 lowercase hex>.bin`: the key, or empty when the name is not an entry's.
+std::string key_of_entry_name(const std::string& name) {
+    constexpr std::size_t kKeyDigits = 32;
+    if (name.size() != 7 + kKeyDigits + 4 || !name.starts_with("oracle-") || !name.ends_with(".bin")) return {};
+    const std::string key = name.substr(7, kKeyDigits);
+    return key.find_first_not_of("0123456789abcdef") == std::string::npos ? key : std::string();
+}
 
-std::string oracle_cache_key(const Scenario& s, const OracleSettings& settings) {
-    KeyBytes k;
-    k.add_text(kOracleAlgorithm);
-    k.add_all(s.scene.positions);
-    k.add_all(s.scene.triangles);
-    k.add_all(s.scene.double_sided);
-    const Camera& c = s.camera;
+bool starts_with_magic(const fs::path& file) {
+    File f(std::fopen(file.c_str(), "rb"));
+    char head[7];
+    return f && std::fread(head, 1, sizeof head, f.get()) == sizeof head &&
+           std::string_view(head, sizeof head) == kMagicFamily;
+}
+
+void add_camera(KeyBytes& k, const Camera& c) {
     k.add(c.type);
     for (const glm::dvec3& v : {c.eye, c.forward, c.right, c.up}) k.add(v);
     for (double v : {c.yfov_rad, c.xmag, c.ymag, c.znear, c.zfar}) k.add(v);
-    k.add(s.width);
-    k.add(s.height);
-    k.add(s.lights.size());
-    for (const Light& l : s.lights) {
+}
+
+void add_lights(KeyBytes& k, const std::vector<Light>& lights) {
+    k.add(lights.size());
+    for (const Light& l : lights) {
         k.add(l.type);
         for (const glm::dvec3& v : {l.position, l.direction, l.u, l.v, l.normal}) k.add(v);
         for (double v : {l.outer_cone_rad, l.radius}) k.add(v);
     }
+}
+
+void add_scene(KeyBytes& k, const Scene& scene) {
+    k.add_all(scene.positions);
+    k.add_all(scene.triangles);
+    k.add_all(scene.double_sided);
+}
+
+}  // namespace
+
+nlohmann::json scenario_fingerprint(const Scenario& s) {
+    KeyBytes scene, camera, lights;
+    add_scene(scene, s.scene);
+    add_camera(camera, s.camera);
+    add_lights(lights, s.lights);
+    return {{"scene", content_fingerprint(scene.bytes())},
+            {"camera", content_fingerprint(camera.bytes())},
+            {"lights", content_fingerprint(lights.bytes())}};
+}
+
+std::uint64_t parse_cache_size(const std::string& text, const std::string& what) {
+    auto bad = [&]() -> std::uint64_t {
+        throw InputError(
+            fmt::format("{} {}: expected a size in bytes, or with a K, M, G or T suffix such as 512M or "
+                        "2G (0: no cap)",
+                        what, text));
+    };
+    std::size_t digits = 0;
+    while (digits < text.size() && (std::isdigit(static_cast<unsigned char>(text[digits])) || text[digits] == '.'))
+        ++digits;
+    const std::string number = text.substr(0, digits);
+    if (number.find_first_of("0123456789") == std::string::npos || number.find('.') != number.rfind('.')) return bad();
+    const double value = std::strtod(number.c_str(), nullptr);
+    std::string suffix = text.substr(digits);
+    if (!suffix.empty() && (suffix.back() == 'B' || suffix.back() == 'b')) suffix.pop_back();
+    if (!suffix.empty() && suffix.back() == 'i') suffix.pop_back();
+    double scale = 1;
+    if (suffix.size() > 1) return bad();
+    if (suffix.size() == 1) {
+        const auto k =
+            std::string_view("KMGT").find(static_cast<char>(std::toupper(static_cast<unsigned char>(suffix[0]))));
+        if (k == std::string_view::npos) return bad();
+        scale = std::ldexp(1.0, 10 * static_cast<int>(k + 1));
+    }
+    const double bytes = value * scale;
+    if (!std::isfinite(bytes) || bytes >= 1.8e19) return bad();
+    return static_cast<std::uint64_t>(bytes);
+}
+
+std::string oracle_cache_key(const Scenario& s, const OracleSettings& settings) {
+    KeyBytes k;
+    k.add_text(kOracleAlgorithm);
+    add_scene(k, s.scene);
+    add_camera(k, s.camera);
+    k.add(s.width);
+    k.add(s.height);
+    add_lights(k, s.lights);
     k.add(settings.boundary_bisection_steps);
     k.add(settings.seed);
     k.add(settings.area_target);
@@ -113,7 +183,12 @@ std::string oracle_cache_key(const Scenario& s, const OracleSettings& settings) 
     return content_fingerprint(k.bytes());
 }
 
-OracleCache::OracleCache(fs::path dir, int max_entries) : dir_(std::move(dir)), max_entries_(max_entries) {}
+OracleCache::OracleCache(fs::path dir, std::uint64_t max_bytes) : dir_(std::move(dir)), max_bytes_(max_bytes) {}
+
+std::uint64_t OracleCache::default_max_bytes() {
+    if (const char* m = std::getenv("PENUMBRA_CACHE_MAX"); m && *m) return parse_cache_size(m, "PENUMBRA_CACHE_MAX");
+    return kDefaultCacheMaxBytes;
+}
 
 fs::path OracleCache::default_dir() {
     if (const char* d = std::getenv("PENUMBRA_CACHE_DIR"); d && *d) return d;
@@ -226,20 +301,76 @@ std::optional<std::string> OracleCache::store(const std::string& key, const Orac
     untrack_for_interrupt(tracked);
     if (!ok || ec)
         return fmt::format("{}: could not store the oracle in the cache; the next run traces again", dir_.string());
-    // Keep the newest entries only, and sweep temporaries of stores that never finished.
-    std::vector<std::pair<fs::file_time_type, fs::path>> entries;
+    sweep_temporaries();
+    for (const CacheEntry& gone : prune())
+        if (gone.key == key)
+            return fmt::format(
+                "{}: the oracle ({} bytes) is larger than the cache's cap ({} bytes) and was not kept; "
+                "raise it with --cache-max or PENUMBRA_CACHE_MAX",
+                dir_.string(), gone.bytes, max_bytes_);
+    return std::nullopt;
+}
+
+std::vector<CacheEntry> OracleCache::entries() const {
+    std::vector<CacheEntry> list;
+    if (dir_.empty()) return list;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir_, ec)) {
+        std::error_code fec;
+        CacheEntry c;
+        c.key = key_of_entry_name(e.path().filename().string());
+        if (c.key.empty() || !e.is_regular_file(fec) || !starts_with_magic(e.path())) continue;
+        c.file = e.path();
+        c.bytes = e.file_size(fec);
+        c.last_use = fs::last_write_time(e.path(), fec);
+        if (!fec) list.push_back(std::move(c));
+    }
+    // Most recently used first; equal times by key, so that the order never depends on the folder's.
+    std::sort(list.begin(), list.end(), [](const CacheEntry& a, const CacheEntry& b) {
+        return a.last_use != b.last_use ? a.last_use > b.last_use : a.key < b.key;
+    });
+    return list;
+}
+
+std::vector<CacheEntry> OracleCache::prune() const {
+    std::vector<CacheEntry> removed;
+    if (max_bytes_ == 0) return removed;
+    std::uint64_t kept = 0;
+    bool full = false;
+    for (CacheEntry& e : entries()) {
+        // An entry larger than the whole cap never fits and goes by itself; otherwise, once one
+        // entry does not fit, no older one is kept either: the least recently used go first.
+        const bool too_big = e.bytes > max_bytes_;
+        if (!too_big && !full && kept + e.bytes <= max_bytes_) {
+            kept += e.bytes;
+            continue;
+        }
+        full = full || !too_big;
+        std::error_code ec;
+        if (fs::remove(e.file, ec)) removed.push_back(std::move(e));
+    }
+    return removed;
+}
+
+std::vector<CacheEntry> OracleCache::clear() const {
+    std::vector<CacheEntry> removed;
+    for (CacheEntry& e : entries()) {
+        std::error_code ec;
+        if (fs::remove(e.file, ec)) removed.push_back(std::move(e));
+    }
+    sweep_temporaries();
+    return removed;
+}
+
+void OracleCache::sweep_temporaries() const {
+    std::error_code ec;
     const auto now = fs::file_time_type::clock::now();
     for (const auto& e : fs::directory_iterator(dir_, ec)) {
         const std::string name = e.path().filename().string();
-        if (name.starts_with("oracle-") && name.ends_with(".bin"))
-            entries.emplace_back(fs::last_write_time(e.path(), ec), e.path());
-        else if (name.starts_with(".oracle-") && is_stale_temporary(name, fs::last_write_time(e.path(), ec), now))
-            fs::remove(e.path(), ec);
+        std::error_code fec;
+        if (name.starts_with(".oracle-") && is_stale_temporary(name, fs::last_write_time(e.path(), fec), now))
+            fs::remove(e.path(), fec);
     }
-    std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    for (std::size_t i = static_cast<std::size_t>(std::max(max_entries_, 1)); i < entries.size(); ++i)
-        fs::remove(entries[i].second, ec);
-    return std::nullopt;
 }
 
 }  // namespace penumbra

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <memory>
 
+#include "common/json_reader.h"
 #include "common/stopwatch.h"
 #include "common/version.h"
 #include "oracle/oracle_cache.h"
@@ -25,6 +26,7 @@ report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResul
     in.scoring = r.scoring;
     in.timing = r.timing;
     in.gate = r.gate ? &*r.gate : nullptr;
+    in.fingerprint = scenario_fingerprint(scenario);  // penumbra diff tells scenarios apart by it
     return in;
 }
 
@@ -48,11 +50,37 @@ std::optional<std::string> no_lights_warning(const Scenario& scenario) {
     return fmt::format("{}: the scenario has no lights: nothing is shadowed and nothing is scored", scenario.label);
 }
 
+namespace {
+
+// oracle.json's "cache": where the entry lives and how much the cache holds, so that a user sees
+// what the reuse costs on disk (docs/outputs.md).
+nlohmann::json cache_info(const OracleCache& cache, const std::string& key, bool hit) {
+    nlohmann::json j = {{"hit", hit}, {"key", key}, {"dir", cache.dir().string()}};
+    if (cache.dir().empty()) return j;
+    std::uint64_t total = 0, bytes = 0;
+    const std::vector<CacheEntry> entries = cache.entries();
+    for (const CacheEntry& e : entries) {
+        total += e.bytes;
+        if (e.key == key) bytes = e.bytes;
+    }
+    if (bytes > 0) {
+        j["file"] = path_text(cache.entry(key));
+        j["bytes"] = bytes;
+    }
+    j["entries"] = entries.size();
+    j["total_bytes"] = total;
+    j["max_bytes"] = cache.max_bytes();
+    return j;
+}
+
+}  // namespace
+
 OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
     auto t0 = SteadyClock::now();
     OracleCache cache(!options.use_cache           ? std::filesystem::path()
                       : !options.cache_dir.empty() ? options.cache_dir
-                                                   : OracleCache::default_dir());
+                                                   : OracleCache::default_dir(),
+                      options.cache_max_bytes ? *options.cache_max_bytes : OracleCache::default_max_bytes());
     const std::string key = oracle_cache_key(scenario, options.oracle);
     OracleRun o;
     // The cache keeps neither P, N nor depth: a caller that writes oracle.exr traces.
@@ -61,7 +89,7 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
         if (auto hit = cache.load(key, &damaged)) {
             o.frame = std::move(hit->frame);
             o.info = std::move(hit->info);
-            o.info["cache"] = {{"hit", true}, {"key", key}, {"dir", cache.dir().string()}};
+            o.info["cache"] = cache_info(cache, key, true);
             o.cached = true;
             o.seconds = seconds_since(t0);
             return o;
@@ -72,7 +100,7 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
     o.seconds = seconds_since(t0);
     o.warning = cache.store(key, result.frame, o.info);
     if (!damaged.empty()) o.warning = o.warning ? damaged + "; " + *o.warning : damaged;
-    o.info["cache"] = {{"hit", false}, {"key", key}, {"dir", cache.dir().string()}};
+    o.info["cache"] = cache_info(cache, key, false);
     o.frame = std::move(result.frame);
     return o;
 }

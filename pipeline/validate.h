@@ -4,6 +4,7 @@
 // (validate_files.h: write_validate_outputs), so a loop can score without writing anything.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -25,14 +26,15 @@
 namespace penumbra {
 
 struct ValidateOptions {
-    OracleSettings oracle;            // threads, progress, area-light sampling
-    bool use_cache = true;            // false: trace and keep nothing (--no-cache)
-    std::filesystem::path cache_dir;  // empty: OracleCache::default_dir()
-    bool keep_oracle_frame = false;   // trace (never from the cache) and keep P, N, depth (--frames)
-    double tolerance = 1.0 / 255.0;   // tau (docs/metrics.md)
-    double visible_threshold = 0.1;   // |error| from which a wrong pixel is also visible (docs/metrics.md)
-    std::string device;               // Vulkan device when no session is given
-    raster::RenderOptions render;     // lookups on for reports; V only for objectives
+    OracleSettings oracle;                         // threads, progress, area-light sampling
+    bool use_cache = true;                         // false: trace and keep nothing (--no-cache)
+    std::filesystem::path cache_dir;               // empty: OracleCache::default_dir()
+    std::optional<std::uint64_t> cache_max_bytes;  // the cache's size cap (0: none); empty: default_max_bytes()
+    bool keep_oracle_frame = false;                // trace (never from the cache) and keep P, N, depth (--frames)
+    double tolerance = 1.0 / 255.0;                // tau (docs/metrics.md)
+    double visible_threshold = 0.1;                // |error| from which a wrong pixel is also visible (docs/metrics.md)
+    std::string device;                            // Vulkan device when no session is given
+    raster::RenderOptions render;                  // lookups on for reports; V only for objectives
 };
 
 // The oracle's frame for a scenario, with the oracle.json of the run that produced it.

@@ -49,6 +49,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
                         {"timing", in.timing}};
     if (!in.command_line.empty()) r["command_line"] = in.command_line;
     if (in.raster.contains("device")) r["device"] = in.raster["device"];
+    if (!in.fingerprint.is_null()) r["fingerprint"] = in.fingerprint;
     if (in.gate) {
         nlohmann::json checks = nlohmann::json::array();
         for (const auto& o : in.gate->outcomes)

@@ -29,6 +29,7 @@ struct ReportInputs {
     std::vector<metrics::ScoringOptions> scoring;  // per light
     nlohmann::json timing;                         // report.json's "timing"
     const metrics::GateResult* gate = nullptr;     // null: no gate given
+    nlohmann::json fingerprint;                    // report.json's "fingerprint" (scene, camera, lights); null: none
 };
 
 // report.json (docs/design.md's keys, and more): each light's object is metrics::to_json, built from

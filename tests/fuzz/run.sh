@@ -3,7 +3,7 @@
 # tests/fuzz/seeds, data/ and Debian's assimp-testmodels, the target's dictionary, inputs up to
 # 1 MB so deep nesting is reachable. Crashes land in build-fuzz/artifacts/.
 # Usage: run.sh TARGET SECONDS [libFuzzer options...]
-#   (TARGET: gltf glb scenario technique gate sweep_shard sweep_vary)
+#   (TARGET: gltf glb scenario technique gate sweep_shard sweep_vary diff)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 target=$1
@@ -39,12 +39,12 @@ case $target in
         dict=scenario.dict
         copy_seeds "$root/tests/fuzz/seeds/scenario" "$root/data" -name '*.json'
         ;;
-    technique | gate | sweep_shard | sweep_vary)
+    technique | gate | sweep_shard | sweep_vary | diff)
         dict=$target.dict
         copy_seeds "$root/tests/fuzz/seeds/$target"
         ;;
     *)
-        echo "unknown target $target (gltf glb scenario technique gate sweep_shard sweep_vary)" >&2
+        echo "unknown target $target (gltf glb scenario technique gate sweep_shard sweep_vary diff)" >&2
         exit 2
         ;;
 esac

@@ -1,0 +1,96 @@
+#include "pipeline/diff_files.h"
+
+#include <fmt/format.h>
+
+#include "common/json_reader.h"
+#include "report/report.h"
+#include "report/report_files.h"
+
+namespace penumbra::diff {
+
+namespace {
+
+using report::escape_markup;
+
+// Larger class maps are not embedded: the page would be unwieldy (a 16384² map is far below this).
+constexpr std::uint64_t kMaxEmbeddedImage = 64ull << 20;
+
+std::string class_map(const std::filesystem::path& png, const std::string& alt) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(png, ec))
+        return fmt::format("<p class=\"missing\">no class map: {} is not there</p>", escape_markup(path_text(png)));
+    std::string bytes;
+    try {
+        bytes = read_regular_file(png, kMaxEmbeddedImage);
+    } catch (const std::exception& e) {
+        return fmt::format("<p class=\"missing\">no class map: {}</p>", escape_markup(e.what()));
+    }
+    return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(bytes), escape_markup(alt));
+}
+
+std::string pct(double f) {
+    return fmt::format("{:.4f}%", 100.0 * f);
+}
+
+std::string html_page(const Run& a, const Run& b, const DiffResult& d) {
+    std::string h = R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>penumbra diff</title>
+<style>
+body{font-family:system-ui,sans-serif;background:#16181d;color:#e6e6e6;margin:2em;max-width:1400px}
+h1,h2{font-weight:600} table{border-collapse:collapse;margin:.5em 0 1em} td,th{padding:.25em .8em;border-bottom:1px solid #333;text-align:right}
+th:first-child,td:first-child{text-align:left} img{max-width:100%;display:block;margin:.5em 0;image-rendering:pixelated}
+.worse{color:#ff5252;font-weight:bold} .better{color:#4caf50} .missing{color:#999}
+.grid{display:grid;grid-template-columns:1fr 1fr;gap:1em} .wrap{overflow-x:auto}
+</style></head><body>
+<h1>penumbra diff</h1>
+)";
+    h += fmt::format("<p>A: <code>{}</code> ({})<br>B: <code>{}</code> ({})<br>scenario: <code>{}</code></p>\n",
+                     escape_markup(path_text(a.file)), escape_markup(a.kind), escape_markup(path_text(b.file)),
+                     escape_markup(b.kind), escape_markup(a.scenario));
+    if (d.worse()) {
+        h += fmt::format("<p class=\"worse\">B is worse than A (tolerance {:.4f} points):</p>\n<ul>\n",
+                         100.0 * d.tolerance);
+        for (const auto& line : d.worse_lines) h += "<li>" + escape_markup(line) + "</li>\n";
+        h += "</ul>\n";
+    } else {
+        h += fmt::format("<p class=\"better\">B is {} A (no class's rate rose by more than {:.4f} points).</p>\n",
+                         d.identical() ? "identical to" : "not worse than", 100.0 * d.tolerance);
+    }
+    for (const auto& w : d.warnings) h += "<p class=\"missing\">warning: " + escape_markup(w) + "</p>\n";
+    for (const LightChange& c : d.lights) {
+        h += fmt::format("<h2>{}</h2>\n<p>scored {} → {}; wrong {} → {}{}; compared: {}</p>\n",
+                         escape_markup(c.a.label()), c.a.scored, c.b.scored, pct(c.a.wrong_fraction),
+                         pct(c.b.wrong_fraction), c.identical ? " (identical)" : "",
+                         c.visible_basis ? "visible rates" : "rates");
+        h += "<div class=\"wrap\"><table><tr><th>class</th><th>count A</th><th>count B</th><th>rate A</th>"
+             "<th>rate B</th><th>visible rate A</th><th>visible rate B</th><th>change</th></tr>\n";
+        for (std::size_t k = 0; k < kClasses.size(); ++k) {
+            const ClassChange& cc = c.classes[k];
+            const char* cls = cc.worse ? "worse" : cc.change < 0 ? "better" : "";
+            h += fmt::format(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
+                "<td class=\"{}\">{:+.4f} pts</td></tr>\n",
+                kClasses[k], c.a.counts[k], c.b.counts[k], pct(c.a.rates[k]), pct(c.b.rates[k]),
+                c.visible_basis ? pct(c.a.rates_visible[k]) : "-", c.visible_basis ? pct(c.b.rates_visible[k]) : "-",
+                cls, 100.0 * cc.change);
+        }
+        h += "</table></div>\n";
+        if (c.a.perceptual_mean && c.b.perceptual_mean)
+            h += fmt::format("<p>perceptual error: mean {:.5f} → {:.5f}, max {:.5f} → {:.5f}</p>\n",
+                             *c.a.perceptual_mean, *c.b.perceptual_mean, *c.a.perceptual_max, *c.b.perceptual_max);
+        h += "<div class=\"grid\"><div><b>A</b>" + class_map(c.a.class_map, "A: " + c.a.label()) +
+             "</div><div><b>B</b>" + class_map(c.b.class_map, "B: " + c.b.label()) + "</div></div>\n";
+    }
+    h += report::image_check_script();
+    h += "</body></html>\n";
+    return h;
+}
+
+}  // namespace
+
+void write_diff_outputs(OutputTransaction& out, const Run& a, const Run& b, const DiffResult& d) {
+    out.write_json("diff.json", diff_json(a, b, d));
+    out.write_text("diff.html", html_page(a, b, d));
+}
+
+}  // namespace penumbra::diff

@@ -1,0 +1,130 @@
+// The oracle cache's size cap: least recently used entries go after a store, a hit counts as a
+// use, only the cache's own files are ever removed (docs/oracle.md, "The cache").
+#include "oracle/oracle_cache.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+
+#include "common/errors.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+
+OracleFrame small_frame() {
+    OracleFrame f;
+    f.width = 8;
+    f.height = 8;
+    const std::size_t n = f.pixel_count();
+    f.A.assign(n, 1.0f);
+    f.prim.assign(n, 0u);
+    OracleLightImage l;
+    for (auto* c : {&l.V, &l.E, &l.U, &l.lightable, &l.occluder_m, &l.boundary_m}) c->assign(n, 0.5f);
+    f.lights.push_back(l);
+    return f;
+}
+
+// 32 hex digits, as oracle_cache_key gives.
+std::string key(int i) {
+    return fmt::format("{:032x}", i);
+}
+
+// Entries used `minutes_ago`, so that their order does not hang on the clock's resolution.
+void used(const OracleCache& cache, int i, int minutes_ago) {
+    fs::last_write_time(cache.entry(key(i)), fs::file_time_type::clock::now() - std::chrono::minutes(minutes_ago));
+}
+
+std::uint64_t entry_bytes(const fs::path& dir) {
+    OracleCache probe(dir / "probe", 0);
+    EXPECT_FALSE(probe.store(key(0), small_frame(), {}));
+    return probe.entries().at(0).bytes;
+}
+
+TEST(OracleCache, FillingPastTheCapRemovesTheLeastRecentlyUsed) {
+    test::TempDir tmp;
+    const std::uint64_t bytes = entry_bytes(tmp.path());
+    const OracleCache cache(tmp.path() / "cache", 3 * bytes);  // room for three entries
+    for (int i = 1; i <= 3; ++i) {
+        ASSERT_FALSE(cache.store(key(i), small_frame(), {}));
+        used(cache, i, 10 - i);  // 1 the oldest
+    }
+    ASSERT_EQ(cache.entries().size(), 3u);
+    ASSERT_FALSE(cache.store(key(4), small_frame(), {}));
+    const auto entries = cache.entries();
+    ASSERT_EQ(entries.size(), 3u);
+    EXPECT_FALSE(fs::exists(cache.entry(key(1)))) << "the oldest entry stays past the cap";
+    for (int i = 2; i <= 4; ++i) EXPECT_TRUE(fs::exists(cache.entry(key(i)))) << i;
+    EXPECT_EQ(entries.front().key, key(4)) << "most recently used first";
+}
+
+TEST(OracleCache, AHitCountsAsAUse) {
+    test::TempDir tmp;
+    const std::uint64_t bytes = entry_bytes(tmp.path());
+    const OracleCache cache(tmp.path() / "cache", 2 * bytes);
+    ASSERT_FALSE(cache.store(key(1), small_frame(), {}));
+    used(cache, 1, 20);
+    ASSERT_FALSE(cache.store(key(2), small_frame(), {}));
+    used(cache, 2, 10);
+    ASSERT_TRUE(cache.load(key(1)));  // 1 is now the most recently used
+    ASSERT_FALSE(cache.store(key(3), small_frame(), {}));
+    EXPECT_TRUE(fs::exists(cache.entry(key(1))));
+    EXPECT_FALSE(fs::exists(cache.entry(key(2))));
+    EXPECT_TRUE(fs::exists(cache.entry(key(3))));
+}
+
+TEST(OracleCache, PruneAndClearTouchOnlyTheCachesOwnFiles) {
+    test::TempDir tmp;
+    const fs::path dir = tmp.path() / "cache";
+    const OracleCache cache(dir, 0);  // no cap
+    for (int i = 1; i <= 3; ++i) ASSERT_FALSE(cache.store(key(i), small_frame(), {}));
+    std::ofstream(dir / "notes.txt") << "mine";
+    std::ofstream(dir / ("oracle-" + key(9) + ".bin")) << "an entry's name, not its magic";
+    EXPECT_EQ(cache.entries().size(), 3u);
+    EXPECT_TRUE(cache.prune().empty()) << "no cap: nothing to prune";
+    const OracleCache capped(dir, 1);  // smaller than any entry
+    EXPECT_EQ(capped.prune().size(), 3u);
+    for (int i = 1; i <= 2; ++i) ASSERT_FALSE(cache.store(key(i), small_frame(), {}));
+    EXPECT_EQ(cache.clear().size(), 2u);
+    EXPECT_TRUE(cache.entries().empty());
+    EXPECT_TRUE(fs::exists(dir / "notes.txt"));
+    EXPECT_TRUE(fs::exists(dir / ("oracle-" + key(9) + ".bin")));
+}
+
+TEST(OracleCache, AnEntryLargerThanTheCapIsNotKeptAndSparesTheOthers) {
+    test::TempDir tmp;
+    const std::uint64_t bytes = entry_bytes(tmp.path());
+    const OracleCache roomy(tmp.path() / "cache", 0);
+    ASSERT_FALSE(roomy.store(key(1), small_frame(), {}));
+    OracleFrame big = small_frame();
+    big.width = 64;
+    big.height = 64;
+    for (auto* c : {&big.A}) c->assign(big.pixel_count(), 1.0f);
+    big.prim.assign(big.pixel_count(), 0u);
+    for (auto* c : {&big.lights[0].V, &big.lights[0].E, &big.lights[0].U, &big.lights[0].lightable,
+                    &big.lights[0].occluder_m, &big.lights[0].boundary_m})
+        c->assign(big.pixel_count(), 0.5f);
+    const OracleCache cache(tmp.path() / "cache", 2 * bytes);
+    const auto warning = cache.store(key(2), big, {});
+    ASSERT_TRUE(warning);
+    EXPECT_NE(warning->find("larger than the cache's cap"), std::string::npos) << *warning;
+    EXPECT_FALSE(fs::exists(cache.entry(key(2))));
+    EXPECT_TRUE(fs::exists(cache.entry(key(1))));
+}
+
+TEST(OracleCache, SizesTakeBinarySuffixes) {
+    EXPECT_EQ(parse_cache_size("2G", "x"), 2ull << 30);
+    EXPECT_EQ(parse_cache_size("512M", "x"), 512ull << 20);
+    EXPECT_EQ(parse_cache_size("1.5K", "x"), 1536u);
+    EXPECT_EQ(parse_cache_size("1000", "x"), 1000u);
+    EXPECT_EQ(parse_cache_size("0", "x"), 0u);
+    for (const char* bad : {"", "G", ".", "2X", "-1", "1..2", "2 G"})
+        EXPECT_THROW(parse_cache_size(bad, "PENUMBRA_CACHE_MAX"), InputError) << bad;
+}
+
+}  // namespace
+}  // namespace penumbra
