@@ -135,10 +135,21 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     // task; an area light's visibility is continuous, it has no such boundary ----
     t0 = SteadyClock::now();
     std::atomic<std::uint64_t> boundary_rays{0};
+    std::vector<OracleBoundaryTimes> boundary_parts(lights.size());
     tbb::parallel_for(std::size_t(0), lights.size(), [&](std::size_t li) {
         if (is_area_light(lights[li].type)) return;
-        boundary_rays += locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps);
+        boundary_rays +=
+            locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps, boundary_parts[li]);
     });
+    for (const OracleBoundaryTimes& t : boundary_parts) {
+        OracleBoundaryTimes& sum = stats.boundary_parts;
+        sum.locate_s += t.locate_s;
+        sum.merge_s += t.merge_s;
+        sum.grid_s += t.grid_s;
+        sum.sweeps_s += t.sweeps_s;
+        sum.lists_s += t.lists_s;
+        sum.pixels_s += t.pixels_s;
+    }
     tracer.device().check("boundary search");
     stats.boundary_rays = boundary_rays;
     stats.boundary_s = seconds_since(t0);

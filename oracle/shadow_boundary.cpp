@@ -31,6 +31,7 @@
 #include <optional>
 #include <vector>
 
+#include "common/stopwatch.h"
 #include "oracle/tracer.h"
 
 namespace penumbra::oracle_detail {
@@ -350,7 +351,9 @@ void nearest_sweeps(int W, int H, std::vector<int>& nearest, std::vector<double>
 // pixel) and d2 its squared distance across the light at the pixel.
 template <typename OnFound>
 void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const OracleLightImage& img,
-                      const LocalLight& light, const std::vector<glm::dvec3>& seeds, OnFound on_found) {
+                      const LocalLight& light, const std::vector<glm::dvec3>& seeds, OracleBoundaryTimes& times,
+                      OnFound on_found) {
+    auto t0 = SteadyClock::now();
     const std::size_t n = frame.pixel_count();
     constexpr double kInf = std::numeric_limits<double>::infinity();
     struct Box {
@@ -376,7 +379,10 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             a.count += b.count;
             return a;
         });
-    if (box.count == 0) return;
+    if (box.count == 0) {
+        times.grid_s += seconds_since(t0);
+        return;
+    }
     const ChartGrid grid = grid_over(box.lo, box.hi, box.count);
 
     // The boundary points filed by cell (a counting sort).
@@ -398,8 +404,11 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
             if (seed_cell[s] < grid.size()) filed[next[seed_cell[s]]++] = static_cast<int>(s);
     }
 
+    times.grid_s += seconds_since(t0);
+
     // Each cell's nearest point to its centre's ray: its own filed points, then the sweeps.
     auto run = [&](auto at_chart_point) {
+        t0 = SteadyClock::now();
         std::vector<int> cell_nearest(grid.size(), -1);
         std::vector<double> cell_best(grid.size(), kInf);
         for (std::size_t s = 0; s < m; ++s) {
@@ -415,6 +424,8 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         nearest_sweeps(
             grid.nx, grid.ny, cell_nearest, cell_best, [](std::size_t) { return false; },
             [&](int x, int y) { return at_chart_point(grid.centre(x, y)); });
+        times.sweeps_s += seconds_since(t0);
+        t0 = SteadyClock::now();
 
         // Each cell's candidates: the distinct points its own and the eight surrounding cells
         // hold or are nearest to (built once; about sixteen pixels share a cell).
@@ -496,6 +507,9 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                     }
         });
 
+        times.lists_s += seconds_since(t0);
+        t0 = SteadyClock::now();
+
         // Each pixel: the nearest of its cell's candidates; then, unless that lies within a cell
         // (see below), a walk along the boundary to the nearest neighbour of the point so far
         // while that is nearer (the points of a boundary lie about a pixel apart, and the one
@@ -553,6 +567,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                  i != end; ++i)
                 if (img.lightable[i] != 0) search(i);
         });
+        times.pixels_s += seconds_since(t0);
     };
     if (chart.directional) {
         // The distance between a point and a ray is the distance between their chart points.
@@ -591,7 +606,9 @@ void nearest_in_image(const OracleFrame& frame, const OracleLightImage& img, con
 
 }  // namespace
 
-std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std::size_t li, int steps) {
+std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std::size_t li, int steps,
+                                       OracleBoundaryTimes& times) {
+    auto t0 = SteadyClock::now();
     const int W = frame.width, H = frame.height;
     OracleLightImage& img = frame.lights[li];
     const LocalLight& light = tr.lights()[li];
@@ -639,6 +656,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         ray_count += local_rays;
     });
     rays = ray_count;
+    times.locate_s += seconds_since(t0);
+    t0 = SteadyClock::now();
     // Each straddling pixel's own points: the point between it and each neighbour whose verdict
     // differs; of these, the nearest (the first found among equals). A list sorted by pixel, not
     // an array over every pixel: that was 48 MB of fresh memory at 2048^2, 0.05 s to fault in.
@@ -704,8 +723,11 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         if (dist <= ambiguity) img.U[i] = 1.0f;
     };
 
+    times.merge_s += seconds_since(t0);
     if (seeds.empty()) return rays;
+    t0 = SteadyClock::now();
     const std::vector<RayChart> charts = charts_for(light, frame, img);
+    times.grid_s += seconds_since(t0);
     if (charts.size() == 1) {
         // One chart maps every lightable pixel (charts_for): a pixel's search there is its last,
         // and step 3 follows it in the same pass. Each row walks its pixels' own points in order.
@@ -714,7 +736,7 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
             while (k < own.size() && own[k].pixel < y * static_cast<std::size_t>(W)) ++k;
             row_next[y] = k;
         }
-        nearest_in_chart(charts[0], frame, img, light, seeds, [&](std::size_t i, int s, double d2) {
+        nearest_in_chart(charts[0], frame, img, light, seeds, times, [&](std::size_t i, int s, double d2) {
             std::size_t& next = row_next[i / static_cast<std::size_t>(W)];
             while (next < own.size() && own[next].pixel < i) ++next;
             Found f;
@@ -735,11 +757,15 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
                 nearest[i] = s;
             }
         };
-        for (const RayChart& chart : charts) nearest_in_chart(chart, frame, img, light, seeds, keep_nearer);
+        for (const RayChart& chart : charts) nearest_in_chart(chart, frame, img, light, seeds, times, keep_nearer);
+        t0 = SteadyClock::now();
         nearest_in_image(frame, img, light, seeds, nearest, best);
+        times.sweeps_s += seconds_since(t0);
+        t0 = SteadyClock::now();
         tbb::parallel_for(std::size_t(0), frame.pixel_count(), [&](std::size_t i) {
             if (img.lightable[i] != 0) finish(i, {nearest[i], best[i]});
         });
+        times.pixels_s += seconds_since(t0);
     }
     return rays;
 }
