@@ -669,33 +669,54 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         std::uint32_t pixel;
         Found found;
     };
-    std::vector<glm::dvec3> seeds;
-    std::vector<OwnPoint> own;
-    for (const auto& row : rows)
-        for (const Straddle& st : row) {
-            const int s = static_cast<int>(seeds.size());
-            seeds.push_back(st.seed);
-            for (const int i : {st.i, st.j}) {
-                const glm::dvec3 p(frame.P[i]);
-                const double d2 = lateral_distance2(p, direction_to_light(light, p), st.seed);
-                if (d2 < Found{}.d2) own.push_back({static_cast<std::uint32_t>(i), {s, d2}});
-            }
+    // The points are numbered in row-major order (row y's from row_first[y]). A pixel of row y
+    // has points from the pairs of row y and, through its upper neighbour, of row y - 1: each
+    // row gathers its pixels' own points by itself, in the order a serial loop over the rows
+    // would meet them, so the rows run in parallel (serially this took 0.02 s, a fifth of the
+    // phase at 16 threads).
+    std::vector<std::size_t> row_first(static_cast<std::size_t>(H) + 1, 0);
+    for (std::size_t y = 0; y < rows.size(); ++y) row_first[y + 1] = row_first[y] + rows[y].size();
+    std::vector<glm::dvec3> seeds(row_first.back());
+    std::vector<std::vector<OwnPoint>> own_rows(static_cast<std::size_t>(H));
+    tbb::parallel_for(0, H, [&](int y) {
+        const auto row = static_cast<std::size_t>(y);
+        for (std::size_t k = 0; k < rows[row].size(); ++k) seeds[row_first[row] + k] = rows[row][k].seed;
+        std::vector<OwnPoint>& own_row = own_rows[row];
+        auto offer = [&](int i, std::size_t s, const glm::dvec3& seed) {
+            const glm::dvec3 p(frame.P[i]);
+            const double d2 = lateral_distance2(p, direction_to_light(light, p), seed);
+            if (d2 < Found{}.d2) own_row.push_back({static_cast<std::uint32_t>(i), {static_cast<int>(s), d2}});
+        };
+        if (y > 0)  // the pairs reaching down into this row
+            for (std::size_t k = 0; k < rows[row - 1].size(); ++k)
+                if (const Straddle& st = rows[row - 1][k]; st.j / W == y) offer(st.j, row_first[row - 1] + k, st.seed);
+        for (std::size_t k = 0; k < rows[row].size(); ++k) {
+            const Straddle& st = rows[row][k];
+            offer(st.i, row_first[row] + k, st.seed);
+            if (st.j / W == y) offer(st.j, row_first[row] + k, st.seed);
         }
-    rows = {};
-    // Stable: of a pixel's points at the same distance, the first found stays, as when they
-    // were compared one by one.
-    std::stable_sort(own.begin(), own.end(), [](const OwnPoint& a, const OwnPoint& b) { return a.pixel < b.pixel; });
-    {
+        // Stable: of a pixel's points at the same distance, the first found stays, as when they
+        // were compared one by one.
+        std::stable_sort(own_row.begin(), own_row.end(),
+                         [](const OwnPoint& a, const OwnPoint& b) { return a.pixel < b.pixel; });
         std::size_t kept = 0;
-        for (std::size_t k = 0; k < own.size(); ++k) {
-            if (kept > 0 && own[kept - 1].pixel == own[k].pixel) {
-                if (own[k].found.d2 < own[kept - 1].found.d2) own[kept - 1].found = own[k].found;
+        for (std::size_t k = 0; k < own_row.size(); ++k) {
+            if (kept > 0 && own_row[kept - 1].pixel == own_row[k].pixel) {
+                if (own_row[k].found.d2 < own_row[kept - 1].found.d2) own_row[kept - 1].found = own_row[k].found;
             } else {
-                own[kept++] = own[k];
+                own_row[kept++] = own_row[k];
             }
         }
-        own.resize(kept);
-    }
+        own_row.resize(kept);
+    });
+    rows = {};
+    std::vector<std::size_t> own_first(static_cast<std::size_t>(H) + 1, 0);
+    for (std::size_t y = 0; y < own_rows.size(); ++y) own_first[y + 1] = own_first[y] + own_rows[y].size();
+    std::vector<OwnPoint> own(own_first.back());
+    tbb::parallel_for(std::size_t(0), own_rows.size(), [&](std::size_t y) {
+        std::copy(own_rows[y].begin(), own_rows[y].end(), own.begin() + static_cast<std::ptrdiff_t>(own_first[y]));
+    });
+    own_rows = {};
 
     // ---- 2. the nearest boundary point of every lightable pixel; 3. its distance ----
     // Step 3 at pixel i: the distance, and ambiguity within float error of a boundary.
