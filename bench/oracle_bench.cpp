@@ -234,6 +234,7 @@ struct OracleRun {
     double wall = 0, load = 0, build = 0, frame = 0, trace = 0, boundary = 0, write = 0;
     json boundary_parts;  // oracle.json's boundary_seconds, where the binary writes it
     double peak_mib = 0;
+    double cpu = 0;  // user + system seconds of the child: on a shared machine, steadier than its wall time
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
 };
 
@@ -255,6 +256,8 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
         throw std::runtime_error(penumbra + " oracle " + s.scenario.string() + " failed");
     r.peak_mib = usage.ru_maxrss / 1024.0;
+    r.cpu = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+            1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
     json j = json::parse(std::ifstream(out / "oracle.json"));
     const json& sec = j.at("seconds");
     r.load = sec.at("load");
@@ -502,7 +505,7 @@ bool same_bytes(const fs::path& a, const fs::path& b) {
 void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<int>& threads, int repeat,
                    const std::vector<std::pair<std::string, std::string>>& binaries, const std::string& builds) {
     struct Row {
-        Spread wall, load, build, frame, trace, boundary, write, peak;
+        Spread wall, load, build, frame, trace, boundary, write, peak, cpu;
         std::map<std::string, Spread> parts;
     };
     std::vector<std::vector<Row>> rows(binaries.size(), std::vector<Row>(threads.size()));
@@ -524,6 +527,7 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
                 row.boundary.v.push_back(o.boundary);
                 row.write.v.push_back(o.write);
                 row.peak.v.push_back(o.peak_mib);
+                row.cpu.v.push_back(o.cpu);
                 for (const auto& [k, v] : o.boundary_parts.items()) row.parts[k].v.push_back(v.get<double>());
                 if (!fs::exists(reference)) {
                     fs::copy_file(out / "oracle.exr", reference);
@@ -535,15 +539,16 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
             }
     for (std::size_t b = 0; b < binaries.size(); ++b) {
         std::printf("\n%s (%s), median of %d:\n\n", binaries[b].first.c_str(), binaries[b].second.c_str(), repeat);
-        std::printf("| threads | wall s | load | build | frame | trace | boundary | write | peak MiB | speed-up |\n");
-        std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+        std::printf(
+            "| threads | wall s | load | build | frame | trace | boundary | write | peak MiB | speed-up | CPU s |\n");
+        std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
         const double one = rows[b][0].wall.median();
         for (std::size_t t = 0; t < threads.size(); ++t) {
             const Row& row = rows[b][t];
-            std::printf("| %d | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.0f | %.2f |\n", threads[t],
+            std::printf("| %d | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.0f | %.2f | %.2f |\n", threads[t],
                         row.wall.median(), row.load.median(), row.build.median(), row.frame.median(),
                         row.trace.median(), row.boundary.median(), row.write.median(), row.peak.median(),
-                        one / row.wall.median());
+                        one / row.wall.median(), row.cpu.median());
         }
         if (!rows[b][0].parts.empty()) {
             std::printf("\nboundary parts (s):\n\n| threads |");
@@ -564,6 +569,14 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
         for (std::size_t t = 0; t < threads.size(); ++t) {
             Spread ratio;
             for (int r = 0; r < repeat; ++r) ratio.v.push_back(rows[0][t].wall.v[r] / rows[1][t].wall.v[r]);
+            std::printf("  %d: %s", threads[t], ratio.text("%.3f").c_str());
+        }
+        std::printf("\n");
+        std::printf("CPU s %s / %s (median of per-round ratios):", binaries[0].first.c_str(),
+                    binaries[1].first.c_str());
+        for (std::size_t t = 0; t < threads.size(); ++t) {
+            Spread ratio;
+            for (int r = 0; r < repeat; ++r) ratio.v.push_back(rows[0][t].cpu.v[r] / rows[1][t].cpu.v[r]);
             std::printf("  %d: %s", threads[t], ratio.text("%.3f").c_str());
         }
         std::printf("\n");

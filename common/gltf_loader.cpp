@@ -204,6 +204,11 @@ void lean_bin_buffers(std::string_view bytes, const nlohmann::json& j, RawFacts&
         return;
     auto buffers = j.find("buffers");
     if (buffers == j.end() || !buffers->is_array()) return;
+    // tinygltf hands an image in a bufferView its bytes as &buffer.data[byteOffset]: past the
+    // end of a 4-byte buffer. Such files (textured models) keep the copy.
+    if (auto images = j.find("images"); images != j.end() && images->is_array())
+        for (const nlohmann::json& image : *images)
+            if (image.is_object() && image.contains("bufferView")) return;
     nlohmann::json lean = j;
     std::vector<std::int64_t> in_place(buffers->size(), -1);
     bool any = false;

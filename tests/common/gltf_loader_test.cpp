@@ -111,6 +111,14 @@ TEST(GltfLoader, ReadsAGlbsBufferInPlace) {
     const Scene s = load_gltf(write_glb(dir, doc, g.bin));
     EXPECT_EQ(s.positions, expected.positions);
     EXPECT_EQ(s.triangles, expected.triangles);
+    // An image in a bufferView (a textured model): tinygltf indexes the buffer's bytes there,
+    // so the buffers are copied as before, with the same scene.
+    nlohmann::json textured = doc;
+    textured["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 40}, {"byteLength", 8}});
+    textured["images"] = {{{"bufferView", 2}, {"mimeType", "image/png"}}};
+    const Scene t = load_gltf(write_glb(dir, textured, g.bin, "textured.glb"));
+    EXPECT_EQ(t.positions, expected.positions);
+    EXPECT_EQ(t.triangles, expected.triangles);
     // A buffer longer than the chunk is still refused, by tinygltf, as before.
     doc["buffers"][1]["byteLength"] = g.bin.size() + 8;
     EXPECT_NE(error_of(write_glb(dir, doc, g.bin)).find("Invalid `byteLength'"), std::string::npos);
