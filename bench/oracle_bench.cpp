@@ -20,6 +20,14 @@
 //   goes over seconds, falls on both alike (--interleave 0 skips it).
 // Prints the median of --repeat runs (and the range) for every phase and the ratios the
 // goals are stated in (docs/oracle.md section 9).
+//
+// --threads-sweep: the oracle alone at 1, 2, 4, 8, 16 threads (those up to the machine's cores,
+// or the --threads list), one table of the phases per scene (issue #39), each run's oracle.exr
+// compared byte for byte with the first; --baseline PATH times another binary in the same
+// rounds (and compares its oracle.exr too); --embree-builds low,medium,high times bare Embree's
+// build and trace at each build quality at the largest thread count. The scenes field32 and
+// field64 are the issue's: 32 x 32 or 64 x 64 spheres (48 x 25 segments: 2.36M or 9.44M
+// triangles) over a 200 m plane.
 #include <embree3/rtcore.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -35,8 +43,10 @@
 #include <filesystem>
 #include <fstream>
 #include <glm/geometric.hpp>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/camera.h"
@@ -93,9 +103,10 @@ Mesh terrain_mesh(int grid) {
 // `count` x `count` UV spheres of radius 0.3 m on a 1 m grid, their lowest point 0.5 m above a
 // ground plane at y = 0; counter-clockwise seen from outside, or clockwise (`inside_out`: the
 // camera then sees the spheres' back faces, which the oracle culls as a rasteriser would).
-Mesh sphere_field_mesh(int count, int segments, int rings, bool inside_out) {
+// The plane reaches `plane_half` metres from the centre (0: just past the spheres).
+Mesh sphere_field_mesh(int count, int segments, int rings, bool inside_out, double plane_half = 0) {
     Mesh m;
-    const double r = 0.3, half = count / 2.0 + 1;
+    const double r = 0.3, half = plane_half > 0 ? plane_half : count / 2.0 + 1;
     m.vertex(-half, 0, half);
     m.vertex(half, 0, half);
     m.vertex(half, 0, -half);
@@ -189,14 +200,19 @@ BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bo
         s.camera.yfov_rad = 50 * M_PI / 180;
         s.camera.znear = 0.1;
         cam = {{"type", "perspective"}, {"yfov_deg", 50}, {"znear", 0.1}};
-    } else {
-        write_glb(dir / name / "scene.glb", sphere_field_mesh(32, 48, 25, inside_out));
+    } else if (name == "spheres" || name == "field32" || name == "field64") {
+        const int count = name == "field64" ? 64 : 32;
+        write_glb(dir / name / "scene.glb",
+                  sphere_field_mesh(count, 48, 25, inside_out, name == "spheres" ? 0.0 : 100.0));
         eye = {0, 20, 0}, target = {0, 0, 0}, up = {0, 0, -1};
         s.light_direction = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
         s.camera.type = ProjectionType::orthographic;
-        s.camera.xmag = s.camera.ymag = 16.5;
+        const double mag = count / 2.0 + 0.5;
+        s.camera.xmag = s.camera.ymag = mag;
         s.camera.znear = 0;
-        cam = {{"type", "orthographic"}, {"xmag", 16.5}, {"ymag", 16.5}, {"znear", 0}};
+        cam = {{"type", "orthographic"}, {"xmag", mag}, {"ymag", mag}, {"znear", 0}};
+    } else {
+        throw std::runtime_error("unknown scene " + name + " (terrain, spheres, field32, field64)");
     }
     look_at_basis(eye, target, up, s.camera);
     cam["eye"] = {eye.x, eye.y, eye.z};
@@ -216,7 +232,9 @@ BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bo
 
 struct OracleRun {
     double wall = 0, load = 0, build = 0, frame = 0, trace = 0, boundary = 0, write = 0;
+    json boundary_parts;  // oracle.json's boundary_seconds, where the binary writes it
     double peak_mib = 0;
+    double cpu = 0;  // user + system seconds of the child: on a shared machine, steadier than its wall time
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
 };
 
@@ -238,6 +256,8 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
         throw std::runtime_error(penumbra + " oracle " + s.scenario.string() + " failed");
     r.peak_mib = usage.ru_maxrss / 1024.0;
+    r.cpu = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+            1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
     json j = json::parse(std::ifstream(out / "oracle.json"));
     const json& sec = j.at("seconds");
     r.load = sec.at("load");
@@ -246,6 +266,7 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
     r.trace = sec.at("trace");
     r.boundary = sec.at("boundary");
     r.write = sec.at("write");
+    r.boundary_parts = j.value("boundary_seconds", json::object());
     r.primary = j.at("rays").at("primary");
     r.shadow = j.at("rays").at("shadow");
     r.retraced = j.at("rays").at("verified_retraces");
@@ -256,6 +277,7 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
 
 struct BareRun {
     double load = 0, build = 0, trace = 0;
+    double commit = 0;           // rtcCommitScene alone: Embree's BVH build
     double embree_peak_mib = 0;  // Embree's own allocations, peak (BVH, buffers)
     std::uint64_t rays = 0;
 };
@@ -389,7 +411,8 @@ Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pa
     return out;
 }
 
-BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Interleaved* interleaved) {
+BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Interleaved* interleaved,
+                    RTCBuildQuality quality = RTC_BUILD_QUALITY_MEDIUM) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
     BareRun out;
     // Load: the file's bytes; the .glb written above has positions then indices in its BIN chunk.
@@ -412,7 +435,9 @@ BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Int
     rtcSetDeviceMemoryMonitorFunction(device, embree_memory_monitor, nullptr);
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(scene, quality);
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(g, quality);
     auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 12, nv));
     auto* ib = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 12, nt));
     for (std::size_t i = 0; i < nv; ++i)
@@ -421,7 +446,9 @@ BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Int
     rtcCommitGeometry(g);
     rtcAttachGeometry(scene, g);
     rtcReleaseGeometry(g);
+    const auto t_commit = SteadyClock::now();
     rtcCommitScene(scene);
+    out.commit = seconds_since(t_commit);
     out.build = seconds_since(t0);
 
     // Packets as the oracle sends them (oracle/tracer.h): the same kernels, inactive lanes marked.
@@ -459,21 +486,159 @@ struct Spread {
     }
 };
 
+bool same_bytes(const fs::path& a, const fs::path& b) {
+    std::error_code ec;
+    if (fs::file_size(a, ec) != fs::file_size(b, ec) || ec) return false;
+    std::ifstream fa(a, std::ios::binary), fb(b, std::ios::binary);
+    std::vector<char> ba(1 << 20), bb(1 << 20);
+    while (fa && fb) {
+        fa.read(ba.data(), static_cast<std::streamsize>(ba.size()));
+        fb.read(bb.data(), static_cast<std::streamsize>(bb.size()));
+        if (fa.gcount() != fb.gcount() || std::memcmp(ba.data(), bb.data(), static_cast<std::size_t>(fa.gcount())))
+            return false;
+    }
+    return true;
+}
+
+// The issue #39 table: the oracle alone at each thread count (and `baseline`, another binary,
+// in the same rounds), medians of `repeat`; every oracle.exr compared with the first run's.
+void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<int>& threads, int repeat,
+                   const std::vector<std::pair<std::string, std::string>>& binaries, const std::string& builds) {
+    struct Row {
+        Spread wall, load, build, frame, trace, boundary, write, peak, cpu;
+        std::map<std::string, Spread> parts;
+    };
+    std::vector<std::vector<Row>> rows(binaries.size(), std::vector<Row>(threads.size()));
+    const fs::path reference = dir / s.name / "reference.exr";
+    fs::remove(reference);
+    int runs = 0;
+    std::vector<std::string> differ;
+    for (int r = 0; r < repeat; ++r)
+        for (std::size_t t = 0; t < threads.size(); ++t)
+            for (std::size_t b = 0; b < binaries.size(); ++b) {
+                const fs::path out = dir / s.name / "out";
+                OracleRun o = run_penumbra(binaries[b].second, s, out, threads[t]);
+                Row& row = rows[b][t];
+                row.wall.v.push_back(o.wall);
+                row.load.v.push_back(o.load);
+                row.build.v.push_back(o.build);
+                row.frame.v.push_back(o.frame);
+                row.trace.v.push_back(o.trace);
+                row.boundary.v.push_back(o.boundary);
+                row.write.v.push_back(o.write);
+                row.peak.v.push_back(o.peak_mib);
+                row.cpu.v.push_back(o.cpu);
+                for (const auto& [k, v] : o.boundary_parts.items()) row.parts[k].v.push_back(v.get<double>());
+                if (!fs::exists(reference)) {
+                    fs::copy_file(out / "oracle.exr", reference);
+                } else {
+                    ++runs;
+                    if (!same_bytes(reference, out / "oracle.exr"))
+                        differ.push_back(binaries[b].first + " at " + std::to_string(threads[t]) + " threads");
+                }
+            }
+    for (std::size_t b = 0; b < binaries.size(); ++b) {
+        std::printf("\n%s (%s), median of %d:\n\n", binaries[b].first.c_str(), binaries[b].second.c_str(), repeat);
+        std::printf(
+            "| threads | wall s | load | build | frame | trace | boundary | write | peak MiB | speed-up | CPU s |\n");
+        std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+        const double one = rows[b][0].wall.median();
+        for (std::size_t t = 0; t < threads.size(); ++t) {
+            const Row& row = rows[b][t];
+            std::printf("| %d | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.0f | %.2f | %.2f |\n", threads[t],
+                        row.wall.median(), row.load.median(), row.build.median(), row.frame.median(),
+                        row.trace.median(), row.boundary.median(), row.write.median(), row.peak.median(),
+                        one / row.wall.median(), row.cpu.median());
+        }
+        if (!rows[b][0].parts.empty()) {
+            std::printf("\nboundary parts (s):\n\n| threads |");
+            for (const auto& [k, v] : rows[b][0].parts) std::printf(" %s |", k.c_str());
+            std::printf("\n| --- |");
+            for (std::size_t k = 0; k < rows[b][0].parts.size(); ++k) std::printf(" --- |");
+            std::printf("\n");
+            for (std::size_t t = 0; t < threads.size(); ++t) {
+                std::printf("| %d |", threads[t]);
+                for (const auto& [k, v] : rows[b][t].parts) std::printf(" %.4f |", v.median());
+                std::printf("\n");
+            }
+        }
+    }
+    if (binaries.size() > 1) {
+        std::printf("\nwall %s / %s (median of per-round ratios):", binaries[0].first.c_str(),
+                    binaries[1].first.c_str());
+        for (std::size_t t = 0; t < threads.size(); ++t) {
+            Spread ratio;
+            for (int r = 0; r < repeat; ++r) ratio.v.push_back(rows[0][t].wall.v[r] / rows[1][t].wall.v[r]);
+            std::printf("  %d: %s", threads[t], ratio.text("%.3f").c_str());
+        }
+        std::printf("\n");
+        std::printf("CPU s %s / %s (median of per-round ratios):", binaries[0].first.c_str(),
+                    binaries[1].first.c_str());
+        for (std::size_t t = 0; t < threads.size(); ++t) {
+            Spread ratio;
+            for (int r = 0; r < repeat; ++r) ratio.v.push_back(rows[0][t].cpu.v[r] / rows[1][t].cpu.v[r]);
+            std::printf("  %d: %s", threads[t], ratio.text("%.3f").c_str());
+        }
+        std::printf("\n");
+    }
+    std::printf("\noracle.exr: %d runs compared with the first: %s\n", runs,
+                differ.empty() ? "all byte-identical" : "DIFFERENT:");
+    for (const std::string& d : differ) std::printf("  differs: %s\n", d.c_str());
+    if (builds.empty()) return;
+    std::printf("\nbare Embree at %d threads, by build quality (median of %d):\n\n", threads.back(), repeat);
+    std::printf(
+        "| quality | commit s | build s (with the vertex copy) | trace s | peak MiB |\n| --- | --- | --- | --- | --- "
+        "|\n");
+    std::vector<std::string> qualities;
+    for (std::size_t a = 0, e; a <= builds.size(); a = e + 1) {
+        e = builds.find(',', a);
+        if (e == std::string::npos) e = builds.size();
+        if (e > a) qualities.push_back(builds.substr(a, e - a));
+    }
+    for (const std::string& q : qualities) {
+        const RTCBuildQuality quality = q == "low"    ? RTC_BUILD_QUALITY_LOW
+                                        : q == "high" ? RTC_BUILD_QUALITY_HIGH
+                                                      : RTC_BUILD_QUALITY_MEDIUM;
+        Spread commit, build, trace, peak;
+        for (int r = 0; r < repeat; ++r) {
+            BareRun b = bare_embree(s, threads.back(), 0, nullptr, quality);
+            commit.v.push_back(b.commit);
+            build.v.push_back(b.build);
+            trace.v.push_back(b.trace);
+            peak.v.push_back(b.embree_peak_mib);
+        }
+        std::printf("| %s | %s | %s | %s | %s |\n", q.c_str(), commit.text("%.3f").c_str(), build.text("%.3f").c_str(),
+                    trace.text("%.3f").c_str(), peak.text("%.0f").c_str());
+    }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     int size = 2048, repeat = 3, bare = 1, inside_out = 0, interleave = 3;
-    std::string scenes = "terrain,spheres", thread_list = "1,2", keep;
+    bool sweep = false, threads_given = false;
+    std::string scenes = "terrain,spheres", thread_list = "1,2", keep, baseline, builds;
     std::string penumbra = PENUMBRA_BINARY;
     std::setvbuf(stdout, nullptr, _IOLBF, 0);  // line by line, also into a file: the runs are long
-    for (int i = 1; i + 1 < argc; i += 2) {
-        std::string a = argv[i], v = argv[i + 1];
+    for (int i = 1; i < argc; i += 2) {
+        std::string a = argv[i];
+        if (a == "--threads-sweep") {
+            sweep = true;
+            --i;
+            continue;
+        }
+        if (i + 1 >= argc) a = "--help";
+        std::string v = a == "--help" ? "" : argv[i + 1];
         if (a == "--size")
             size = std::stoi(v);
         else if (a == "--repeat")
             repeat = std::max(1, std::stoi(v));
         else if (a == "--threads")
-            thread_list = v;
+            thread_list = v, threads_given = true;
+        else if (a == "--baseline")
+            baseline = v;
+        else if (a == "--embree-builds")
+            builds = v;
         else if (a == "--scenes")
             scenes = v;
         else if (a == "--bare")
@@ -489,7 +654,9 @@ int main(int argc, char** argv) {
         else {
             std::fprintf(stderr,
                          "usage: oracle_bench [--scenes terrain,spheres] [--threads 1,2] [--repeat 3] [--size 2048] "
-                         "[--bare 0|1] [--interleave PAIRS] [--inside-out 0|1] [--penumbra PATH] [--keep DIR]\n");
+                         "[--bare 0|1] [--interleave PAIRS] [--inside-out 0|1] [--penumbra PATH] [--keep DIR]\n"
+                         "       oracle_bench --threads-sweep [--scenes field32,field64] [--threads LIST] [--repeat 3] "
+                         "[--baseline PATH] [--embree-builds low,medium,high]\n");
             return 2;
         }
     }
@@ -506,10 +673,27 @@ int main(int argc, char** argv) {
         keep.empty() ? fs::temp_directory_path() / ("oracle_bench." + std::to_string(getpid())) : fs::path(keep);
     fs::create_directories(dir);
     std::printf("penumbra: %s\nfiles: %s\n", penumbra.c_str(), dir.c_str());
+    std::vector<int> sweep_threads;
+    if (sweep) {
+        const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        if (threads_given) {
+            for (const std::string& t : split(thread_list)) sweep_threads.push_back(std::stoi(t));
+        } else {
+            for (int t : {1, 2, 4, 8, 16})
+                if (t <= cores) sweep_threads.push_back(t);
+        }
+        std::printf("threads sweep on %d hardware threads\n", cores);
+    }
     for (const std::string& name : split(scenes)) {
         BenchScene s = make_scene(dir, name, size, inside_out != 0);
         std::printf("\n== %s: %.0f MB .glb, %dx%d, 1 directional light ==\n", name.c_str(),
                     fs::file_size(dir / name / "scene.glb") / 1e6, size, size);
+        if (sweep) {
+            std::vector<std::pair<std::string, std::string>> binaries = {{"this build", penumbra}};
+            if (!baseline.empty()) binaries.push_back({"baseline", baseline});
+            threads_sweep(s, dir, sweep_threads, repeat, binaries, builds);
+            continue;
+        }
         for (const std::string& ts : split(thread_list)) {
             const int threads = std::stoi(ts);
             Spread wall, load, build, frame, trace, boundary, write, peak, b_load, b_build, b_trace, b_peak,

@@ -2,6 +2,7 @@
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_group.h>
 #include <unistd.h>
 
@@ -135,25 +136,56 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     // task; an area light's visibility is continuous, it has no such boundary ----
     t0 = SteadyClock::now();
     std::atomic<std::uint64_t> boundary_rays{0};
+    std::vector<OracleBoundaryTimes> boundary_parts(lights.size());
     tbb::parallel_for(std::size_t(0), lights.size(), [&](std::size_t li) {
         if (is_area_light(lights[li].type)) return;
-        boundary_rays += locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps);
+        boundary_rays +=
+            locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps, boundary_parts[li]);
     });
+    for (const OracleBoundaryTimes& t : boundary_parts) {
+        OracleBoundaryTimes& sum = stats.boundary_parts;
+        sum.locate_s += t.locate_s;
+        sum.merge_s += t.merge_s;
+        sum.grid_s += t.grid_s;
+        sum.sweeps_s += t.sweeps_s;
+        sum.lists_s += t.lists_s;
+        sum.pixels_s += t.pixels_s;
+    }
     tracer.device().check("boundary search");
     stats.boundary_rays = boundary_rays;
     stats.boundary_s = seconds_since(t0);
 
+    // The pixel counts, in parallel (sums of integers: the same in any order; 0.01 s serially).
     for (std::size_t li = 0; li < frame.lights.size(); ++li) {
         const OracleLightImage& img = frame.lights[li];
         OracleLightStats& ls = stats.lights[li];
-        for (std::size_t i = 0; i < frame.pixel_count(); ++i) {
-            if (frame.A[i] == 0) continue;
-            ++ls.surface;
-            if (img.lightable[i] == 0) continue;
-            ++ls.lightable;
-            ls.shadowed += img.V[i] == 0;
-            ls.uncertain += img.U[i] != 0;
-        }
+        struct Counts {
+            std::uint64_t surface = 0, lightable = 0, shadowed = 0, uncertain = 0;
+        };
+        const Counts counts = tbb::parallel_reduce(
+            tbb::blocked_range<std::size_t>(0, frame.pixel_count(), std::size_t(1) << 14), Counts{},
+            [&](const tbb::blocked_range<std::size_t>& r, Counts c) {
+                for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                    if (frame.A[i] == 0) continue;
+                    ++c.surface;
+                    if (img.lightable[i] == 0) continue;
+                    ++c.lightable;
+                    c.shadowed += img.V[i] == 0;
+                    c.uncertain += img.U[i] != 0;
+                }
+                return c;
+            },
+            [](Counts a, const Counts& b) {
+                a.surface += b.surface;
+                a.lightable += b.lightable;
+                a.shadowed += b.shadowed;
+                a.uncertain += b.uncertain;
+                return a;
+            });
+        ls.surface = counts.surface;
+        ls.lightable = counts.lightable;
+        ls.shadowed = counts.shadowed;
+        ls.uncertain = counts.uncertain;
     }
     return result;
 }

@@ -48,6 +48,16 @@ struct OracleLightStats {
     OracleAreaStats sampling;  // area lights only
 };
 
+// Where the boundary phase's time goes (oracle.json "boundary_seconds"), summed over lights.
+struct OracleBoundaryTimes {
+    double locate_s = 0;  // boundary points between straddling pixel pairs (the exact shadow rays)
+    double merge_s = 0;   // the points in row-major order, each pixel's own nearest
+    double grid_s = 0;    // the charts, the grid over them, the points filed by cell
+    double sweeps_s = 0;  // each cell's nearest point (the distance transform)
+    double lists_s = 0;   // each cell's candidates and each point's neighbours
+    double pixels_s = 0;  // each pixel's nearest point and its distance
+};
+
 struct OracleStats {
     std::uint64_t primary_rays = 0;
     std::uint64_t shadow_rays = 0;
@@ -56,6 +66,7 @@ struct OracleStats {
     std::uint64_t culled_retraces = 0;    // primary rays traced again past a single-sided back face
     // frame: the wait for the channels' allocation left after the build it overlaps
     double build_s = 0, frame_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;
+    OracleBoundaryTimes boundary_parts;
     int threads = 0;
     std::string embree_version;
     std::vector<OracleLightStats> lights;

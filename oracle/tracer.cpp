@@ -1,6 +1,8 @@
 #include "oracle/tracer.h"
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cmath>
@@ -168,11 +170,21 @@ Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
 void Tracer::build() {
     frame_origin_ = scenario_.camera.eye;
     const auto& world = scenario_.scene.positions;
-    vertices_.resize(world.size());
-    for (std::size_t i = 0; i < world.size(); ++i) {
-        vertices_[i] = world[i] - frame_origin_;  // in double: float precision goes where the pixels are
-        max_vertex_norm_ = std::max(max_vertex_norm_, glm::length(vertices_[i]));
-    }
+    // Written in parallel, without a serial zero-fill first (a maximum is exact whatever the
+    // order): 4.5M vertices took 0.1 s serially.
+    vertex_count_ = world.size();
+    vertices_ = std::make_unique_for_overwrite<glm::dvec3[]>(vertex_count_);
+    constexpr std::size_t kGrain = std::size_t(1) << 15;
+    max_vertex_norm_ = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, world.size(), kGrain), 0.0,
+        [&](const tbb::blocked_range<std::size_t>& r, double m) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                vertices_[i] = world[i] - frame_origin_;  // in double: float precision goes where the pixels are
+                m = std::max(m, glm::length(vertices_[i]));
+            }
+            return m;
+        },
+        [](double a, double b) { return std::max(a, b); });
     RTCScene sc = scene_.get();
     // ROBUST: watertight traversal, no cracks between triangles sharing an edge.
     // CONTEXT_FILTER_FUNCTION: lets the rare re-traced rays judge their hits in double.
@@ -180,19 +192,22 @@ void Tracer::build() {
     if (!tris_.empty()) {
         RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_TRIANGLE);
         auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                               3 * sizeof(float), vertices_.size()));
+                                                               3 * sizeof(float), vertex_count_));
         // The scene's own triangles are the index buffer (three uint32 each): no copy.
         static_assert(sizeof(glm::u32vec3) == 3 * sizeof(unsigned));
         rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, tris_.data(), 0,
                                    sizeof(glm::u32vec3), tris_.size());
         device_.check("buffer allocation");
         if (!vb) throw EnvironmentError("Embree: cannot allocate geometry buffers");
-        for (std::size_t i = 0; i < vertices_.size(); ++i) {
-            glm::vec3 f = glm::vec3(vertices_[i]);
-            vb[3 * i] = f.x;
-            vb[3 * i + 1] = f.y;
-            vb[3 * i + 2] = f.z;
-        }
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_count_, kGrain),
+                          [&](const tbb::blocked_range<std::size_t>& r) {
+                              for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                                  glm::vec3 f = glm::vec3(vertices_[i]);
+                                  vb[3 * i] = f.x;
+                                  vb[3 * i + 1] = f.y;
+                                  vb[3 * i + 2] = f.z;
+                              }
+                          });
         rtcCommitGeometry(geom);
         rtcAttachGeometry(sc, geom);
         rtcReleaseGeometry(geom);  // the scene holds the reference now

@@ -7,6 +7,7 @@
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "common/frames.h"
@@ -191,8 +192,9 @@ class Tracer {
     bool as_halves_ = false;  // packets go to Embree as two halves (intersect_active_lanes)
     EmbreeScene scene_;
     glm::dvec3 frame_origin_{0.0};
-    std::vector<glm::dvec3> vertices_;  // local frame, double
-    double max_vertex_norm_ = 0;        // largest |v| in the local frame
+    std::unique_ptr<glm::dvec3[]> vertices_;  // local frame, double
+    std::size_t vertex_count_ = 0;
+    double max_vertex_norm_ = 0;  // largest |v| in the local frame
     std::vector<LocalLight> lights_;
     const std::vector<glm::u32vec3>& tris_;
     const std::vector<std::uint8_t>& double_sided_;
@@ -203,8 +205,9 @@ class Tracer {
 void allocate_frame(OracleFrame& frame, const Scenario& scenario);
 
 // Fills boundary_m of light `li` and flags pixels within float error of a boundary as U.
-// Returns the number of bisection rays traced.
-std::uint64_t locate_shadow_boundaries(const Tracer& tracer, OracleFrame& frame, std::size_t li, int bisection_steps);
+// Returns the number of bisection rays traced; adds the time of each part to `times`.
+std::uint64_t locate_shadow_boundaries(const Tracer& tracer, OracleFrame& frame, std::size_t li, int bisection_steps,
+                                       OracleBoundaryTimes& times);
 
 // Samples area light `li` at every lightable pixel: V, E, occluder_m (docs/oracle.md, "Area
 // lights"). `surfaces` holds the primary hit of every pixel.

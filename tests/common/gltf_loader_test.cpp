@@ -3,10 +3,12 @@
 #include "common/gltf_loader.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cctype>
 #include <cstring>
 #include <glm/geometric.hpp>
+#include <nlohmann/json.hpp>
 
 #include "common/errors.h"
 #include "tests/test_support.h"
@@ -78,6 +80,115 @@ TEST(GltfLoader, ReadsBinaryGlb) {
     Scene s = load_gltf(std::filesystem::path(PENUMBRA_SOURCE_DIR) / "data/default/scene.glb");
     EXPECT_GT(s.triangle_count(), 1000u);
     EXPECT_LT(s.bounds.lo.y, 1e-9);
+}
+
+// A .glb of `doc` over `bin` (its BIN chunk, padded to 4 bytes).
+std::filesystem::path write_glb(const TempDir& dir, nlohmann::json doc, std::vector<unsigned char> bin,
+                                const std::string& name = "scene.glb") {
+    std::string text = doc.dump();
+    text.resize((text.size() + 3) / 4 * 4, ' ');
+    bin.resize((bin.size() + 3) / 4 * 4, 0);
+    const auto json_len = static_cast<std::uint32_t>(text.size()), bin_len = static_cast<std::uint32_t>(bin.size());
+    const std::uint32_t head[5] = {0x46546C67u, 2u, 28 + json_len + bin_len, json_len, 0x4E4F534Au};
+    const std::uint32_t bin_head[2] = {bin_len, 0x004E4942u};
+    std::string bytes(reinterpret_cast<const char*>(head), sizeof head);
+    bytes += text;
+    bytes.append(reinterpret_cast<const char*>(bin_head), sizeof bin_head);
+    bytes.append(bin.begin(), bin.end());
+    test::write_text(dir / name, bytes);
+    return dir / name;
+}
+
+// The .glb's buffers are read where they lie in the file (tinygltf is handed 4-byte buffers);
+// every buffer without a uri is the BIN chunk's first bytes, as tinygltf reads it.
+TEST(GltfLoader, ReadsAGlbsBufferInPlace) {
+    TempDir dir;
+    GltfFixture g;
+    const Scene expected = load_gltf(g.write(dir));
+    nlohmann::json doc = g.doc;
+    doc["buffers"] = {{{"byteLength", 48}}, {{"byteLength", g.bin.size()}}};
+    doc["bufferViews"][1]["buffer"] = 1;  // the indices through a second buffer: the same bytes
+    const Scene s = load_gltf(write_glb(dir, doc, g.bin));
+    EXPECT_EQ(s.positions, expected.positions);
+    EXPECT_EQ(s.triangles, expected.triangles);
+    // An image in a bufferView (a textured model): tinygltf indexes the buffer's bytes there,
+    // so the buffers are copied as before, with the same scene.
+    nlohmann::json textured = doc;
+    textured["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 40}, {"byteLength", 8}});
+    textured["images"] = {{{"bufferView", 2}, {"mimeType", "image/png"}}};
+    const Scene t = load_gltf(write_glb(dir, textured, g.bin, "textured.glb"));
+    EXPECT_EQ(t.positions, expected.positions);
+    EXPECT_EQ(t.triangles, expected.triangles);
+    // A buffer longer than the chunk is still refused, by tinygltf, as before.
+    doc["buffers"][1]["byteLength"] = g.bin.size() + 8;
+    EXPECT_NE(error_of(write_glb(dir, doc, g.bin)).find("Invalid `byteLength'"), std::string::npos);
+    // A view past the buffer's own length (not the chunk's) is refused with the buffer's length.
+    doc["buffers"][1]["byteLength"] = 52;
+    EXPECT_EQ(error_of(write_glb(dir, doc, g.bin)),
+              "scene.glb: bufferViews[1]: byteOffset + byteLength exceeds buffer 1 (48 + 12 > 52 bytes)");
+}
+
+// The loader checks, transforms and keeps triangles in parallel (in blocks of a fixed size) and
+// reads the file in pieces: the scene, and the element a refusal names, must not depend on the
+// thread count. A 600 x 600 grid (720k triangles in 44 blocks, a 13 MB file in 2 pieces), every
+// seventh row of vertices folded onto the one before (zero-area triangles dropped), mirrored.
+TEST(GltfLoader, GivesTheSameSceneWhateverTheThreadCount) {
+    constexpr std::uint32_t n = 600;
+    std::vector<float> pos;
+    for (std::uint32_t j = 0; j <= n; ++j)
+        for (std::uint32_t i = 0; i <= n; ++i) {
+            const std::uint32_t row = j % 7 == 6 ? j - 1 : j;
+            pos.insert(pos.end(), {float(i), 0.001f * float(i % 13), -float(row)});
+        }
+    std::vector<std::uint32_t> idx;
+    for (std::uint32_t j = 0; j < n; ++j)
+        for (std::uint32_t i = 0; i < n; ++i) {
+            const std::uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 2, d = a + n + 1;
+            idx.insert(idx.end(), {a, b, c, a, c, d});
+        }
+    std::vector<unsigned char> bin(pos.size() * 4 + idx.size() * 4);
+    std::memcpy(bin.data(), pos.data(), pos.size() * 4);
+    std::memcpy(bin.data() + pos.size() * 4, idx.data(), idx.size() * 4);
+    GltfFixture g;
+    nlohmann::json doc = g.doc;
+    doc["nodes"][0]["scale"] = {-1, 1, 1};
+    doc["accessors"][0]["count"] = pos.size() / 3;
+    doc["accessors"][0].erase("min");
+    doc["accessors"][0].erase("max");
+    doc["accessors"][1]["count"] = idx.size();
+    doc["accessors"][1]["componentType"] = 5125;
+    doc["bufferViews"] = {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", pos.size() * 4}},
+                          {{"buffer", 0}, {"byteOffset", pos.size() * 4}, {"byteLength", idx.size() * 4}}};
+    doc["buffers"] = {{{"byteLength", bin.size()}}};
+    TempDir dir;
+    const auto file = write_glb(dir, doc, bin);
+    ASSERT_GT(std::filesystem::file_size(file), 8u << 20);
+    // Two vertices out of range: the first is named.
+    std::vector<unsigned char> far = bin;
+    const float huge = 1e30f;
+    for (std::size_t v : {std::size_t(300000), std::size_t(20000)}) std::memcpy(far.data() + 12 * v, &huge, 4);
+    const auto far_file = write_glb(dir, doc, far, "far.glb");
+    auto load_with = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+        return std::pair{load_gltf(file), error_of(far_file)};
+    };
+    const auto [one, one_error] = load_with(1);
+    EXPECT_EQ(one.triangle_count(), 2u * n * n - 2u * n * (n / 7));
+    ASSERT_EQ(one.warnings.size(), 1u);
+    EXPECT_EQ(one.warnings[0], "scene.glb: " + std::to_string(2 * n * (n / 7)) + " zero-area triangles dropped");
+    EXPECT_EQ(one_error.rfind("far.glb: meshes[0].primitives[0]: vertex 20000 lies at -1", 0), 0u) << one_error;
+    for (int threads : {2, 5}) {
+        SCOPED_TRACE(threads);
+        const auto [many, many_error] = load_with(threads);
+        EXPECT_EQ(many.positions, one.positions);
+        EXPECT_EQ(many.triangles, one.triangles);
+        EXPECT_EQ(many.double_sided, one.double_sided);
+        EXPECT_EQ(many.triangle_node, one.triangle_node);
+        EXPECT_EQ(many.bounds.lo, one.bounds.lo);
+        EXPECT_EQ(many.bounds.hi, one.bounds.hi);
+        EXPECT_EQ(many.warnings, one.warnings);
+        EXPECT_EQ(many_error, one_error);
+    }
 }
 
 TEST(GltfLoader, RefusesAccessorsOutsideTheirBufferView) {

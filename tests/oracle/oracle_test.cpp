@@ -557,9 +557,18 @@ TEST(Oracle, IsBitIdenticalWhateverTheThreadCount) {
         OracleSettings many;
         many.threads = threads;
         OracleResult b = run_oracle(sc, many);
+        EXPECT_TRUE(same(a.frame.A, b.frame.A));
         EXPECT_TRUE(same(a.frame.prim, b.frame.prim));
+        EXPECT_TRUE(same(a.frame.depth, b.frame.depth));
         EXPECT_TRUE(same(a.frame.P, b.frame.P));
+        EXPECT_TRUE(same(a.frame.N, b.frame.N));
         for (std::size_t li = 0; li < a.frame.lights.size(); ++li) {
+            // The pixel counts of oracle.json (a parallel reduction).
+            EXPECT_EQ(a.stats.lights[li].surface, b.stats.lights[li].surface);
+            EXPECT_EQ(a.stats.lights[li].lightable, b.stats.lights[li].lightable);
+            EXPECT_EQ(a.stats.lights[li].shadowed, b.stats.lights[li].shadowed);
+            EXPECT_EQ(a.stats.lights[li].uncertain, b.stats.lights[li].uncertain);
+            EXPECT_TRUE(same(a.frame.lights[li].lightable, b.frame.lights[li].lightable));
             EXPECT_TRUE(same(a.frame.lights[li].V, b.frame.lights[li].V));
             EXPECT_TRUE(same(a.frame.lights[li].U, b.frame.lights[li].U));
             EXPECT_TRUE(same(a.frame.lights[li].occluder_m, b.frame.lights[li].occluder_m));
