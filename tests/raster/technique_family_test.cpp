@@ -114,6 +114,25 @@ TEST(FamilyKey, TheFamilySuppliesScoringHintsAndMemory) {
     EXPECT_EQ(raster::family_of(parse_technique({{"area_samples", 0}}, "t")).memory(t).area_samples, 0);
 }
 
+// The memory estimate counts the layers the family gives each kind of light (a cascaded sun:
+// one per cascade), not a cube for points and one map for the rest.
+TEST(FamilyKey, TheMemoryEstimateTakesTheFamilysLayersPerLight) {
+    Scenario s;
+    s.width = s.height = 16;
+    Light spot;
+    spot.type = LightType::spot;
+    s.lights = {Light{}, Light{}, spot, test::point({0, 1, 0})};
+    RasterMemory m = raster::family_of(parse_technique({{"resolution", 256}}, "t")).memory(raster::Technique{});
+    m.resolution = 256;
+    EXPECT_EQ(memory_inputs(s, false, &m, false).shadow_layers, 1u + 1 + 1 + 6);
+    m.directional_layers = 4;
+    EXPECT_EQ(memory_inputs(s, false, &m, false).shadow_layers, 4u + 4 + 1 + 6);
+    // Beyond the budget one map of the most layers is shared.
+    m.resolution = 16384;
+    m.directional_layers = 8;
+    EXPECT_EQ(memory_inputs(s, false, &m, false).shadow_layers, 8u);
+}
+
 // A family from outside the library: every pixel gets the shade its "value" key says.
 struct ConstantShade final : raster::FamilyParameters {
     double value = 1;
