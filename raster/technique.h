@@ -71,7 +71,7 @@ inline constexpr const char* kDefaultFamily = "depth_map";
 
 struct Technique {
     std::string preset;  // empty when none
-    // The technique family that draws it (docs/raster.md, "Technique families"): a name of
+    // The technique family that draws it (docs/raster.md, "Adding a technique family"): a name of
     // technique_families(). Its entry parsed the keys below and writes them back.
     std::string family = kDefaultFamily;
     int resolution = 2048;
