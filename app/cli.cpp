@@ -10,6 +10,7 @@
 #include "common/output_files.h"
 #include "oracle/oracle_cache.h"
 #include "pipeline/validate.h"
+#include "raster/technique_family.h"
 
 namespace penumbra::cli {
 
@@ -133,7 +134,7 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
 
 void check_run_memory(const Scenario& s, const Common& c, bool oracle, const raster::Technique* t, bool metrics) {
     RasterMemory rm;
-    if (t) rm = {t->resolution, t->depth_format == raster::DepthFormat::d16 ? 2 : 4, t->area_samples};
+    if (t) rm = raster::family_of(*t).memory(*t);  // the family's own terms
     check_memory(estimate_memory(memory_inputs(s, oracle, t ? &rm : nullptr, metrics)), memory_budget(c.max_memory),
                  s.label);
 }

@@ -37,7 +37,7 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
         for (const auto& w : s.warnings) fmt::print(stderr, "warning: {}\n", w);
         fmt::print("raster: {}x{} px, {} lights on {}; {}^2 {} map; GPU shadow {:.2f} ms, camera {:.2f} ms\n",
                    scenario.width, scenario.height, scenario.lights.size(), s.device.name, technique.resolution,
-                   raster::to_string(technique.depth_format), s.shadow_ms, s.camera_ms + s.lookup_ms);
+                   raster::to_string(technique.depth_format), s.gpu_ms["shadow"], s.camera_ms + s.gpu_ms["lookup"]);
         fmt::print("results: {}/raster.exr, raster.json, raster.png\n", c.out.string());
     }
     return kExitSuccess;

@@ -56,6 +56,7 @@ int run_tune_command(const TuneArgs& a) {
     for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
     for (const auto& f : a.holdout) holdout.push_back(load_for_command(f, c));
     const raster::Technique start = resolve_technique(scenarios.front(), a.technique);
+    tune::check_family_knobs(start, options.knobs, "--knobs");
     for (const auto* list : {&scenarios, &holdout})
         for (const Scenario& s : *list) {
             raster::check_technique_lights(start, s.lights, s.label + ": technique");

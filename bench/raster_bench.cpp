@@ -143,10 +143,10 @@ int main(int argc, char** argv) {
             bare.render_ms(view_proj, static_cast<std::uint32_t>(res));
             for (int r = 0; r < repeat; ++r) {
                 raster::RasterResult out = session.render(t, fresh);
-                shadow.push_back(out.stats.shadow_ms);
+                shadow.push_back(out.stats.gpu_ms["shadow"]);
                 depth_only.push_back(bare.render_ms(view_proj, static_cast<std::uint32_t>(res)));
-                camera.push_back(out.stats.camera_ms + out.stats.lookup_ms);
-                lookup.push_back(out.stats.lookup_ms);
+                camera.push_back(out.stats.camera_ms + out.stats.gpu_ms["lookup"]);
+                lookup.push_back(out.stats.gpu_ms["lookup"]);
                 wall.push_back(out.stats.render_s * 1e3);
             }
             std::printf("%5d^2    %12.2f %12.2f %8.2f %14.2f %12.2f %12.2f\n", res, median(shadow), median(depth_only),

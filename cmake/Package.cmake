@@ -30,14 +30,13 @@ add_library(penumbra::penumbra ALIAS penumbra_library)
 
 # Every header the umbrella header reaches (the package test fails on a missing one).
 set(penumbra_public_headers
-  common/errors.h common/frames.h common/output_files.h common/ranges.h common/receivers.h common/scenario.h
-  common/scene.h
-  common/version.h
+  common/errors.h common/frames.h common/json_reader.h common/memory_estimate.h common/output_files.h
+  common/ranges.h common/receivers.h common/scenario.h common/scene.h common/version.h
   metrics/classification.h metrics/gate.h metrics/metric_table.h
   oracle/oracle.h
   pipeline/validate.h pipeline/validate_files.h pipeline/compare.h pipeline/compare_files.h
-  raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h raster/vk_check.h
-  raster/vulkan_context.h
+  raster/gpu_passes.h raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h
+  raster/technique_family.h raster/vk_check.h raster/vulkan_context.h
   report/report.h
   stress/cases.h stress/stress_files.h stress/suite.h
   sweep/sweep.h sweep/sweep_files.h sweep/sweep_table.h

@@ -56,6 +56,7 @@ struct DepthMapLookups {
     std::vector<float> bias_m;               // every bias together, as metres along the light ray (estimate)
     std::vector<float> depth_to_m;           // metres along the light ray per depth unit, at the receiver
     std::vector<std::uint32_t> flags;        // kRaster*
+    std::vector<std::uint32_t> layer;        // the light's shadow view the lookup used (0 without one)
 
     void resize(std::size_t n) {
         ref_depth.resize(n);
@@ -66,6 +67,7 @@ struct DepthMapLookups {
         bias_m.resize(n);
         depth_to_m.resize(n);
         flags.resize(n);
+        layer.resize(n);
     }
 };
 

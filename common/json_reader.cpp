@@ -325,8 +325,6 @@ JsonObject JsonObject::object(const std::string& key) {
     return JsonObject(v, file_, path_of(key));
 }
 
-namespace {
-
 // Levenshtein distance, for "did you mean": keys are short, so the plain O(nm) table is fine.
 std::size_t edit_distance(std::string_view a, std::string_view b) {
     std::vector<std::size_t> row(b.size() + 1);
@@ -342,8 +340,6 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
     }
     return row[b.size()];
 }
-
-}  // namespace
 
 void JsonObject::only_keys(std::initializer_list<std::string_view> known) const {
     for (auto it = value_.begin(); it != value_.end(); ++it) {

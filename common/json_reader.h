@@ -50,6 +50,8 @@ std::string utf8_problem(const std::string& text);
 std::string set_assignment_problem(const std::string& text);
 // A short, always printable rendering of a JSON value for messages (never throws).
 std::string json_excerpt(const nlohmann::json& value, std::size_t max_chars = 60);
+// Levenshtein distance between two names, for "did you mean" hints.
+std::size_t edit_distance(std::string_view a, std::string_view b);
 
 // A view of one JSON object at a known path. Reading a key marks it as known; finish()
 // rejects the keys that nothing read.

@@ -104,22 +104,26 @@ MemoryInputs memory_inputs(const Scenario& scenario, bool oracle, const RasterMe
         in.raster = true;
         // Every light keeps a map of its own while all of them fit kShadowMapBudget; beyond it one
         // map of the most layers is shared (raster/depth_map.cpp). Point lights, and area lights
-        // (drawn from points), need 6 faces. Averaged area samples are drawn at most
-        // kAveragedSamplesAtOnce at a time, so their outputs never exist all at once.
-        bool cube = false;
-        std::uint64_t layers = 0;
+        // (drawn from points), need a cube; the family says how many layers each kind takes.
+        // Averaged area samples are drawn at most kAveragedSamplesAtOnce at a time, so their
+        // outputs never exist all at once.
+        std::uint64_t most = 0, layers = 0;
         for (const Light& l : scenario.lights) {
             const bool area = is_area_light(l.type);
             in.raster_lights +=
                 area ? static_cast<std::uint64_t>(std::clamp(raster->area_samples, 1, kAveragedSamplesAtOnce)) : 1;
-            cube = cube || area || l.type == LightType::point;
-            layers += area || l.type == LightType::point ? 6 : 1;
+            const int of_light = area || l.type == LightType::point ? raster->cube_layers
+                                 : l.type == LightType::spot        ? raster->spot_layers
+                                                                    : raster->directional_layers;
+            const auto n = static_cast<std::uint64_t>(std::max(of_light, 1));
+            most = std::max(most, n);
+            layers += n;
         }
         in.shadow_resolution = static_cast<std::uint64_t>(raster->resolution);
         in.shadow_texel_bytes = static_cast<std::uint64_t>(raster->depth_bytes) + 4;  // + the primitive id
         const std::uint64_t all =
             mul(mul(mul(in.shadow_resolution, in.shadow_resolution), layers), in.shadow_texel_bytes);
-        in.shadow_layers = all <= kShadowMapBudget ? layers : (cube ? 6 : 1);
+        in.shadow_layers = all <= kShadowMapBudget ? layers : std::max<std::uint64_t>(most, 1);
     }
     return in;
 }

@@ -29,8 +29,9 @@ struct MemoryInputs {
     bool raster = false;            // draws with the raster path
     bool metrics = false;           // scores and writes the report (validate)
     // Raster path: lights drawn (an area light as min(area_samples, kAveragedSamplesAtOnce)
-    // lights, at least 1), the shadow maps' side, their layers together (a map per light, 6
-    // layers for a cube; one shared map beyond kShadowMapBudget) and bytes per texel.
+    // lights, at least 1), the shadow maps' side, their layers together (a map per light with
+    // RasterMemory's layers for its kind; one shared map of the most beyond kShadowMapBudget)
+    // and bytes per texel.
     std::uint64_t raster_lights = 0;
     std::uint64_t shadow_resolution = 0, shadow_layers = 0, shadow_texel_bytes = 0;
 };
@@ -54,12 +55,14 @@ inline constexpr std::uint64_t kBytesPerVertex = 72;
 
 MemoryEstimate estimate_memory(const MemoryInputs& in);
 
-// The raster path's numbers, plain: the technique's shadow-map side, bytes per depth texel
-// and area_samples.
+// The raster path's numbers, plain, as the technique's family gives them
+// (raster/technique_family.h): the shadow-map side, bytes per depth texel, area_samples, and
+// the layers a light's map has by the light's kind (cascades: their count for the sun).
 struct RasterMemory {
     int resolution = 0;
     int depth_bytes = 4;
     int area_samples = 0;
+    int directional_layers = 1, spot_layers = 1, cube_layers = 6;  // cube: point lights, area lights' points
 };
 
 // The inputs of a command on `scenario` (after load_scenario): the oracle when `oracle`, the

@@ -10,6 +10,7 @@
 #include "common/version.h"
 #include "oracle/oracle_cache.h"
 #include "oracle/oracle_output.h"
+#include "raster/technique_family.h"
 
 namespace penumbra {
 
@@ -35,11 +36,9 @@ std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, c
     metrics::ScoringOptions so;
     so.tolerance = static_cast<float>(tolerance);
     so.visible_threshold = static_cast<float>(visible_threshold);
-    so.filter_reach_texels = static_cast<float>(raster::filter_reach_texels(technique.filter));
-    // docs/metrics.md, "acne": the shader's reference and stored depths are floats, a few
-    // float steps apart, so the quantum is never finer than 2^-22.
-    so.depth_quantum =
-        static_cast<float>(std::max(raster::depth_resolution(technique.depth_format), std::ldexp(1.0, -22)));
+    const raster::ScoringHints hints = raster::family_of(technique).hints(technique);
+    so.filter_reach_texels = static_cast<float>(hints.filter_reach_texels);
+    so.depth_quantum = static_cast<float>(hints.depth_quantum);
     std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
     for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
     return scoring;
@@ -140,9 +139,9 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                 {"raster_s", r.raster_s},
                 {"device_s", r.raster_timings.device_s},
                 {"raster_ms",
-                 {{"shadow", r.raster.stats.shadow_ms},
-                  {"camera", r.raster.stats.camera_ms + r.raster.stats.lookup_ms},
-                  {"lookup", r.raster.stats.lookup_ms}}},
+                 {{"shadow", r.raster.stats.gpu_ms["shadow"]},
+                  {"camera", r.raster.stats.camera_ms + r.raster.stats.gpu_ms["lookup"]},
+                  {"lookup", r.raster.stats.gpu_ms["lookup"]}}},
                 {"metrics_s", r.metrics_s}};
     if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, r.score.lights);
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);

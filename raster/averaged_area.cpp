@@ -15,12 +15,14 @@ namespace {
 // allocations of a render whatever area_samples is (one V buffer per drawn sample).
 constexpr std::size_t kSamplesPerPass = kAveragedSamplesAtOnce;  // common/memory_estimate.h: the estimate follows it
 
+// area_samples of a technique that names "family": "averaged_area" without it (the
+// averaged-hard-shadows preset's count).
+constexpr int kDefaultAreaSamples = 16;
+
 // `part`'s times and warnings added to `into`.
 void add_stats(RasterStats& into, const RasterStats& part) {
     into.hw2x2 = part.hw2x2;
-    into.shadow_ms += part.shadow_ms;
-    into.lookup_ms += part.lookup_ms;
-    into.mask_ms += part.mask_ms;
+    into.gpu_ms.add(part.gpu_ms);
     into.setup_s += part.setup_s;
     into.render_s += part.render_s;
     into.warnings.insert(into.warnings.end(), part.warnings.begin(), part.warnings.end());
@@ -88,8 +90,7 @@ class AveragedAreaFamily final : public TechniqueFamily {
                     f.layers_sampled |= ls.layers_sampled;
                     f.layers_rendered += ls.layers_rendered;
                     f.map_reused = f.map_reused && ls.map_reused;
-                    f.shadow_ms += ls.shadow_ms;
-                    f.lookup_ms += ls.lookup_ms;
+                    f.gpu_ms.add(ls.gpu_ms);
                 }
                 if (++in_light == expanded.count[averaged[light]]) {
                     for (float& v : sums.back().V) v /= static_cast<float>(in_light);
@@ -123,6 +124,35 @@ class AveragedAreaFamily final : public TechniqueFamily {
 
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene) {
     return std::make_unique<AveragedAreaFamily>(scene);
+}
+
+FamilyEntry averaged_area_family_entry() {
+    // The depth map's keys and scoring, plus area_samples.
+    FamilyEntry e = depth_map_family_entry();
+    e.name = "averaged_area";
+    e.description =
+        "area lights as the average of technique.area_samples hard shadow maps from points spread over each light "
+        "(reference 001)";
+    e.parse = [](JsonObject& o, Technique& t) {
+        parse_depth_map_keys(o, t);
+        t.area_samples = static_cast<int>(o.integer("area_samples", kDefaultAreaSamples, 1, 256));
+    };
+    e.write = [](const Technique& t, nlohmann::json& j) {
+        j.update(depth_map_keys_json(t));
+        j["area_samples"] = t.area_samples;
+    };
+    e.memory = [](const Technique& t) {
+        RasterMemory m = depth_map_family_entry().memory(t);
+        m.area_samples = t.area_samples;
+        return m;
+    };
+    e.describe_light = [](const Technique& t, const Light& light, const RasterLightStats&) {
+        if (!is_area_light(light.type)) return nlohmann::json::object();
+        return nlohmann::json{{"area", {{"method", "averaged_hard_shadows"}, {"maps", t.area_samples}}}};
+    };
+    e.sweep_keys.push_back("area_samples");
+    e.make = make_averaged_area_family;
+    return e;
 }
 
 }  // namespace penumbra::raster

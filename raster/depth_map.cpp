@@ -498,7 +498,8 @@ RasterLightImage DepthMapFamily::read_back(std::size_t li, bool lookups) const {
         lk.texel_slope[i] = t.texel_slope;
         lk.bias_m[i] = t.bias_m;
         lk.depth_to_m[i] = t.depth_to_m;
-        lk.flags[i] = t.flags;
+        lk.flags[i] = t.flags & ((1u << gpu::kFlagLayerShift) - 1u);
+        lk.layer[i] = t.flags >> gpu::kFlagLayerShift;
     }
     return img;
 }
@@ -535,6 +536,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
             ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, s_.origin,
                                       t.shadow_distance);
         }
+        ls.views = shadow_views(ls.projection);
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
         const gpu::LookupParams p = light_params(t.for_light(li), light, ls.projection);
         std::memcpy(slots_[li].params.mapped, &p, sizeof(p));
@@ -595,22 +597,77 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     auto ms = [&](std::uint32_t a, std::uint32_t b) {
         return ts[b] >= ts[a] ? static_cast<double>(ts[b] - ts[a]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
     };
-    if (any_point) stats.mask_ms += ms(0, 1);
     for (std::size_t li = 0; li < n; ++li) {
         const auto q = static_cast<std::uint32_t>(2 + 3 * li);
         RasterLightStats& ls = stats.lights[li];
-        ls.shadow_ms = ms(q, q + 1);
-        ls.lookup_ms = ms(q + 1, q + 2);
-        stats.shadow_ms += ls.shadow_ms;
-        stats.lookup_ms += ls.lookup_ms;
+        ls.gpu_ms.add("shadow", ms(q, q + 1));
+        ls.gpu_ms.add("lookup", ms(q + 1, q + 2));
+        stats.gpu_ms.add(ls.gpu_ms);
         frame.lights.push_back(read_back(li, options.lookups));
     }
+    if (any_point) stats.gpu_ms.add("layer_mask", ms(0, 1));
 }
 
 }  // namespace
 
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene) {
     return std::make_unique<DepthMapFamily>(scene);
+}
+
+FamilyEntry depth_map_family_entry() {
+    FamilyEntry e;
+    e.name = "depth_map";
+    e.description =
+        "one depth map per light (six cube faces for point lights), hardware and shader biases, filters none, "
+        "hw2x2, pcf, poisson, pcss";
+    e.parse = [](JsonObject& o, Technique& t) {
+        parse_depth_map_keys(o, t);
+        // Written by to_json as 0 (raster.json readers find it there); more is another family's.
+        if (o.has("area_samples") && o.integer("area_samples", 0, 256) > 0)
+            o.fail("area_samples", "only the averaged_area family draws area samples (\"family\": \"averaged_area\")");
+    };
+    e.write = [](const Technique& t, nlohmann::json& j) {
+        j.update(depth_map_keys_json(t));
+        j["area_samples"] = 0;
+    };
+    e.hints = [](const Technique& t) {
+        // docs/metrics.md, "acne": the shader's reference and stored depths are floats, a few
+        // float steps apart, so the quantum is never finer than 2^-22.
+        return ScoringHints{filter_reach_texels(t.filter),
+                            std::max(depth_resolution(t.depth_format), std::ldexp(1.0, -22))};
+    };
+    e.memory = [](const Technique& t) {
+        return RasterMemory{t.resolution, static_cast<int>(depth_texel_bytes(t.depth_format)), 0};
+    };
+    e.describe_light = [](const Technique& t, const Light& light, const RasterLightStats&) {
+        // An area light is drawn from its centre: with PCSS sizing the penumbra by the light's size.
+        if (!is_area_light(light.type)) return nlohmann::json::object();
+        return nlohmann::json{
+            {"area", {{"method", t.filter.type == FilterType::pcss ? "pcss" : "centre_point"}, {"maps", 1}}}};
+    };
+    e.sweep_keys = {"resolution",
+                    "depth_format",
+                    "fit",
+                    "shadow_distance",
+                    "cull",
+                    "bias.constant",
+                    "bias.slope",
+                    "bias.clamp",
+                    "bias.world",
+                    "bias.normal_offset",
+                    "bias.shader_depth",
+                    "bias.receiver_plane",
+                    "filter.type",
+                    "filter.size",
+                    "filter.taps",
+                    "filter.radius_texels",
+                    "filter.bilinear_taps",
+                    "filter.max_radius_texels",
+                    "precision"};
+    e.tune_knobs = {"bias.constant", "bias.slope",         "bias.clamp",
+                    "bias.world",    "bias.normal_offset", "bias.receiver_plane"};
+    e.make = make_depth_map_family;
+    return e;
 }
 
 }  // namespace penumbra::raster

@@ -208,6 +208,31 @@ void round_to_world_float32(LightProjection& lp, const glm::dvec3& origin) {
     for (auto& m : lp.view_proj) m = glm::dmat4(glm::mat4(m)) * to_world;
 }
 
+const char* to_string(ViewKind k) {
+    static const char* const kNames[] = {"ortho", "perspective", "cube_face", "cascade"};
+    return kNames[static_cast<int>(k)];
+}
+
+std::vector<ShadowView> shadow_views(const LightProjection& lp) {
+    static const char* const kFaces[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+    const bool cube = lp.perspective && lp.view_proj.size() == 6;
+    std::vector<ShadowView> views;
+    for (std::size_t k = 0; k < lp.view_proj.size(); ++k) {
+        ShadowView v;
+        v.kind = cube ? ViewKind::cube_face : lp.perspective ? ViewKind::perspective : ViewKind::ortho;
+        if (cube) v.name = kFaces[k];
+        v.view_proj = lp.view_proj[k];
+        v.axis = lp.axis[k];
+        v.metres_per_texel = lp.metres_per_texel;
+        v.metres_per_texel_per_metre = lp.metres_per_texel_per_metre;
+        v.near = lp.near;
+        v.far = lp.far;
+        v.half_extent = lp.half_extent;
+        views.push_back(v);
+    }
+    return views;
+}
+
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis) {
     double far = -1e300;
     for (const auto& c : box_corners(box)) far = std::max(far, glm::dot(c - eye, axis));

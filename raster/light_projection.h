@@ -27,6 +27,29 @@ struct LightProjection {
     std::vector<std::string> warnings;
 };
 
+// How a shadow view projects (docs/raster.md, "Adding a technique family").
+enum class ViewKind { ortho, perspective, cube_face, cascade };
+const char* to_string(ViewKind k);
+
+// One view a light's shadow is drawn from: a layer of its map. A family gives each light a list
+// of them (the depth map: one ortho or perspective view, or six cube faces); lookups name the
+// view each pixel used by its index (DepthMapLookups::layer).
+struct ShadowView {
+    ViewKind kind = ViewKind::ortho;
+    std::string name;  // "+x" … "-z" for cube faces, else empty
+    // Vulkan clip space (depth 0..1) from positions relative to the frame origin.
+    glm::dmat4 view_proj{1.0};
+    glm::dvec3 axis{0.0};  // unit forward axis
+    // Texel size: ortho and cascade in metres; perspective and cube face per metre of depth
+    // along the axis (2 tan(fov/2) / resolution).
+    double metres_per_texel = 0, metres_per_texel_per_metre = 0;
+    double near = 0, far = 0;     // metres along the axis
+    glm::dvec2 half_extent{0.0};  // ortho, cascade: half width and height of the box, metres
+};
+
+// The views of a depth map's projection, one per layer: a perspective one of six layers is a cube.
+std::vector<ShadowView> shadow_views(const LightProjection& lp);
+
 // Largest distance along the unit `axis` from `eye` to a corner of `box`.
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis);
 

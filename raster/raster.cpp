@@ -167,25 +167,36 @@ void prepare_scene(SceneOnGpu& s) {
 
 }  // namespace
 
-const std::vector<FamilyEntry>& technique_families() {
-    static const std::vector<FamilyEntry> families = {
-        {"averaged_area",
-         "area lights as the average of technique.area_samples hard shadow maps from points spread over each light "
-         "(reference 001)",
-         [](const Technique& t) { return t.area_samples > 0; }, make_averaged_area_family},
-        {"depth_map",
-         "one depth map per light (six cube faces for point lights), hardware and shader biases, filters none, "
-         "hw2x2, pcf, poisson, pcss",
-         [](const Technique&) { return true; }, make_depth_map_family},
-    };
-    return families;
+void PassTimes::add(std::string_view name, double ms) {
+    for (auto& [n, t] : entries)
+        if (n == name) {
+            t += ms;
+            return;
+        }
+    entries.emplace_back(std::string(name), ms);
+}
+
+void PassTimes::add(const PassTimes& other) {
+    for (const auto& [n, t] : other.entries) add(n, t);
+}
+
+double PassTimes::operator[](std::string_view name) const {
+    for (const auto& [n, t] : entries)
+        if (n == name) return t;
+    return 0;
+}
+
+double PassTimes::total() const {
+    double sum = 0;
+    for (const auto& e : entries) sum += e.second;
+    return sum;
 }
 
 struct RasterSession::Impl {
     Impl(const Scenario& scenario, const VulkanContext& ctx)
         : scene(std::make_unique<SceneOnGpu>(SceneOnGpu{scenario, ctx})) {}
     // Families refer to the scene: they are dropped before it whenever it is replaced.
-    using Families = std::map<std::string_view, std::unique_ptr<TechniqueFamily>>;
+    using Families = std::map<std::string, std::unique_ptr<TechniqueFamily>>;
     std::unique_ptr<SceneOnGpu> scene;
     Families families;  // made on first use
     double setup_s = 0;
@@ -211,10 +222,8 @@ double RasterSession::setup_s() const {
 RasterResult RasterSession::render(const Technique& technique, const RenderOptions& options) {
     const Scenario& sc = impl_->scene->scenario;
     check_technique_lights(technique, sc.lights, sc.label + ": technique");  // before any work
-    const auto& registry = technique_families();
-    auto entry =
-        std::find_if(registry.begin(), registry.end(), [&](const FamilyEntry& f) { return f.accepts(technique); });
-    if (entry == registry.end()) throw InputError("technique: no technique family draws it");
+    const FamilyEntry* entry = find_technique_family(technique.family);
+    if (!entry) throw InputError(fmt::format("technique.family: \"{}\" is not a technique family", technique.family));
     RasterResult out;
     RasterStats& stats = out.stats;
     stats.device = impl_->scene->ctx.info();

@@ -4,6 +4,8 @@
 
 #include <memory>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "common/frames.h"
@@ -14,20 +16,34 @@
 
 namespace penumbra::raster {
 
+// GPU time per pass, by name, in the order first timed. The depth map times "shadow", "lookup"
+// and "layer_mask"; a new family's passes (a reduction, a blur, a stencil pass) are new names,
+// and raster.json's gpu_ms and sweep's production time take every entry without new fields.
+struct PassTimes {
+    std::vector<std::pair<std::string, double>> entries;
+    void add(std::string_view name, double ms);  // added to the pass's time so far
+    void add(const PassTimes& other);
+    double operator[](std::string_view name) const;  // 0 when never timed
+    double total() const;
+};
+
 struct RasterLightStats {
+    // The depth-map family's fit (the family's own; the views below are what others read).
     LightProjection projection;
+    std::vector<ShadowView> views;     // what the light's shadow is drawn from: layer k is views[k]
     std::uint32_t layers_sampled = 0;  // bit per layer that some receiver samples
     int layers_rendered = 0;
-    bool map_reused = false;              // the light's map already held what it would draw: no shadow pass
-    double shadow_ms = 0, lookup_ms = 0;  // GPU time
+    bool map_reused = false;  // the light's map already held what it would draw: no shadow pass
+    PassTimes gpu_ms;         // this light's passes
 };
 
 struct RasterStats {
     DeviceInfo device;
-    std::string hw2x2;                                                // "hardware", "emulated" or "unused"
-    double camera_ms = 0, shadow_ms = 0, lookup_ms = 0, mask_ms = 0;  // GPU time per pass kind
-    double setup_s = 0, render_s = 0;                                 // wall clock: uploads, GPU work
-    std::string family;                                               // the technique family that drew
+    std::string hw2x2;                 // "hardware", "emulated" or "unused"
+    double camera_ms = 0;              // GPU time of the session's camera pass
+    PassTimes gpu_ms;                  // GPU time of every other pass, by name, all lights together
+    double setup_s = 0, render_s = 0;  // wall clock: uploads, GPU work
+    std::string family;                // the technique family that drew
     std::vector<RasterLightStats> lights;
     std::vector<std::string> warnings;
 };

@@ -1,5 +1,9 @@
 #include "raster/raster_output.h"
 
+#include <initializer_list>
+
+#include "raster/technique_family.h"
+
 namespace penumbra::raster {
 
 namespace {
@@ -8,6 +12,14 @@ nlohmann::json matrix_json(const glm::dmat4& m) {
     nlohmann::json rows = nlohmann::json::array();
     for (int r = 0; r < 4; ++r) rows.push_back({m[0][r], m[1][r], m[2][r], m[3][r]});
     return rows;
+}
+
+// A pass list as {name: ms}, with `always` present (0 when the pass did not run).
+nlohmann::json pass_json(const PassTimes& times, std::initializer_list<const char*> always) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const char* name : always) j[name] = times[name];
+    for (const auto& [name, ms] : times.entries) j[name] = ms;
+    return j;
 }
 
 const char* projection_name(const Light& l) {
@@ -20,16 +32,27 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
                            const RasterTimings& timings) {
     const RasterStats& s = result.stats;
     const RasterFrame& f = result.frame;
-    static const char* kFaces[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
+    const FamilyEntry& family = family_of(technique);
     nlohmann::json lights = nlohmann::json::array();
     for (std::size_t li = 0; li < s.lights.size(); ++li) {
         const RasterLightStats& l = s.lights[li];
         const Light& light = scenario.lights[li];
+        // The light's first view stands for it in the keys older than the view list.
+        const ShadowView first = l.views.empty() ? ShadowView{} : l.views[0];
         nlohmann::json layers = nlohmann::json::array();
-        for (std::size_t k = 0; k < l.projection.view_proj.size(); ++k) {
-            nlohmann::json layer = {{"view_proj", matrix_json(l.projection.view_proj[k])},
-                                    {"rendered", (l.layers_sampled >> k & 1u) != 0}};
-            if (l.projection.view_proj.size() == 6) layer["face"] = kFaces[k];
+        for (std::size_t k = 0; k < l.views.size(); ++k) {
+            const ShadowView& v = l.views[k];
+            nlohmann::json layer = {{"view_proj", matrix_json(v.view_proj)},
+                                    {"rendered", (l.layers_sampled >> k & 1u) != 0},
+                                    {"kind", to_string(v.kind)},
+                                    {"axis", {v.axis.x, v.axis.y, v.axis.z}},
+                                    {"near", v.near},
+                                    {"far", v.far}};
+            if (v.kind == ViewKind::cube_face) layer["face"] = v.name;
+            if (v.kind == ViewKind::ortho || v.kind == ViewKind::cascade)
+                layer["metres_per_texel"] = v.metres_per_texel;
+            else
+                layer["metres_per_texel_per_metre"] = v.metres_per_texel_per_metre;
             layers.push_back(layer);
         }
         std::size_t surface = 0, lit = 0, outside = 0;
@@ -44,29 +67,27 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
                             {"type", to_string(light.type)},
                             {"source", light.origin},
                             {"projection", projection_name(light)},
-                            {"near", l.projection.near},
-                            {"far", l.projection.far},
+                            {"near", first.near},
+                            {"far", first.far},
                             {"layers", layers},
                             {"layers_rendered", l.layers_rendered},
                             {"map_reused", l.map_reused},
                             {"pixels", {{"surface", surface}, {"fully_lit", lit}, {"outside_map", outside}}},
-                            {"gpu_ms", {{"shadow", l.shadow_ms}, {"lookup", l.lookup_ms}}}};
-        if (is_area_light(light.type)) {
-            // Which soft-shadow method drew it, and from how many cube maps (raster/area_lights.h).
-            const bool averaged = technique.area_samples > 0;
-            j["area"] = {{"method", averaged                                    ? "averaged_hard_shadows"
-                                    : technique.filter.type == FilterType::pcss ? "pcss"
-                                                                                : "centre_point"},
-                         {"maps", averaged ? technique.area_samples : 1}};
-        }
-        if (l.projection.perspective)
-            j["metres_per_texel_per_metre"] = l.projection.metres_per_texel_per_metre;
-        else {
-            j["metres_per_texel"] = l.projection.metres_per_texel;
-            j["half_extent"] = {l.projection.half_extent.x, l.projection.half_extent.y};
+                            {"gpu_ms", pass_json(l.gpu_ms, {"shadow", "lookup"})}};
+        // What the family says of the light (the depth maps: how an area light was drawn).
+        if (family.describe_light) j.update(family.describe_light(technique, light, l));
+        if (first.kind == ViewKind::ortho || first.kind == ViewKind::cascade) {
+            j["metres_per_texel"] = first.metres_per_texel;
+            j["half_extent"] = {first.half_extent.x, first.half_extent.y};
+        } else {
+            j["metres_per_texel_per_metre"] = first.metres_per_texel_per_metre;
         }
         lights.push_back(j);
     }
+    // Every pass the family timed, and the keys readers know even when a pass did not run.
+    nlohmann::json gpu_ms = pass_json(s.gpu_ms, {"shadow", "lookup", "layer_mask"});
+    gpu_ms["camera_raster"] = s.camera_ms;
+    gpu_ms["camera"] = s.camera_ms + s.gpu_ms["lookup"];
     return {
         {"scenario", scenario.file.string()},
         {"scene", scenario.scene_file.string()},
@@ -82,12 +103,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
           {"type", s.device.type},
           {"driver", s.device.driver},
           {"vulkan", s.device.api_version}}},
-        {"gpu_ms",
-         {{"shadow", s.shadow_ms},
-          {"camera", s.camera_ms + s.lookup_ms},
-          {"camera_raster", s.camera_ms},
-          {"lookup", s.lookup_ms},
-          {"layer_mask", s.mask_ms}}},
+        {"gpu_ms", gpu_ms},
         {"seconds",
          {{"load", timings.load_s}, {"device", timings.device_s}, {"setup", s.setup_s}, {"render", s.render_s}}},
         {"lights", lights},

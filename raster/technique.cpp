@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "common/errors.h"
 #include "common/json_reader.h"
+#include "raster/technique_family.h"
 
 namespace penumbra::raster {
 
@@ -166,6 +168,29 @@ json bias_json(const BiasOverride& o) {
     return j;
 }
 
+// The family a technique object names, or the one it implies without "family": area_samples
+// > 0 drew averaged hard shadows before the key existed, and still does.
+const FamilyEntry& family_named(JsonObject& o, const json& merged) {
+    if (!o.has("family")) {
+        const json* samples = merged.contains("area_samples") ? &merged["area_samples"] : nullptr;
+        const bool averaged = samples && samples->is_number() && samples->get<double>() > 0;
+        const FamilyEntry* inferred = find_technique_family(averaged ? "averaged_area" : kDefaultFamily);
+        if (!inferred) throw std::logic_error("the built-in technique families are not registered");
+        return *inferred;
+    }
+    const std::string name = o.string("family");
+    if (const FamilyEntry* f = find_technique_family(name)) return *f;
+    std::string known, like;
+    for (const FamilyEntry& f : technique_families()) {
+        known += fmt::format("{}\"{}\"", known.empty() ? "" : ", ", f.name);
+        if (like.empty() && name.size() >= 3 &&
+            (f.name.find(name) != std::string::npos || edit_distance(name, f.name) <= 2))
+            like = f.name;
+    }
+    o.fail("family", fmt::format("\"{}\" is not a technique family{} (have {})", name,
+                                 like.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", like), known));
+}
+
 }  // namespace
 
 Bias Technique::bias_for(std::size_t light) const {
@@ -205,6 +230,17 @@ Technique parse_technique(const json& value, const std::string& label) {
     JsonObject o(merged, file, path);
     Technique t;
     t.preset = o.string("preset", "");
+    const FamilyEntry& family = family_named(o, merged);
+    t.family = family.name;
+    family.parse(o, t);
+    t.precision =
+        pick(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
+    o.finish();
+    return t;
+}
+
+void parse_depth_map_keys(JsonObject& o, Technique& t) {
+    const std::string& file = o.file_label();
     t.resolution = static_cast<int>(o.integer("resolution", 2048, 16, 16384));
     t.depth_format = pick(o, "depth_format", DepthFormat::d32, {DepthFormat::d16, DepthFormat::d24, DepthFormat::d32});
     t.fit = pick(o, "fit", Fit::scene_bounds, {Fit::scene_sphere, Fit::scene_bounds, Fit::camera_frustum});
@@ -243,11 +279,6 @@ Technique parse_technique(const json& value, const std::string& label) {
         t.filter.max_radius_texels = f.number_in("max_radius_texels", 32.0, 1.0, 256.0, "texels in [1, 256]");
         f.finish();
     }
-    t.area_samples = static_cast<int>(o.integer("area_samples", 0, 0, 256));
-    t.precision =
-        pick(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
-    o.finish();
-    return t;
 }
 
 Technique parse_technique(const json& value, const std::string& label, const std::vector<Light>& lights) {
@@ -281,11 +312,21 @@ void check_technique_lights(const Technique& t, const std::vector<Light>& lights
 }
 
 json Technique::to_json() const {
-    json j{{"resolution", resolution},
-           {"depth_format", to_string(depth_format)},
-           {"fit", to_string(fit)},
-           {"shadow_distance", shadow_distance},
-           {"cull", to_string(cull)},
+    json j = {{"family", family}};
+    family_of(*this).write(*this, j);
+    j["precision"] = to_string(precision);
+    if (!preset.empty()) j["preset"] = preset;
+    return j;
+}
+
+json depth_map_keys_json(const Technique& t) {
+    const Bias& bias = t.bias;
+    const Filter& filter = t.filter;
+    json j{{"resolution", t.resolution},
+           {"depth_format", to_string(t.depth_format)},
+           {"fit", to_string(t.fit)},
+           {"shadow_distance", t.shadow_distance},
+           {"cull", to_string(t.cull)},
            {"bias",
             {{"constant", bias.constant},
              {"slope", bias.slope},
@@ -300,16 +341,13 @@ json Technique::to_json() const {
              {"taps", filter.taps},
              {"radius_texels", filter.radius_texels},
              {"bilinear_taps", filter.bilinear_taps},
-             {"max_radius_texels", filter.max_radius_texels}}},
-           {"area_samples", area_samples},
-           {"precision", to_string(precision)}};
-    if (!lights.empty()) {
+             {"max_radius_texels", filter.max_radius_texels}}}};
+    if (!t.lights.empty()) {
         json entries = json::array();
-        for (const LightOverride& l : lights)
+        for (const LightOverride& l : t.lights)
             entries.push_back(l.bias == BiasOverride{} ? json::object() : json{{"bias", bias_json(l.bias)}});
         j["lights"] = entries;
     }
-    if (!preset.empty()) j["preset"] = preset;
     return j;
 }
 

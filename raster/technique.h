@@ -2,12 +2,17 @@
 // as a validated value. Named presets reproduce the seed systems of docs/design.md's "References".
 #pragma once
 
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "common/scene.h"
+
+namespace penumbra {
+class JsonObject;
+}
 
 namespace penumbra::raster {
 
@@ -55,8 +60,20 @@ struct Filter {
     double max_radius_texels = 32;
 };
 
+// The parameters a family registered from outside keeps of its own (technique_family.h): its
+// entry's `parse` makes them, its `write` and its renderer read them back by dynamic_cast.
+struct FamilyParameters {
+    virtual ~FamilyParameters() = default;
+};
+
+// The family a technique names when it has no "family" key and no area_samples > 0.
+inline constexpr const char* kDefaultFamily = "depth_map";
+
 struct Technique {
     std::string preset;  // empty when none
+    // The technique family that draws it (docs/raster.md, "Adding a technique family"): a name of
+    // technique_families(). Its entry parsed the keys below and writes them back.
+    std::string family = kDefaultFamily;
     int resolution = 2048;
     DepthFormat depth_format = DepthFormat::d32;
     Fit fit = Fit::scene_bounds;
@@ -71,11 +88,15 @@ struct Technique {
     // Area lights: 0 renders one map from the light's centre (filtered by `filter`, e.g. pcss);
     // N > 0 renders N maps from points spread over the light and averages their (filtered)
     // verdicts: "averaged hard shadows" (reference 001), the raster path's own slow reference.
+    // Read and written by the averaged_area family only (0 in every other family).
     int area_samples = 0;
     Precision precision = Precision::camera_relative;
     // Per-light overrides, indexed as the scenario's lights (may be shorter than them): their
     // keys win over `bias` for that light.
     std::vector<LightOverride> lights;
+    // A registered family's own parameters (null for the built-in families, whose keys are the
+    // fields above).
+    std::shared_ptr<const FamilyParameters> family_parameters;
 
     // The bias light `light` (the scenario's index) is drawn with: `bias` under its overrides.
     Bias bias_for(std::size_t light) const;
@@ -93,7 +114,9 @@ struct Preset {
 const std::vector<Preset>& presets();
 
 // Validates a technique object; `label` names its source ("scene.json: technique").
-// A "preset" key supplies defaults for the keys the object leaves out.
+// A "preset" key supplies defaults for the keys the object leaves out. The "family" key picks
+// the family (technique_families()) that parses the other keys; without it, area_samples > 0
+// means averaged_area (as before the key existed) and anything else depth_map.
 Technique parse_technique(const nlohmann::json& value, const std::string& label);
 
 // Refuses a technique that some light cannot be drawn with (InputError, exit 2): more `lights`
@@ -107,6 +130,13 @@ void check_technique_lights(const Technique& technique, const std::vector<Light>
 // parse_technique, then check_technique_lights: where the technique meets the scenario's
 // lights, before any work.
 Technique parse_technique(const nlohmann::json& value, const std::string& label, const std::vector<Light>& lights);
+
+// The keys of every family that draws depth maps (resolution, depth_format, fit,
+// shadow_distance, cull, bias, lights, filter; not area_samples): read from `o` into `t`, in
+// that order, checked. A family's `parse` calls it for the keys it shares with the depth map.
+void parse_depth_map_keys(JsonObject& o, Technique& t);
+// The same keys of `t`, every one resolved (`lights` only when it has entries).
+nlohmann::json depth_map_keys_json(const Technique& t);
 
 // Applies `--set key.path=value` overrides: value is parsed as JSON when it is JSON
 // (numbers, true/false, quoted strings), else taken as a string.

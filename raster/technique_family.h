@@ -6,13 +6,18 @@
 // technique changes. The session owns what every family shares (SceneOnGpu).
 #pragma once
 
+#include <deque>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
 #include "common/frames.h"
+#include "common/json_reader.h"
+#include "common/memory_estimate.h"
 #include "common/scene.h"
 #include "raster/gpu_passes.h"
 #include "raster/raster.h"
@@ -48,16 +53,51 @@ class TechniqueFamily {
                         RasterFrame& frame, RasterStats& stats) = 0;
 };
 
-// A registered family: the first whose `accepts` holds draws the technique.
+// What the metrics need to know of a technique to judge its pixels (docs/metrics.md).
+struct ScoringHints {
+    double filter_reach_texels = 1;  // aliasing band: texel footprints around a true boundary
+    double depth_quantum = 0;        // acne: depth differences below this are rounding (depth units)
+};
+
+// A registered family (pbrt-v4's `Create` is the model): everything the rest of penumbra asks of
+// a technique goes through its family's entry, so that validate, the memory estimate,
+// raster.json, tune and sweep do not read one family's fields. Picked by the technique's
+// "family" key (parse_technique), never by trying each in turn.
 struct FamilyEntry {
-    std::string_view name;
-    std::string_view description;
-    std::function<bool(const Technique&)> accepts;
+    std::string name;  // the "family" key's value
+    std::string description;
+    // Reads the family's keys (every key but "preset", "family" and "precision") from `o` into
+    // `t`, checked: bad values fail through `o` (InputError, exit 2, naming the key path). Keys
+    // it does not read are refused as unknown afterwards.
+    std::function<void(JsonObject& o, Technique& t)> parse;
+    // Writes the keys `parse` reads, every one resolved, into `j`: parse(write(t)) == t.
+    std::function<void(const Technique& t, nlohmann::json& j)> write;
+    std::function<ScoringHints(const Technique& t)> hints;
+    // The plain numbers of common/memory_estimate.h for this technique.
+    std::function<RasterMemory(const Technique& t)> memory;
+    // Keys the family adds to light `light`'s object in raster.json (may be unset: none).
+    std::function<nlohmann::json(const Technique& t, const Light& light, const RasterLightStats& stats)> describe_light;
+    // Technique keys (dotted paths) that sweep may vary and tune may search, for help and docs.
+    std::vector<std::string> sweep_keys;
+    std::vector<std::string> tune_knobs;
     std::function<std::unique_ptr<TechniqueFamily>(const SceneOnGpu&)> make;
 };
-const std::vector<FamilyEntry>& technique_families();
 
-// The built-in families (each in its own file).
+// Every family, the built-in ones (depth_map, averaged_area) first, then those registered.
+// References stay valid for the program's life.
+const std::deque<FamilyEntry>& technique_families();
+// The family called `name`, or null.
+const FamilyEntry* find_technique_family(std::string_view name);
+// The family of `t` (its `family` must be registered: parse_technique makes sure of that).
+const FamilyEntry& family_of(const Technique& t);
+// Adds a family that techniques can then name in "family" (docs/raster.md, "Adding a technique
+// family"). Register before parsing techniques; not thread-safe. Throws std::invalid_argument
+// for an empty or taken name or a missing parse, write, hints, memory or make.
+void register_technique_family(FamilyEntry entry);
+
+// The built-in families (each in its own file), and their drawing alone.
+FamilyEntry depth_map_family_entry();
+FamilyEntry averaged_area_family_entry();
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
 

@@ -65,6 +65,7 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
         add(p + "bias_m", lk.bias_m);
         add(p + "depth_to_m", lk.depth_to_m);
         add_u(p + "flags", lk.flags);
+        if (lk.layer.size() == lk.flags.size()) add_u(p + "layer", lk.layer);
     }
     return ch;
 }

@@ -244,6 +244,7 @@ void main() {
         return;
     }
 
+    o.flags |= layer << kFlagLayerShift;
     vec3 m = to_map(Pb, layer);
     float h = max(footprint, 1e-30);
     // Depth gradient of the receiver plane in texel units, from two tangent steps of one

@@ -66,6 +66,9 @@ PENUMBRA_CONST uint kFlagSurface = 1u;      // a triangle covers the pixel
 PENUMBRA_CONST uint kFlagBackFacing = 2u;   // N.L <= 0: V = 0, not a shadow-map verdict
 PENUMBRA_CONST uint kFlagOutsideCone = 4u;  // spot light: outside the cone, V = 0
 PENUMBRA_CONST uint kFlagOutsideMap = 8u;   // the lookup fell outside the light's map: V = 1
+// Lookups put the layer (shadow view) they used in the flags' bits from here up; the read-back
+// moves it to DepthMapLookups::layer.
+PENUMBRA_CONST uint kFlagLayerShift = 8u;
 
 struct LookupParams {
     vec4 cam_forward;    // xyz; w = 1 perspective, 0 orthographic

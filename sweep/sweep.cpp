@@ -11,10 +11,11 @@
 namespace penumbra::sweep {
 namespace {
 
-// The GPU milliseconds an engine pays for the shadow: the map, the lookup, the mask (averaged
-// area lights). The camera pass is drawn once per session and is not part of a configuration.
+// The GPU milliseconds an engine pays for the shadow: every pass the family timed (the depth
+// map's shadow passes, lookups and cube-face mask; a new family's passes by their names). The
+// camera pass is drawn once per session and is not part of a configuration.
 double shadow_cost_ms(const raster::RasterStats& s) {
-    return s.shadow_ms + s.lookup_ms + s.mask_ms;
+    return s.gpu_ms.total();
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include "common/errors.h"
 #include "common/stopwatch.h"
 #include "metrics/metric_table.h"
+#include "raster/technique_family.h"
 
 namespace penumbra::tune {
 namespace {
@@ -127,6 +128,18 @@ void apply_to_bias(raster::Bias& b, std::span<const Knob> knobs, const Setting& 
 
 const char* to_string(Knob k) {
     return kKnobNames[index_of(k)];
+}
+
+void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option) {
+    const raster::FamilyEntry& family = raster::family_of(technique);
+    for (Knob k : knobs) {
+        const std::string key = fmt::format("bias.{}", to_string(k));
+        if (std::find(family.tune_knobs.begin(), family.tune_knobs.end(), key) != family.tune_knobs.end()) continue;
+        std::string have;
+        for (const auto& n : family.tune_knobs) have += fmt::format("{}{}", have.empty() ? "" : ", ", n);
+        throw InputError(fmt::format("{}: {} is not a knob of technique family \"{}\" (its knobs: {})", option,
+                                     to_string(k), family.name, have.empty() ? "none" : have));
+    }
 }
 
 std::string describe(const Setting& s, std::span<const Knob> knobs) {

@@ -30,6 +30,10 @@ const char* to_string(Knob k);
 // "constant,slope": unknown or repeated names are InputError naming `option` and the name.
 std::vector<Knob> parse_knobs(const std::string& list, const std::string& option);
 
+// Refuses (InputError naming `option`) a knob that the technique's family does not list in its
+// tune_knobs ("bias.<knob>"): a family without depth-map biases has nothing for it to move.
+void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option);
+
 // The range a continuous knob is searched over, in its own unit, on a log scale; 0 is "off"
 // (for clamp, 0 is Vulkan's "unclamped", the most bias).
 struct KnobRange {

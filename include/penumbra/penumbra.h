@@ -7,6 +7,10 @@
 //   penumbra::ValidateResult r = penumbra::validate(sc, technique, gate, {});
 //   r.score.lights[0].rate(penumbra::metrics::PixelClass::acne);
 //
+// A technique family of one's own (docs/raster.md, "Adding a technique family"): fill a
+// penumbra::raster::FamilyEntry and register it before parsing; techniques then name it in "family".
+//   penumbra::raster::register_technique_family(my_family_entry());
+//
 // An engine's own shadow image instead of penumbra's raster path (docs/compare.md):
 //   penumbra::EngineFrame f = penumbra::load_engine_frame(sc, "shadow.exr", {0, 1, 2}, std::nullopt, {});
 //   penumbra::ValidateResult c = penumbra::compare(sc, f);
@@ -24,6 +28,7 @@
 #include "pipeline/validate_files.h"
 #include "raster/raster.h"
 #include "raster/technique.h"
+#include "raster/technique_family.h"
 #include "stress/stress_files.h"
 #include "stress/suite.h"
 #include "sweep/sweep_files.h"

@@ -85,6 +85,14 @@ check "raster draws a sphere light with PCSS" test "$rc" -eq 0
 check "raster.json names the soft-shadow method" grep -q '"method": "pcss"' "$tmp/r7/raster.json"
 run raster "$tmp/sphere.json" --out "$tmp/r7b" --set area_samples=300
 check "too many area samples exit 2" test "$rc" -eq 2
+# The technique family is picked by its key: an unknown one is bad input naming the known ones.
+run raster "$src/data/default/scenario.json" --out "$tmp/r7c" --set family=cascade
+check "unknown technique family exits 2" test "$rc" -eq 2
+check "unknown technique family is named with the known ones" \
+    grep -q 'technique.family: "cascade" is not a technique family (have "depth_map", "averaged_area")' <<<"$err"
+check "unknown technique family writes nothing" test ! -e "$tmp/r7c"
+check "raster.json's technique names its family" python3 -c "
+import json; assert json.load(open('$tmp/r7/raster.json'))['technique']['family'] == 'depth_map'"
 
 # raster: no Vulkan driver at all is an environment failure (exit 3) that says what to install.
 VK_ICD_FILENAMES=/nonexistent.json run raster "$src/data/default/scenario.json" --out "$tmp/r8"

@@ -36,6 +36,17 @@ for i, (a, b) in enumerate(zip(inproc["lights"], cli)):
 print("package: in-process verdicts equal the CLI's on", len(cli), "lights")
 PY
 
+# A technique family of the consumer's own, registered through the installed interface and
+# picked by its "family" key, draws an in-process validate.
+"$tmp/consumer/consumer" "$scenario" --own-family >"$tmp/family.json" || fail "the consumer's own family failed"
+python3 - "$tmp/family.json" <<'PY'
+import json, sys
+out = json.load(open(sys.argv[1]))
+assert out["family"] == "consumer_all_lit", out
+assert out["technique"]["family"] == "consumer_all_lit", out
+print("package: a family registered by the consumer drew its validate")
+PY
+
 # penumbra::compare through the package: penumbra's own raster frame as an engine's image, the
 # same verdict in-process as `penumbra compare` gives.
 "$exe" raster "$scenario" --out "$tmp/raster" -q || fail "penumbra raster failed"

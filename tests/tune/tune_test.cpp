@@ -14,6 +14,7 @@
 
 #include "common/errors.h"
 #include "raster/raster.h"
+#include "raster/technique_family.h"
 #include "tests/test_support.h"
 #include "tune/tune_report.h"
 
@@ -224,6 +225,31 @@ TEST(TuneKnobs, UnknownRepeatedOrBiaslessListsAreRefusedByName) {
     EXPECT_NE(message("slope,slope").find("\"slope\" is named twice"), std::string::npos);
     EXPECT_NE(message("clamp,receiver_plane").find("no knob that adds bias"), std::string::npos);
     EXPECT_NE(message("").find("unknown knob \"\""), std::string::npos);
+}
+
+// The knobs are the technique family's: a family that lists none (a registered one without
+// depth-map biases) has nothing for tune to move, and says so before any work.
+TEST(TuneKnobs, KnobsTheTechniquesFamilyDoesNotHaveAreRefused) {
+    const std::vector<Knob> knobs = {Knob::constant, Knob::normal_offset};
+    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique(nlohmann::json::object(), "t"), knobs, "--knobs"));
+    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"area_samples", 4}}, "t"), knobs, "--knobs"));
+    if (!raster::find_technique_family("tune_test_unbiased")) {
+        raster::FamilyEntry e = *raster::find_technique_family("depth_map");
+        e.name = "tune_test_unbiased";
+        e.tune_knobs = {"bias.slope"};
+        raster::register_technique_family(std::move(e));
+    }
+    const raster::Technique unbiased = raster::parse_technique({{"family", "tune_test_unbiased"}}, "t");
+    try {
+        check_family_knobs(unbiased, knobs, "--knobs");
+        ADD_FAILURE() << "accepted a knob the family does not have";
+    } catch (const InputError& e) {
+        EXPECT_STREQ(e.what(),
+                     "--knobs: constant is not a knob of technique family \"tune_test_unbiased\" (its knobs: "
+                     "bias.slope)");
+    }
+    const std::vector<Knob> slope = {Knob::slope};
+    EXPECT_NO_THROW(check_family_knobs(unbiased, slope, "--knobs"));
 }
 
 // A 20 m plane, lit from azimuth +x at `theta` from its normal, and a pole at its +x edge whose

@@ -6,17 +6,66 @@
 
 #include <cstdio>
 #include <iostream>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
+namespace {
+
+// A technique family of the consumer's own, registered through the installed interface: every
+// receiver lit, no passes.
+class AllLit final : public penumbra::raster::TechniqueFamily {
+  public:
+    explicit AllLit(const penumbra::raster::SceneOnGpu& s) : pixels_(s.pixels) {}
+    void render(const penumbra::raster::Technique&, std::span<const penumbra::Light> lights,
+                const penumbra::raster::RenderOptions&, penumbra::RasterFrame& frame,
+                penumbra::raster::RasterStats& stats) override {
+        for (std::size_t li = 0; li < lights.size(); ++li) {
+            frame.lights.push_back({std::vector<float>(pixels_, 1.0f), std::nullopt});
+            stats.lights.emplace_back();
+        }
+    }
+
+  private:
+    std::size_t pixels_;
+};
+
+void register_all_lit() {
+    penumbra::raster::FamilyEntry e;
+    e.name = "consumer_all_lit";
+    e.description = "every receiver lit (the package test's own family)";
+    e.parse = [](penumbra::JsonObject&, penumbra::raster::Technique&) {};
+    e.write = [](const penumbra::raster::Technique&, nlohmann::json&) {};
+    e.hints = [](const penumbra::raster::Technique&) { return penumbra::raster::ScoringHints{}; };
+    e.memory = [](const penumbra::raster::Technique&) { return penumbra::RasterMemory{}; };
+    e.make = [](const penumbra::raster::SceneOnGpu& s) { return std::make_unique<AllLit>(s); };
+    penumbra::raster::register_technique_family(std::move(e));
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
     const bool compare = argc == 4 && std::string(argv[2]) == "--compare";
-    if (argc != 2 && !compare) {
-        std::fprintf(stderr, "usage: consumer SCENARIO [--compare IMAGE]\n");
+    const bool own_family = argc == 3 && std::string(argv[2]) == "--own-family";
+    if (argc != 2 && !compare && !own_family) {
+        std::fprintf(stderr, "usage: consumer SCENARIO [--compare IMAGE | --own-family]\n");
         return 2;
     }
     try {
         const penumbra::Scenario sc = penumbra::load_scenario(argv[1]);
+        if (own_family) {
+            // The consumer's family, picked by its key, draws the validate.
+            register_all_lit();
+            const auto technique =
+                penumbra::raster::parse_technique({{"family", "consumer_all_lit"}}, "technique", sc.lights);
+            penumbra::ValidateOptions options;
+            options.use_cache = false;
+            const penumbra::ValidateResult r = penumbra::validate(sc, technique, {}, options);
+            std::cout << nlohmann::json{{"family", r.raster.stats.family}, {"technique", technique.to_json()}}.dump()
+                      << "\n";
+            return 0;
+        }
         if (compare) {
             std::vector<std::size_t> all;
             for (std::size_t li = 0; li < sc.lights.size(); ++li) all.push_back(li);
