@@ -161,6 +161,10 @@ Subcommand add_camera_command(CLI::App& parent) {
         ->transform(CLI::CheckedTransformer(conventions));
     cmd->add_flag("--allow-external-paths", a->allow_external, "Let glTF buffer URIs point outside the scene's folder");
     cmd->add_flag("-q,--quiet", a->quiet, "No warnings on stderr (the JSON is printed all the same)");
+    describe_outputs(cmd,
+                     "Outputs: JSON on stdout (view and projection matrices in the chosen convention, pixel-centre and "
+                     "row\nconventions, the lights in glTF terms); nothing is written.",
+                     "penumbra camera data/default/scenario.json --convention vulkan > camera.json");
     return {cmd, [a] { return run_camera_command(a->scenario, a->allow_external, a->quiet, a->conv); }};
 }
 

@@ -154,6 +154,11 @@ void add_technique(CLI::App* cmd, TechniqueArgs& t) {
     cmd->footer(text);
 }
 
+void describe_outputs(CLI::App* cmd, std::string_view outputs, std::string_view example) {
+    const std::string rest = cmd->get_footer();
+    cmd->footer(fmt::format("{}\nExample:\n  {}\n{}{}", outputs, example, rest.empty() ? "" : "\n", rest));
+}
+
 nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, std::string& label) {
     nlohmann::json j = scenario.technique;
     label = scenario.label + ": technique";

@@ -9,6 +9,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/scenario.h"
@@ -101,6 +102,10 @@ struct Subcommand {
     CLI::App* app = nullptr;
     std::function<int()> run;
 };
+
+// Puts what a command writes and one example in front of its --help footer (issue 33: every
+// command's help lists its outputs and an example).
+void describe_outputs(CLI::App* cmd, std::string_view outputs, std::string_view example);
 
 Subcommand add_oracle_command(CLI::App& parent);
 Subcommand add_raster_command(CLI::App& parent);

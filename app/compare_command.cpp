@@ -151,6 +151,10 @@ Subcommand add_compare_command(CLI::App& parent) {
     cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")")->check(kUserPath);
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);
     add_verdict_options(cmd, v.verdict);
+    describe_outputs(cmd,
+                     "Outputs (in --out): as validate's (report.json with coverage and engine, report.html, "
+                     "errors.exr, class\nmaps), with engine.json in place of raster.json. Exit 1 when a gate fails.",
+                     "penumbra compare data/default/scenario.json --image engine-shadow.exr --out judged --light 0");
     return {cmd, [a] { return run_compare_command(a->scenario, a->common, a->compare); }};
 }
 

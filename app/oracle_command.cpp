@@ -64,6 +64,11 @@ Subcommand add_oracle_command(CLI::App& parent) {
     add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
     add_sampling(cmd, a->sampling);
+    describe_outputs(
+        cmd,
+        "Outputs (in --out): oracle.exr (A, prim, depth, P, N; per light V, E, U, lightable, occluder and\nboundary "
+        "distances), oracle.json (what was traced, rays, timings) and oracle.png (a preview).",
+        "penumbra oracle data/default/scenario.json --out oracle-out");
     return {cmd, [a] { return run_oracle_command(a->scenario, a->common, a->sampling); }};
 }
 

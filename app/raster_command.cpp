@@ -63,11 +63,19 @@ Subcommand add_raster_command(CLI::App& parent) {
     add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
     add_technique(cmd, a->technique);
+    describe_outputs(
+        cmd,
+        "Outputs (in --out): raster.exr (A, prim; per light V, the layer each pixel used and the depth-map\nlookups), "
+        "raster.json (the resolved technique, device, views per light, GPU times) and raster.png.",
+        "penumbra raster data/default/scenario.json --out raster-out --preset d3d12-textbook");
     return {cmd, [a] { return run_raster_command(a->scenario, a->common, a->technique); }};
 }
 
 Subcommand add_devices_command(CLI::App& parent) {
     CLI::App* cmd = parent.add_subcommand("devices", "List the Vulkan devices --device can choose");
+    describe_outputs(cmd,
+                     "Outputs: a line per Vulkan device on stdout (index, name, type, driver); nothing is written.",
+                     "penumbra devices");
     return {cmd, [] { return run_devices_command(); }};
 }
 

@@ -127,6 +127,11 @@ Subcommand add_stress_command(CLI::App& parent) {
     cmd->add_option("--seed", s.seed, "Seed of the generated scenes' random parts (default 20)");
     cmd->add_option("--threads", s.threads, "Worker threads (default: all)")->check(CLI::Range(0, 1024));
     cmd->add_flag("-q,--quiet", s.quiet, "Print nothing but errors");
+    describe_outputs(cmd,
+                     "Outputs (in --out): stress.json (per case the oracle invariant and the technique's rates per "
+                     "light),\nreport.html and <case>.light<i>.classes.png; with --junit the JUnit file. Exit 1 when "
+                     "the invariant or a\ngate fails.",
+                     "penumbra stress --out stress-out --preset d3d12-textbook --cases grazing_89,far_1e7");
     return {cmd, [a] { return run_stress_command(a->stress, a->technique); }};
 }
 

@@ -132,6 +132,11 @@ Subcommand add_sweep_command(CLI::App& parent) {
     cmd->add_option("--shard", a->shard, "K/N: run the K-th of N slices of the configurations (default 1/1)");
     cmd->add_option("--repeat", a->repeat, "GPU timings per configuration, median and min reported (default 3)");
     add_verdict_options(cmd, a->verdict);
+    describe_outputs(cmd,
+                     "Outputs (in --out): sweep.csv and sweep.json (a row per configuration: the varied keys, the "
+                     "verdict,\nproduction and diagnostic GPU ms), pareto.svg/.png and report.html.",
+                     "penumbra sweep data/default/scenario.json --out sweep-out --vary resolution=1024,2048 --vary "
+                     "filter.type=none,pcf");
     return {cmd, [a] { return run_sweep_command(*a); }};
 }
 
@@ -149,6 +154,10 @@ Subcommand add_merge_command(CLI::App& parent) {
         ->check(kUserPath)
         ->check(output_folder_problem);
     cmd->add_flag("-q,--quiet", a->quiet, "Print nothing but errors");
+    describe_outputs(cmd,
+                     "Outputs (in --out): the files one sweep run writes (sweep.csv, sweep.json, pareto.svg/.png, "
+                     "report.html),\nfrom shards of one sweep definition (else exit 2 naming what differs).",
+                     "penumbra merge shard-1 shard-2 --out sweep-out");
     return {cmd, [a] { return run_merge_command(a->dirs, a->out, a->quiet); }};
 }
 

@@ -195,6 +195,11 @@ Subcommand add_tune_command(CLI::App& parent) {
                   "One bias for every light (default: each light's own, in technique.json's \"lights\")");
     cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne (on some light)");
     add_verdict_options(cmd, a->verdict);
+    describe_outputs(
+        cmd,
+        "Outputs (in --out): technique.json (the recommendation; validate --technique takes it), tune.json "
+        "(every\nevaluation and the re-validation), pareto.csv/.svg/.png, the before/after class maps and report.html.",
+        "penumbra tune data/default/scenario.json --out tuned --preset d3d12-textbook --budget 40");
     return {cmd, [a] { return run_tune_command(*a); }};
 }
 

@@ -106,6 +106,13 @@ Subcommand add_validate_command(CLI::App& parent) {
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);
     cmd->add_flag("--frames", v.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
     add_verdict_options(cmd, v.verdict);
+    describe_outputs(
+        cmd,
+        "Outputs (in --out): report.json (the verdict per light; gates read it), report.html (the answer first,\nthen "
+        "the details), errors.exr, light<i>.classes.png / .error.png / .compare.png, oracle.json, raster.json;\nwith "
+        "--frames also oracle.exr and raster.exr; with --junit the JUnit file. Exit 1 when a gate fails.",
+        "penumbra validate data/default/scenario.json --out run --preset d3d12-textbook --gate gate.json --junit "
+        "junit.xml");
     return {cmd, [a] { return run_validate_command(a->scenario, a->common, a->technique, a->validate); }};
 }
 

@@ -219,6 +219,11 @@ sed 's#<h2>#<table style="width:3000px"><tr><td>wide</td></tr></table><h2>#' "$t
 check "a report wider than 1280 px is caught" fails html_check "$tmp/wide.html"
 unset PENUMBRA_CACHE_DIR
 
+# Every command's --help lists what it writes and one example (issue 33).
+for c in oracle raster validate devices tune compare camera sweep merge stress init diff cache; do
+    check "$c --help lists outputs and an example" bash -c "'$bin' $c --help | grep -q '^Outputs\?' && '$bin' $c --help | grep -q '^Example:'"
+done
+
 # Usage errors.
 run
 check "no subcommand exits 2" test "$rc" -eq 2
