@@ -62,20 +62,10 @@ struct FileBytes {
 };
 
 FileBytes read_scene_file(const fs::path& file, std::uint64_t max_bytes) {
-    // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
-    const int fd = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) throw InputError(fmt::format("{}: cannot open file: {}", file.string(), std::strerror(errno)));
-    struct Closer {
-        int fd;
-        ~Closer() { ::close(fd); }
-    } closer{fd};
-    struct stat st {};
-    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
-        throw InputError(fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", file.string()));
-    if (static_cast<std::uint64_t>(st.st_size) > max_bytes)
-        throw InputError(fmt::format("{}: {} bytes exceeds the {} byte limit", file.string(), st.st_size, max_bytes));
+    const RegularFile f(file, max_bytes);
+    const int fd = f.fd();
     FileBytes out;
-    const auto size = static_cast<std::size_t>(st.st_size);
+    const std::size_t size = f.size();
     out.data = std::make_unique_for_overwrite<char[]>(std::max<std::size_t>(size, 1));
     constexpr std::size_t kPiece = std::size_t(8) << 20;
     const std::size_t pieces = (size + kPiece - 1) / kPiece;

@@ -141,20 +141,30 @@ void check_json_nesting(std::string_view text, const std::string& file_label) {
     }
 }
 
-std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes) {
+RegularFile::RegularFile(const std::filesystem::path& file, std::uint64_t max_bytes) {
     // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
-    const int fd = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (fd < 0) throw InputError(fmt::format("{}: cannot open file: {}", file.string(), std::strerror(errno)));
-    struct Closer {
-        int fd;
-        ~Closer() { ::close(fd); }
-    } closer{fd};
+    fd_ = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ < 0) throw InputError(fmt::format("{}: cannot open file: {}", file.string(), std::strerror(errno)));
     struct stat st {};
-    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+    if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+        ::close(fd_);
         throw InputError(fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", file.string()));
-    if (static_cast<std::uint64_t>(st.st_size) > max_bytes)
+    }
+    if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
+        ::close(fd_);
         throw InputError(fmt::format("{}: {} bytes exceeds the {} byte limit", file.string(), st.st_size, max_bytes));
-    std::string bytes(static_cast<std::size_t>(st.st_size), '\0');
+    }
+    size_ = static_cast<std::size_t>(st.st_size);
+}
+
+RegularFile::~RegularFile() {
+    ::close(fd_);
+}
+
+std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes) {
+    const RegularFile f(file, max_bytes);
+    const int fd = f.fd();
+    std::string bytes(f.size(), '\0');
     std::size_t done = 0;
     while (done < bytes.size()) {
         ssize_t n = ::read(fd, bytes.data() + done, bytes.size() - done);

@@ -29,6 +29,23 @@ void check_json_nesting(std::string_view text, const std::string& file_label);
 // (they may never end). Throws InputError naming `file`.
 std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes);
 
+// `file` opened for reading when it is a regular file of at most `max_bytes`, else InputError
+// naming it: FIFOs, devices and folders are refused without blocking on them. Closes on
+// destruction. read_regular_file and the scene loader's parallel read share it.
+class RegularFile {
+  public:
+    RegularFile(const std::filesystem::path& file, std::uint64_t max_bytes);
+    ~RegularFile();
+    RegularFile(const RegularFile&) = delete;
+    RegularFile& operator=(const RegularFile&) = delete;
+    int fd() const { return fd_; }
+    std::size_t size() const { return size_; }
+
+  private:
+    int fd_ = -1;
+    std::size_t size_ = 0;
+};
+
 // Parses strict JSON: syntax errors, NUL bytes, nesting beyond kMaxJsonDepth, duplicate keys
 // and non-finite numbers are InputErrors naming `file_label`.
 nlohmann::json parse_json_strict(const std::string& text, const std::string& file_label);
