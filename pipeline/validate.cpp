@@ -73,7 +73,7 @@ nlohmann::json cache_info(const OracleCache& cache, const std::string& key, bool
     return j;
 }
 
-// report.json's `cascades` of a cascaded light (docs/metrics.md, "Cascades"): the pixels each
+// report.json's `cascades` of a cascaded light (docs/raster.md, "Cascaded shadow maps"): the pixels each
 // cascade's lookups judged, by the layer they recorded, with their counts and rates.
 nlohmann::json cascade_metrics(const raster::RasterLightStats& stats, const RasterLightImage& image,
                                const metrics::LightErrorImage& errors, const std::vector<float>& A) {
