@@ -76,7 +76,8 @@ E pick_enum(JsonObject& o, const std::string& key, E fallback, std::initializer_
 
 Cascades parse_cascades(JsonObject& o) {
     Cascades c;
-    if (o.has("fractions")) {
+    const bool has_fractions = o.has("fractions");
+    if (has_fractions) {
         const nlohmann::json& f = o.get("fractions");
         if (!f.is_array() || f.empty())
             o.fail("fractions", "expected a non-empty array of fractions of max_distance, e.g. [0.1, 0.2, 0.5]");
@@ -93,8 +94,8 @@ Cascades parse_cascades(JsonObject& o) {
         if (c.fractions.back() == 1.0) c.fractions.pop_back();
     }
     const int implied = static_cast<int>(c.fractions.size()) + 1;
-    c.count = static_cast<int>(o.integer("count", c.fractions.empty() ? 4 : implied, 1, kMaxCascades));
-    c.split = pick_enum(o, "split", c.fractions.empty() ? CascadeSplit::practical : CascadeSplit::fractions,
+    c.count = static_cast<int>(o.integer("count", has_fractions ? implied : 4, 1, kMaxCascades));
+    c.split = pick_enum(o, "split", has_fractions ? CascadeSplit::fractions : CascadeSplit::practical,
                         {CascadeSplit::practical, CascadeSplit::uniform, CascadeSplit::log, CascadeSplit::geometric,
                          CascadeSplit::fractions});
     c.lambda = o.number_in("lambda", 0.5, 0.0, 1.0, "a weight in [0, 1]");
@@ -111,7 +112,7 @@ Cascades parse_cascades(JsonObject& o) {
         if (implied != c.count)
             o.fail("fractions",
                    fmt::format("{} fractions end {} cascades, but count is {}", c.fractions.size(), implied, c.count));
-    } else if (!c.fractions.empty()) {
+    } else if (has_fractions) {
         o.fail("fractions",
                fmt::format("only split \"fractions\" reads fractions (split is \"{}\")", to_string(c.split)));
     }

@@ -111,6 +111,11 @@ TEST(CascadeKeys, ParseWithDefaultsAndWriteBack) {
                   raster::parse_technique({{"family", "cascaded"}, {"cascades", {{"fractions", {0.3, 1}}}}}, "t"))
                   ->count,
               2);
+    // [1] alone: one cascade to max_distance.
+    const raster::Technique one =
+        raster::parse_technique({{"family", "cascaded"}, {"cascades", {{"fractions", {1}}}}}, "t");
+    EXPECT_EQ(raster::cascades_of(one)->count, 1);
+    EXPECT_EQ(raster::parse_technique(one.to_json(), "t").to_json(), one.to_json());
 }
 
 TEST(CascadeKeys, BadValuesNameTheirKeyPath) {
@@ -127,6 +132,7 @@ TEST(CascadeKeys, BadValuesNameTheirKeyPath) {
     EXPECT_THAT(error_of({{"count", 3}, {"fractions", {0.1, 0.2, 0.5}}}),
                 HasSubstr("technique.cascades.fractions: 3 fractions end 4 cascades, but count is 3"));
     EXPECT_THAT(error_of({{"split", "log"}, {"fractions", {0.5}}}), HasSubstr("technique.cascades.fractions: only"));
+    EXPECT_THAT(error_of({{"split", "log"}, {"fractions", {1}}}), HasSubstr("technique.cascades.fractions: only"));
     EXPECT_THAT(error_of({{"split", "geometric"}}),
                 HasSubstr("technique.cascades.split: \"geometric\" needs first_far"));
     EXPECT_THAT(error_of({{"split", "geometric"}, {"first_far", 200}, {"max_distance", 150}}),
@@ -229,12 +235,13 @@ TEST(CascadeRender, TheLayerChannelNamesTheCascadeByViewDepth) {
     o.validation = true;
     raster::VulkanContext ctx(o);
     const Scenario sc = long_view_scenario();
-    const raster::RasterResult r = raster::run_raster(
-        sc,
-        raster::parse_technique(
-            {{"family", "cascaded"}, {"resolution", 512}, {"cascades", {{"split", "practical"}, {"max_distance", 200}}}},
-            "t"),
-        ctx);
+    const raster::RasterResult r =
+        raster::run_raster(sc,
+                           raster::parse_technique({{"family", "cascaded"},
+                                                    {"resolution", 512},
+                                                    {"cascades", {{"split", "practical"}, {"max_distance", 200}}}},
+                                                   "t"),
+                           ctx);
     EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().front();
     ASSERT_EQ(r.stats.lights.size(), 1u);
     const raster::RasterLightStats& ls = r.stats.lights[0];
