@@ -271,6 +271,23 @@ TEST(CascadeRender, TheLayerChannelNamesTheCascadeByViewDepth) {
     }
     EXPECT_GT(seen, 50);
     EXPECT_GE(previous, 3u);
+
+    // world_float32 fits the cascades in world space and rounds their matrices: same cascades.
+    const raster::RasterResult w = raster::run_raster(sc,
+                                                      raster::parse_technique({{"family", "cascaded"},
+                                                                               {"resolution", 512},
+                                                                               {"precision", "world_float32"},
+                                                                               {"cascades", {{"max_distance", 200}}}},
+                                                                              "t"),
+                                                      ctx);
+    const DepthMapLookups& wl = *w.frame.lights[0].lookups;
+    std::size_t same = 0, surface = 0;
+    for (std::size_t i = 0; i < r.frame.pixel_count(); ++i) {
+        if (r.frame.A[i] == 0) continue;
+        ++surface;
+        same += wl.layer[i] == lk.layer[i];
+    }
+    EXPECT_GE(same, surface * 995 / 1000);
 }
 
 }  // namespace
