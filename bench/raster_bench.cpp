@@ -7,7 +7,8 @@
 // Scene: the bundled default scenario with only its directional light (one map per run), plus
 // a terrain to load the rasteriser: --terrain (131k triangles) or --terrain-grid N (2 N^2, e.g.
 // 1024 for 2.1M). Median of --repeat runs per resolution on one session, every map drawn;
-// wall clock includes submission and waiting, not setup.
+// wall clock includes submission and waiting, not setup. A last row draws the sun in 4 cascades
+// of 2048^2 (the cascaded family), against 4 bare passes of the same views.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -152,6 +153,30 @@ int main(int argc, char** argv) {
             std::printf("%5d^2    %12.2f %12.2f %8.2f %14.2f %12.2f %12.2f\n", res, median(shadow), median(depth_only),
                         median(shadow) / std::max(median(depth_only), 1e-9), median(camera), median(lookup),
                         median(wall));
+        }
+        {  // issue #34: a sun in 4 cascades of 2048^2 (the cascaded family's defaults), every layer drawn
+            const raster::Technique t = raster::parse_technique(
+                {{"family", "cascaded"}, {"resolution", 2048}, {"bias", {{"slope", 1.5}}}}, "bench");
+            std::vector<double> shadow, depth_only, camera, lookup, wall;
+            raster::RasterSession session(sc, ctx);
+            raster::RenderOptions fresh;
+            fresh.reuse_maps = false;
+            const raster::RasterResult first = session.render(t, fresh);
+            const std::vector<glm::dmat4> views = first.stats.lights[0].projection.view_proj;
+            for (const glm::dmat4& v : views) bare.render_ms(v, 2048);
+            for (int r = 0; r < repeat; ++r) {
+                raster::RasterResult out = session.render(t, fresh);
+                shadow.push_back(out.stats.gpu_ms["shadow"]);
+                double bare_ms = 0;
+                for (const glm::dmat4& v : views) bare_ms += bare.render_ms(v, 2048);
+                depth_only.push_back(bare_ms);
+                camera.push_back(out.stats.camera_ms + out.stats.gpu_ms["lookup"]);
+                lookup.push_back(out.stats.gpu_ms["lookup"]);
+                wall.push_back(out.stats.render_s * 1e3);
+            }
+            std::printf("%zux2048^2 %12.2f %12.2f %8.2f %14.2f %12.2f %12.2f  (cascades)\n", views.size(),
+                        median(shadow), median(depth_only), median(shadow) / std::max(median(depth_only), 1e-9),
+                        median(camera), median(lookup), median(wall));
         }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "raster_bench: %s\n", e.what());

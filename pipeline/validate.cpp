@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <cmath>
 #include <memory>
 
@@ -70,6 +71,42 @@ nlohmann::json cache_info(const OracleCache& cache, const std::string& key, bool
     j["total_bytes"] = total;
     j["max_bytes"] = cache.max_bytes();
     return j;
+}
+
+// report.json's `cascades` of a cascaded light (docs/raster.md, "Cascaded shadow maps"): the pixels each
+// cascade's lookups judged, by the layer they recorded, with their counts and rates.
+nlohmann::json cascade_metrics(const raster::RasterLightStats& stats, const RasterLightImage& image,
+                               const metrics::LightErrorImage& errors, const std::vector<float>& A) {
+    const std::size_t n = stats.views.size();
+    std::vector<std::array<std::uint64_t, metrics::kErrorClasses.size()>> counts(n);
+    std::vector<std::uint64_t> surface(n, 0), scored(n, 0);
+    for (std::size_t i = 0; i < A.size(); ++i) {
+        const std::uint32_t layer = image.lookups->layer[i];
+        if (A[i] == 0 || layer >= n) continue;  // no surface, or beyond the last cascade
+        ++surface[layer];
+        const auto c = static_cast<metrics::PixelClass>(errors.cls[i]);
+        const std::size_t k = metrics::error_class_index(c);
+        if (c == metrics::PixelClass::correct || k < counts[layer].size()) ++scored[layer];
+        if (k < counts[layer].size()) ++counts[layer][k];
+    }
+    nlohmann::json out = nlohmann::json::array();
+    for (std::size_t layer = 0; layer < n; ++layer) {
+        const raster::ShadowView& v = stats.views[layer];
+        nlohmann::json c = nlohmann::json::object(), r = nlohmann::json::object();
+        for (std::size_t k = 0; k < metrics::kErrorClasses.size(); ++k) {
+            const std::string name(metrics::to_string(metrics::kErrorClasses[k]));
+            c[name] = counts[layer][k];
+            r[name] = scored[layer] ? static_cast<double>(counts[layer][k]) / static_cast<double>(scored[layer]) : 0.0;
+        }
+        out.push_back({{"index", layer},
+                       {"near_m", v.split_near},
+                       {"far_m", v.split_far},
+                       {"texel_m", v.metres_per_texel},
+                       {"pixels", {{"surface", surface[layer]}, {"scored", scored[layer]}}},
+                       {"counts", c},
+                       {"rates", r}});
+    }
+    return out;
 }
 
 }  // namespace
@@ -145,6 +182,12 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                 {"metrics_s", r.metrics_s}};
     if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, r.score.lights);
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
+    for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
+        const raster::RasterLightStats& ls = r.raster.stats.lights[li];
+        const RasterLightImage& image = r.raster.frame.lights[li];
+        if (ls.views.empty() || ls.views[0].kind != raster::ViewKind::cascade || !image.lookups) continue;
+        r.report["lights"][li]["cascades"] = cascade_metrics(ls, image, r.score.images[li], r.raster.frame.A);
+    }
     return r;
 }
 

@@ -20,6 +20,7 @@
 #include "common/memory_estimate.h"
 #include "common/stopwatch.h"
 #include "raster/area_lights.h"
+#include "raster/cascades.h"
 #include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
@@ -72,7 +73,13 @@ std::vector<glm::vec2> poisson_disk(int n) {
     return pts;
 }
 
-gpu::uint light_kind(LightType t) {
+// A sun of the cascaded family has a layer per cascade (raster/cascades.h).
+bool cascaded(const Technique& t, const Light& l) {
+    return l.type == LightType::directional && cascades_of(t) != nullptr;
+}
+
+gpu::uint light_kind(const Technique& technique, LightType t) {
+    if (t == LightType::directional && cascades_of(technique)) return gpu::kLightCascade;
     switch (t) {
         case LightType::directional: return gpu::kLightDirectional;
         case LightType::spot: return gpu::kLightSpot;
@@ -268,7 +275,11 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
     const VkFormat format = vk_format(t.depth_format);
     // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
     const auto res = static_cast<std::uint32_t>(lights.empty() ? 1 : t.resolution);
-    auto layers_of = [](const Light& l) { return l.type == LightType::point ? 6u : 1u; };
+    auto layers_of = [&](const Light& l) {
+        return l.type == LightType::point ? 6u
+               : cascaded(t, l)           ? static_cast<std::uint32_t>(cascades_of(t)->count)
+                                          : 1u;
+    };
     std::vector<std::uint32_t> wanted;
     std::uint64_t bytes = 0;
     for (const Light& l : lights) {
@@ -276,9 +287,9 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
         bytes += std::uint64_t{res} * res * layers_of(l) * (depth_texel_bytes(t.depth_format) + 4);
     }
     if (wanted.empty() || bytes > kMapBudgetBytes) {
-        const bool any_point =
-            std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return layers_of(l) > 1; });
-        wanted = {any_point ? 6u : 1u};  // one map for all
+        std::uint32_t most = 1;
+        for (const Light& l : lights) most = std::max(most, layers_of(l));
+        wanted = {most};  // one map for all
     }
     bool same = maps_.size() == wanted.size();
     for (std::size_t i = 0; same && i < wanted.size(); ++i)
@@ -369,6 +380,12 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.map = glm::vec4(t.resolution, 1.0f / t.resolution, t.filter.radius_texels,
                       static_cast<float>(projection.view_proj.size()));
     p.footprint = glm::vec4(projection.metres_per_texel, projection.metres_per_texel_per_metre, 0.0f, 0.0f);
+    p.cascade = glm::vec4(static_cast<float>(projection.cascade_texel.size()),
+                          static_cast<float>(projection.cascade_overlap), 0.0f, 0.0f);
+    for (std::size_t k = 0; k < projection.cascade_texel.size(); ++k) {
+        p.cascade_far[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_far[k]);
+        p.cascade_texel[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_texel[k]);
+    }
     // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
     p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
@@ -453,7 +470,7 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
     vkCmdBindPipeline(
         cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-        lookup_pipeline(t, light_kind(light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
+        lookup_pipeline(t, light_kind(t, light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
     VkDescriptorSet set = sets_[li];
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
@@ -528,14 +545,16 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         const Light& light = lights[li];
         RasterLightStats& ls = stats.lights[li];
         ls = {};
-        if (t.precision == Precision::world_float32) {
-            ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution,
-                                      glm::dvec3(0.0), t.shadow_distance);
-            round_to_world_float32(ls.projection, s_.origin);
-        } else {
-            ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, s_.origin,
+        // world_float32: fitted in world space, its matrices then rounded as an engine keeps them.
+        const bool world = t.precision == Precision::world_float32;
+        const glm::dvec3 fit_origin = world ? glm::dvec3(0.0) : s_.origin;
+        if (cascaded(t, light))
+            ls.projection = fit_cascades(light, sc.scene, sc.camera, sc.width, sc.height, *cascades_of(t), t.resolution,
+                                         fit_origin);
+        else
+            ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, fit_origin,
                                       t.shadow_distance);
-        }
+        if (world) round_to_world_float32(ls.projection, s_.origin);
         ls.views = shadow_views(ls.projection);
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
         const gpu::LookupParams p = light_params(t.for_light(li), light, ls.projection);
@@ -578,6 +597,10 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     } else {
         for (std::size_t li = 0; li < n; ++li) stats.lights[li].layers_sampled = 1u;
     }
+    // Every cascade is drawn: slices are cut to what the camera sees.
+    for (std::size_t li = 0; li < n; ++li)
+        if (cascaded(t, lights[li]))
+            stats.lights[li].layers_sampled = (1u << stats.lights[li].projection.view_proj.size()) - 1u;
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
         if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(3 * n));
         record_map_layouts(cmd);

@@ -9,6 +9,7 @@
 #include <span>
 
 #include "common/camera.h"
+#include "common/errors.h"
 
 namespace penumbra::raster {
 
@@ -216,21 +217,122 @@ const char* to_string(ViewKind k) {
 std::vector<ShadowView> shadow_views(const LightProjection& lp) {
     static const char* const kFaces[] = {"+x", "-x", "+y", "-y", "+z", "-z"};
     const bool cube = lp.perspective && lp.view_proj.size() == 6;
+    const bool cascades = !lp.cascade_texel.empty();
     std::vector<ShadowView> views;
     for (std::size_t k = 0; k < lp.view_proj.size(); ++k) {
         ShadowView v;
-        v.kind = cube ? ViewKind::cube_face : lp.perspective ? ViewKind::perspective : ViewKind::ortho;
+        v.kind = cascades         ? ViewKind::cascade
+                 : cube           ? ViewKind::cube_face
+                 : lp.perspective ? ViewKind::perspective
+                                  : ViewKind::ortho;
         if (cube) v.name = kFaces[k];
         v.view_proj = lp.view_proj[k];
         v.axis = lp.axis[k];
-        v.metres_per_texel = lp.metres_per_texel;
+        v.metres_per_texel = cascades ? lp.cascade_texel[k] : lp.metres_per_texel;
         v.metres_per_texel_per_metre = lp.metres_per_texel_per_metre;
         v.near = lp.near;
         v.far = lp.far;
-        v.half_extent = lp.half_extent;
+        v.half_extent = cascades ? lp.cascade_half_extent[k] : lp.half_extent;
+        if (cascades) {
+            v.split_near = lp.cascade_near[k];
+            v.split_far = lp.cascade_far[k];
+        }
         views.push_back(v);
     }
     return views;
+}
+
+LightProjection fit_cascades(const Light& light, const Scene& scene, const Camera& cam, int w, int h, const Cascades& c,
+                             int res, const glm::dvec3& origin) {
+    const bool infinite = !std::isfinite(cam.zfar) || cam.zfar >= 1e30;
+    if (!c.max_distance && infinite)
+        throw InputError(
+            "technique.cascades.max_distance: the camera's zfar is infinite; give the cascades a max_distance "
+            "(metres of view depth)");
+    const double near = cam.znear, far = c.max_distance.value_or(cam.zfar);
+    if (!(far > near))
+        throw InputError(
+            fmt::format("technique.cascades.max_distance: {} m is not beyond the camera's znear {} m", far, near));
+    if (c.split == CascadeSplit::geometric && c.first_far && !(*c.first_far > near && *c.first_far < far))
+        throw InputError(
+            fmt::format("technique.cascades.first_far: {} m is not between the camera's znear {} m and "
+                        "the cascades' far end {} m",
+                        *c.first_far, near, far));
+    if ((c.split == CascadeSplit::log || c.split == CascadeSplit::practical) && !(near > 0))
+        throw InputError(fmt::format("technique.cascades.split: \"{}\" needs a camera znear > 0 (it is {})",
+                                     to_string(c.split), near));
+    const std::vector<double> bounds = cascade_far_bounds(c, near, far);
+    LightProjection lp;
+    lp.cascade_overlap = c.overlap;
+    Basis b = light_basis(light.direction);
+    auto to_light_space = [&](const glm::dvec3& p) {
+        return glm::dvec3(glm::dot(p, b.right), glm::dot(p, b.up), glm::dot(p, b.forward));
+    };
+    // Casters between a slice and the light: the near plane pulled back to the scene.
+    double scene_lo_z = 1e300;
+    for (const auto& p : box_corners(scene.bounds)) scene_lo_z = std::min(scene_lo_z, to_light_space(p).z);
+    const glm::dvec2 plane = ndc_to_image_plane(cam, w, h);
+    const bool persp = cam.type == ProjectionType::perspective;
+    for (int i = 0; i < c.count; ++i) {
+        // bevy's overlap: a cascade starts that fraction before the previous one ends.
+        const double zn = i == 0 ? near : (1 - c.overlap) * bounds[i - 1], zf = bounds[i];
+        std::array<glm::dvec3, 8> corners;
+        for (int k = 0; k < 8; ++k) {
+            const double z = k & 4 ? zf : zn;
+            const glm::dvec2 half = persp ? plane * z : plane;
+            corners[k] = cam.eye + cam.forward * z + cam.right * (k & 1 ? half.x : -half.x) +
+                         cam.up * (k & 2 ? half.y : -half.y);
+        }
+        glm::dvec3 lo(1e300), hi(-1e300);
+        double texel = 0;
+        if (c.fit == CascadeFit::sphere) {
+            // The slice's bounding sphere: its radius depends on the slice alone, not on where the
+            // camera looks, so the texel size stays constant (what stabilisation needs). Rounded
+            // up to 1/16 m so that rounding noise does not change it between frames.
+            glm::dvec3 centre(0.0);
+            for (const auto& p : corners) centre += p / 8.0;
+            double r = 0;
+            for (const auto& p : corners) r = std::max(r, glm::length(p - centre));
+            r = std::ceil(r * 16) / 16;
+            const glm::dvec3 cl = to_light_space(centre);
+            lo = cl - r;
+            hi = cl + r;
+            texel = 2 * r / res;
+            if (c.stabilize) {
+                lo.x = std::floor(lo.x / texel) * texel;
+                lo.y = std::floor(lo.y / texel) * texel;
+                hi.x = lo.x + 2 * r;
+                hi.y = lo.y + 2 * r;
+            }
+        } else {
+            for (const auto& p : corners) {
+                lo = glm::min(lo, to_light_space(p));
+                hi = glm::max(hi, to_light_space(p));
+            }
+            texel = std::max({hi.x - lo.x, hi.y - lo.y, 1e-9}) / res;
+            if (c.stabilize) {  // whole texels of this frame's size: the size itself moves with the view
+                lo.x = std::floor(lo.x / texel) * texel;
+                lo.y = std::floor(lo.y / texel) * texel;
+                const double side = std::ceil(std::max(hi.x - lo.x, hi.y - lo.y) / texel) * texel;
+                hi.x = lo.x + side;
+                hi.y = lo.y + side;
+                texel = side / res;
+            }
+        }
+        lo.z = std::min(lo.z, scene_lo_z);
+        if (hi.z - lo.z < 1e-6) hi.z = lo.z + 1e-6;
+        lp.view_proj.push_back(ortho_matrix(b, lo, hi, origin));
+        lp.axis.push_back(b.forward);
+        lp.cascade_texel.push_back(std::max(hi.x - lo.x, hi.y - lo.y) / res);
+        lp.cascade_near.push_back(zn);
+        lp.cascade_far.push_back(zf);
+        lp.cascade_origin.emplace_back(lo.x, lo.y);
+        lp.cascade_half_extent.push_back(glm::dvec2(hi.x - lo.x, hi.y - lo.y) * 0.5);
+        lp.far = std::max(lp.far, hi.z - lo.z);
+    }
+    lp.metres_per_texel = lp.cascade_texel.front();
+    lp.half_extent = lp.cascade_half_extent.front();
+    return lp;
 }
 
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/scene.h"
+#include "raster/cascades.h"
 #include "raster/technique.h"
 
 namespace penumbra::raster {
@@ -25,6 +26,13 @@ struct LightProjection {
     double near = 0, far = 0;     // metres along the axis (orthographic: from the box's front face)
     glm::dvec2 half_extent{0.0};  // orthographic: half width and height of the box, metres
     std::vector<std::string> warnings;
+    // A cascaded directional light (fit_cascades): per layer, its texel size, the slice of view
+    // depth it serves (metres from the camera), and its box's light-space corner (x, y, world
+    // frame: what `stabilize` snaps to whole texels). Empty for any other projection.
+    std::vector<double> cascade_texel, cascade_near, cascade_far;
+    std::vector<glm::dvec2> cascade_origin;
+    std::vector<glm::dvec2> cascade_half_extent;
+    double cascade_overlap = 0;  // fraction of a cascade blended with the next
 };
 
 // How a shadow view projects (docs/raster.md, "Adding a technique family").
@@ -43,8 +51,9 @@ struct ShadowView {
     // Texel size: ortho and cascade in metres; perspective and cube face per metre of depth
     // along the axis (2 tan(fov/2) / resolution).
     double metres_per_texel = 0, metres_per_texel_per_metre = 0;
-    double near = 0, far = 0;     // metres along the axis
-    glm::dvec2 half_extent{0.0};  // ortho, cascade: half width and height of the box, metres
+    double near = 0, far = 0;              // metres along the axis
+    glm::dvec2 half_extent{0.0};           // ortho, cascade: half width and height of the box, metres
+    double split_near = 0, split_far = 0;  // cascade: the slice of camera view depth it serves, metres
 };
 
 // The views of a depth map's projection, one per layer: a perspective one of six layers is a cube.
@@ -59,6 +68,13 @@ double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3
 LightProjection fit_light(const Light& light, const Scene& scene, const Camera& camera, int image_width,
                           int image_height, Fit fit, int resolution, const glm::dvec3& origin,
                           double shadow_distance = 0);
+
+// A directional light's cascades (raster/cascades.h): one orthographic layer per slice of the
+// camera's view depth, fitted by `cascades.fit`, the near plane pulled back to the scene so that
+// casters between a slice and the light stay in its map. Throws InputError (exit 2) for a range
+// the camera cannot give: an infinite zfar without max_distance, a first_far beyond the range.
+LightProjection fit_cascades(const Light& light, const Scene& scene, const Camera& camera, int image_width,
+                             int image_height, const Cascades& cascades, int resolution, const glm::dvec3& origin);
 
 // Technique precision world_float32 (docs/raster.md, "precision"): `lp` was fitted with origin 0,
 // so its matrices map world positions; each is rounded to float32, as an engine keeps it, and

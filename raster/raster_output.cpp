@@ -49,6 +49,11 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
                                     {"near", v.near},
                                     {"far", v.far}};
             if (v.kind == ViewKind::cube_face) layer["face"] = v.name;
+            if (v.kind == ViewKind::cascade) {
+                layer["cascade"] = k;
+                layer["split"] = {{"near_m", v.split_near}, {"far_m", v.split_far}};
+                layer["half_extent"] = {v.half_extent.x, v.half_extent.y};
+            }
             if (v.kind == ViewKind::ortho || v.kind == ViewKind::cascade)
                 layer["metres_per_texel"] = v.metres_per_texel;
             else
@@ -66,7 +71,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
         nlohmann::json j = {{"index", li},
                             {"type", to_string(light.type)},
                             {"source", light.origin},
-                            {"projection", projection_name(light)},
+                            {"projection", first.kind == ViewKind::cascade ? "cascades" : projection_name(light)},
                             {"near", first.near},
                             {"far", first.far},
                             {"layers", layers},

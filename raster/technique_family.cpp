@@ -10,7 +10,8 @@ namespace {
 
 std::deque<FamilyEntry>& registry() {
     // A deque: entries keep their addresses as families are registered.
-    static std::deque<FamilyEntry> families = {depth_map_family_entry(), averaged_area_family_entry()};
+    static std::deque<FamilyEntry> families = {depth_map_family_entry(), averaged_area_family_entry(),
+                                               cascaded_family_entry()};
     return families;
 }
 

@@ -98,6 +98,7 @@ void register_technique_family(FamilyEntry entry);
 // The built-in families (each in its own file), and their drawing alone.
 FamilyEntry depth_map_family_entry();
 FamilyEntry averaged_area_family_entry();
+FamilyEntry cascaded_family_entry();  // raster/cascades.cpp: draws with make_depth_map_family
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
 

@@ -38,14 +38,39 @@ void store(uint i, LookupTexel o) {
 
 vec3 vertex(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
 
+// Suns: light from one direction, in one map or in cascades.
+const bool kDirectional = kLightKind == kLightDirectional || kLightKind == kLightCascade;
+
+// Cascade i's slice of view depth ends at cascade_far(i) metres; its texel is cascade_texel(i).
+float cascade_far(uint i) { return p.cascade_far[i >> 2][i & 3u]; }
+float cascade_texel(uint i) { return p.cascade_texel[i >> 2][i & 3u]; }
+uint cascade_count() { return uint(p.cascade.x); }
+// View depth of a camera-relative point (the eye is the origin for both projections).
+float camera_depth(vec3 P) { return dot(P, p.cam_forward.xyz); }
+
+// Cascades: the first whose slice holds the point's view depth (cascade_count() beyond the last).
 // Cube faces in the order +X, -X, +Y, -Y, +Z, -Z; each is an exact 90-degree frustum.
 uint select_layer(vec3 P) {
+    if (kLightKind == kLightCascade) {
+        float d = camera_depth(P);
+        uint count = cascade_count();
+        for (uint i = 0u; i < count; ++i)
+            if (d <= cascade_far(i)) return i;
+        return count;
+    }
     if (kLightKind != kLightPoint) return 0u;
     vec3 d = P - p.light_pos.xyz;
     vec3 a = abs(d);
     if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0u : 1u;
     if (a.y >= a.z) return d.y > 0.0 ? 2u : 3u;
     return d.z > 0.0 ? 4u : 5u;
+}
+
+// Shadow-map texel size at P in `layer`, metres: the cascade's own for cascades.
+float layer_footprint(vec3 P, uint layer) {
+    if (kLightKind == kLightDirectional) return p.footprint.x;
+    if (kLightKind == kLightCascade) return cascade_texel(min(layer, cascade_count() - 1u));
+    return p.footprint.y * dot(P - p.light_pos.xyz, p.light_axis[layer].xyz);
 }
 
 // Continuous texel coordinates (texel i spans [i, i+1)) and depth in the layer.
@@ -183,6 +208,37 @@ float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver
     return tap_at(m.xy, layer, m, dz);
 }
 
+// Depth gradient of the receiver plane in texel units of `layer`, from two tangent steps of h
+// metres: the receiver-plane bias needs it, and so do the diagnostics.
+vec2 plane_gradient(vec3 Pb, vec3 n, float h, uint layer, vec3 m) {
+    if (kReceiverPlane == 0u && kMode != kModeLookup) return vec2(0.0);
+    vec3 t1 = normalize(abs(n.x) > 0.9 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
+    vec3 t2 = cross(n, t1);
+    vec3 m1 = to_map(Pb + t1 * h, layer), m2 = to_map(Pb + t2 * h, layer);
+    mat2 J = mat2(m1.xy - m.xy, m2.xy - m.xy);
+    float det = determinant(J);
+    return abs(det) > 1e-20 ? vec2(m1.z - m.z, m2.z - m.z) * inverse(J) : vec2(0.0);
+}
+
+// Weight of the next cascade at Pb: 0 outside the blend band, rising linearly to 1 at the end of
+// `layer`'s slice over its last `overlap` fraction (bevy, Unity). 0 without overlap.
+float cascade_blend(vec3 Pb, uint layer) {
+    if (kLightKind != kLightCascade || p.cascade.y <= 0.0 || layer + 1u >= cascade_count()) return 0.0;
+    float end = cascade_far(layer), start = (1.0 - p.cascade.y) * end;
+    return clamp((camera_depth(Pb) - start) / max(end - start, 1e-30), 0.0, 1.0);
+}
+
+// V of `layer` mixed with the next cascade's across the blend band.
+float blend_cascades(uvec2 pix, uint layer, vec3 Pb, vec3 n, float h, float v) {
+    float w = cascade_blend(Pb, layer);
+    if (w <= 0.0) return v;
+    uint next = layer + 1u;
+    vec3 m = to_map(Pb, next);
+    vec2 dz = plane_gradient(Pb, n, h, next, m);
+    m.z -= p.bias.z;
+    return mix(v, filter_visibility(pix, next, m, dz, 0.0), w);
+}
+
 void main() {
     uvec2 pix = gl_GlobalInvocationID.xy;
     uint W = uint(p.image.x), H = uint(p.image.y);
@@ -219,7 +275,7 @@ void main() {
     vec3 P = abs(denom) > 1e-30 ? ray_o + ray_d * (dot(v0 - ray_o, n) / denom) : (v0 + v1 + v2) / 3.0;
     if (denom > 0.0) n = -n;  // the side the camera sees
 
-    vec3 to_light = kLightKind == kLightDirectional ? -p.light_dir.xyz : normalize(p.light_pos.xyz - P);
+    vec3 to_light = kDirectional ? -p.light_dir.xyz : normalize(p.light_pos.xyz - P);
     if (dot(n, to_light) <= 0.0) {
         o.flags |= kFlagBackFacing;
         store(out_index, o);
@@ -233,9 +289,7 @@ void main() {
 
     // Shadow-map texel size at the receiver, before any offset.
     uint layer = select_layer(P);
-    float footprint = kLightKind == kLightDirectional
-                          ? p.footprint.x
-                          : p.footprint.y * dot(P - p.light_pos.xyz, p.light_axis[layer].xyz);
+    float footprint = layer_footprint(P, layer);
     // Receiver biases: towards the light by metres, along the normal by texel footprints.
     vec3 Pb = P + to_light * p.bias.x + n * (p.bias.y * footprint);
     layer = select_layer(Pb);
@@ -243,25 +297,29 @@ void main() {
         atomicOr(face_mask, 1u << layer);
         return;
     }
+    if (kLightKind == kLightCascade) {
+        // The cascade actually used sets the footprint the metrics judge aliasing by.
+        footprint = layer_footprint(Pb, layer);
+        if (layer >= cascade_count()) {  // beyond max_distance: no cascade, lit as engines leave it
+            o.flags |= kFlagOutsideMap | (layer << kFlagLayerShift);
+            o.V = 1.0;
+            o.footprint_m = footprint;
+            o.stored_depth = 1.0 / 0.0;
+            store(out_index, o);
+            return;
+        }
+    }
 
     o.flags |= layer << kFlagLayerShift;
     vec3 m = to_map(Pb, layer);
     float h = max(footprint, 1e-30);
     // Depth gradient of the receiver plane in texel units, from two tangent steps of one
     // footprint: the receiver-plane bias needs it, and so do the diagnostics.
-    vec2 dz = vec2(0.0);
-    if (kReceiverPlane != 0u || kMode == kModeLookup) {
-        vec3 t1 = normalize(abs(n.x) > 0.9 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
-        vec3 t2 = cross(n, t1);
-        vec3 m1 = to_map(Pb + t1 * h, layer), m2 = to_map(Pb + t2 * h, layer);
-        mat2 J = mat2(m1.xy - m.xy, m2.xy - m.xy);
-        float det = determinant(J);
-        dz = abs(det) > 1e-20 ? vec2(m1.z - m.z, m2.z - m.z) * inverse(J) : vec2(0.0);
-    }
+    vec2 dz = plane_gradient(Pb, n, h, layer, m);
     m.z -= p.bias.z;  // shader-side constant bias, depth units
-    float z_receiver = kLightKind == kLightDirectional ? 0.0 : dot(Pb - p.light_pos.xyz, p.light_axis[layer].xyz);
+    float z_receiver = kDirectional ? 0.0 : dot(Pb - p.light_pos.xyz, p.light_axis[layer].xyz);
     if (kMode == kModeVisibility) {
-        o.V = filter_visibility(pix, layer, m, dz, z_receiver);
+        o.V = blend_cascades(pix, layer, Pb, n, h, filter_visibility(pix, layer, m, dz, z_receiver));
         store(out_index, o);
         return;
     }
@@ -291,6 +349,9 @@ void main() {
         o.stored_depth = 1.0 / 0.0;
         o.flags |= kFlagOutsideMap;
     }
-    o.V = filter_visibility(pix, layer, m, dz, z_receiver);
+    o.V = blend_cascades(pix, layer, Pb, n, h, filter_visibility(pix, layer, m, dz, z_receiver));
+    // Across a blend band both cascades decide: the coarser texel bounds the aliasing band.
+    if (kLightKind == kLightCascade && cascade_blend(Pb, layer) > 0.0)
+        o.footprint_m = max(footprint, cascade_texel(layer + 1u));
     store(out_index, o);
 }

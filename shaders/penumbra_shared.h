@@ -48,6 +48,7 @@ PENUMBRA_CONST uint kSpecMode = 7;             // kMode*
 PENUMBRA_CONST uint kLightDirectional = 0;
 PENUMBRA_CONST uint kLightSpot = 1;
 PENUMBRA_CONST uint kLightPoint = 2;
+PENUMBRA_CONST uint kLightCascade = 3;  // directional, one layer per cascade of view depth
 
 PENUMBRA_CONST uint kFilterNone = 0;
 PENUMBRA_CONST uint kFilterHw2x2 = 1;
@@ -60,6 +61,7 @@ PENUMBRA_CONST uint kModeFaceMask = 1;    // only mark the cube faces receivers 
 PENUMBRA_CONST uint kModeVisibility = 2;  // write V alone, skipping the diagnostics
 
 PENUMBRA_CONST uint kMaxPoissonTaps = 64;
+PENUMBRA_CONST uint kMaxLayers = 8;  // six cube faces, or up to eight cascades
 
 // Flags of LookupTexel.flags.
 PENUMBRA_CONST uint kFlagSurface = 1u;      // a triangle covers the pixel
@@ -71,20 +73,25 @@ PENUMBRA_CONST uint kFlagOutsideMap = 8u;   // the lookup fell outside the light
 PENUMBRA_CONST uint kFlagLayerShift = 8u;
 
 struct LookupParams {
-    vec4 cam_forward;    // xyz; w = 1 perspective, 0 orthographic
-    vec4 cam_right;      // xyz; w = tan(yfov/2) * aspect (perspective) or xmag
-    vec4 cam_up;         // xyz; w = tan(yfov/2) (perspective) or ymag
-    vec4 image;          // width, height, 1/width, 1/height
-    vec4 light_pos;      // camera-relative position (spot, point); w unused
-    vec4 light_dir;      // unit direction light travels (directional, spot); w = cos(outer cone)
-    vec4 bias;           // world metres, normal offset (texels), shader depth, hardware constant (depth units)
-    vec4 bias2;          // hardware slope factor, hardware clamp, format r (0 = float), unused
-    vec4 map;            // resolution, 1/resolution, filter radius (texels), layer count
-    vec4 footprint;      // x: metres per texel (orthographic); y: metres per texel per metre of depth (perspective)
-    mat4 view_proj[6];   // light clip space from camera-relative position, per layer
-    vec4 light_axis[6];  // perspective: unit forward axis of each layer
+    vec4 cam_forward;  // xyz; w = 1 perspective, 0 orthographic
+    vec4 cam_right;    // xyz; w = tan(yfov/2) * aspect (perspective) or xmag
+    vec4 cam_up;       // xyz; w = tan(yfov/2) (perspective) or ymag
+    vec4 image;        // width, height, 1/width, 1/height
+    vec4 light_pos;    // camera-relative position (spot, point); w unused
+    vec4 light_dir;    // unit direction light travels (directional, spot); w = cos(outer cone)
+    vec4 bias;         // world metres, normal offset (texels), shader depth, hardware constant (depth units)
+    vec4 bias2;        // hardware slope factor, hardware clamp, format r (0 = float), unused
+    vec4 map;          // resolution, 1/resolution, filter radius (texels), layer count
+    vec4 footprint;    // x: metres per texel (orthographic); y: metres per texel per metre of depth (perspective)
+    mat4 view_proj[kMaxLayers];         // light clip space from camera-relative position, per layer
+    vec4 light_axis[kMaxLayers];        // perspective: unit forward axis of each layer
     vec4 poisson[kMaxPoissonTaps / 2];  // two taps (x, y) per vec4, unit disk
     vec4 pcss;                          // light radius (m), near, far (m, perspective layers), largest radius (texels)
+    // kLightCascade: x = cascade count, y = overlap fraction; per cascade (4 a vec4) the far end
+    // of its slice of view depth (metres) and its texel size (metres).
+    vec4 cascade;
+    vec4 cascade_far[kMaxLayers / 4];
+    vec4 cascade_texel[kMaxLayers / 4];
 };
 
 // Per pixel and light, what the technique decided and the lookups behind it.

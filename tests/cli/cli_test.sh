@@ -86,10 +86,13 @@ check "raster.json names the soft-shadow method" grep -q '"method": "pcss"' "$tm
 run raster "$tmp/sphere.json" --out "$tmp/r7b" --set area_samples=300
 check "too many area samples exit 2" test "$rc" -eq 2
 # The technique family is picked by its key: an unknown one is bad input naming the known ones.
-run raster "$src/data/default/scenario.json" --out "$tmp/r7c" --set family=cascade
+run raster "$src/data/default/scenario.json" --out "$tmp/r7c" --set family=moments
 check "unknown technique family exits 2" test "$rc" -eq 2
 check "unknown technique family is named with the known ones" \
-    grep -q 'technique.family: "cascade" is not a technique family (have "depth_map", "averaged_area")' <<<"$err"
+    grep -q 'technique.family: "moments" is not a technique family (have "depth_map", "averaged_area", "cascaded"' <<<"$err"
+run raster "$src/data/default/scenario.json" --out "$tmp/r7d" --set family=cascaded --set cascades.sdsm=true
+check "cascades.sdsm true is not yet, exit 2 writing nothing" test "$rc" -eq 2 -a ! -e "$tmp/r7d"
+check "cascades.sdsm names its key path" grep -q 'technique.cascades.sdsm: sample distribution' <<<"$err"
 check "unknown technique family writes nothing" test ! -e "$tmp/r7c"
 check "raster.json's technique names its family" python3 -c "
 import json; assert json.load(open('$tmp/r7/raster.json'))['technique']['family'] == 'depth_map'"

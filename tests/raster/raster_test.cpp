@@ -496,6 +496,10 @@ TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
         {{"filter", {{"type", "pcf"}, {"size", 5}}}, {"cull", "none"}},
         {{"preset", "averaged-hard-shadows"}, {"area_samples", 3}},
         {{"filter", {{"type", "poisson"}}}, {"bias", {{"receiver_plane", true}, {"normal_offset", 1}}}},
+        {{"family", "cascaded"}, {"resolution", 512}, {"cascades", {{"count", 3}, {"max_distance", 20}}}},
+        {{"family", "cascaded"},
+         {"filter", {{"type", "pcf"}}},
+         {"cascades", {{"split", "uniform"}, {"max_distance", 15}, {"overlap", 0.3}, {"fit", "bounds"}}}},
         {{"bias", {{"slope", 1.5}}}},
     };
     raster::RasterSession session(sc, *ctx_);
@@ -526,6 +530,10 @@ TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
         {{"bias", {{"receiver_plane", true}, {"slope", 1}}}, {"filter", {{"type", "pcf"}, {"size", 3}}}}, "plane");
     EXPECT_EQ(single.render(plane, v_only).frame.lights[0].V, single.render(plane).frame.lights[0].V)
         << "V alone is the V of the full lookup (receiver plane, PCF)";
+    const raster::Technique blended = raster::parse_technique(
+        {{"family", "cascaded"}, {"cascades", {{"max_distance", 15}, {"overlap", 0.4}}}}, "blended");
+    EXPECT_EQ(single.render(blended, v_only).frame.lights[0].V, single.render(blended).frame.lights[0].V)
+        << "V alone is the V of the full lookup (cascades blended across their overlap)";
 }
 
 // A sun whose map covers only the near view, drawn with a point light beside it: every lookup

@@ -224,5 +224,56 @@ TEST_F(Verdict, APointLightOffTheSceneBoxsEdgeShadowsReceiversNearThatEdge) {
     EXPECT_LT(s.count(PixelClass::false_lit), 5u);
 }
 
+// Issue #34's first "done when": on a long view (a 300 m ground with props, the camera near it
+// looking along it) four cascades of 1024^2 alias less than one 2048^2 map of the same fit (one
+// cascade's bounding sphere of the whole range): the same texel budget, spent near the camera.
+// report.json's cascades then split the pixels by the cascade that judged them.
+TEST_F(Verdict, FourCascadesOf1024AliasLessThanOne2048MapOnALongView) {
+    test::SceneBuilder b;
+    b.grid({-40, 0, 0}, {80, 0, 0}, {0, 0, -300}, 4, 30);
+    for (int k = 0; k < 40; ++k) {
+        const double z = -3.0 - 7.0 * k, x = (k % 2 ? -1.0 : 1.0) * (1.5 + (k * 7) % 9);
+        b.box({x - 0.8, 0, z - 0.8}, {x + 0.8, 1.2 + 0.05 * (k % 7), z + 0.8});
+        b.box({x - 0.1, 0, z + 1.5}, {x + 0.1, 2.5, z + 1.7});  // a post: thin shadows alias first
+    }
+    Camera cam = test::look_at({0, 1.7, 2}, {0, 1.0, -60}, 50);
+    cam.znear = 0.1;
+    cam.zfar = 300;
+    const Scenario sc = test::make_scenario(b.build(), cam, {test::directional({0.5, -0.6, -0.3})}, 480, 300);
+    const auto technique = [](int count, int resolution) {
+        return nlohmann::json{{"family", "cascaded"},
+                              {"resolution", resolution},
+                              {"cascades", {{"count", count}, {"split", "practical"}, {"max_distance", 300}}}};
+    };
+    const ValidateResult one = run(sc, technique(1, 2048));
+    const ValidateResult four = run(sc, technique(4, 1024));
+    const metrics::LightScore &a = one.score.lights[0], &c = four.score.lights[0];
+    EXPECT_GT(c.pixels.scored, 50000u);
+    EXPECT_GT(a.count(PixelClass::aliasing), 200u);  // the single map does alias here
+    EXPECT_LT(c.count(PixelClass::aliasing), a.count(PixelClass::aliasing) / 2);
+    EXPECT_LT(c.wrong, a.wrong);
+
+    const nlohmann::json& cascades = four.report.at("lights")[0].at("cascades");
+    ASSERT_EQ(cascades.size(), 4u);
+    std::uint64_t scored = 0, aliasing = 0;
+    double previous_texel = 0;
+    for (std::size_t k = 0; k < 4; ++k) {
+        const nlohmann::json& e = cascades[k];
+        EXPECT_EQ(e.at("index"), k);
+        EXPECT_GT(e.at("texel_m").get<double>(), previous_texel);
+        previous_texel = e.at("texel_m").get<double>();
+        EXPECT_LT(e.at("near_m").get<double>(), e.at("far_m").get<double>());
+        scored += e.at("pixels").at("scored").get<std::uint64_t>();
+        aliasing += e.at("counts").at("aliasing").get<std::uint64_t>();
+    }
+    // Scored pixels lie within max_distance = zfar, so in a cascade (the receiver bias may push a
+    // few at the far end beyond it).
+    EXPECT_LE(scored, c.pixels.scored);
+    EXPECT_GE(scored, c.pixels.scored * 99 / 100);
+    EXPECT_LE(aliasing, c.count(PixelClass::aliasing));
+    EXPECT_FALSE(one.report.at("lights")[0].contains("cascades") &&
+                 one.report.at("lights")[0].at("cascades").size() != 1u);
+}
+
 }  // namespace
 }  // namespace penumbra
