@@ -1,14 +1,18 @@
-// Raster path speed: GPU time of the shadow pass against a bare depth-only pass of the same
-// triangles, size, format and light matrix in the same run (the ratio is what penumbra's pass
-// costs beyond what an engine pays), and of the camera pass (camera raster + per-light lookup),
+// Raster path speed: GPU time of the shadow passes against a bare depth-only pass of the same
+// triangles, size, format and light matrix in the same run: the diagnostic pass (it also writes
+// the triangle id per texel, for the acne rule) and the production pass (depth-only, what a
+// V-only render draws: the ratio is what penumbra's production figure pays beyond an engine's
+// bare pass), and of the camera pass (camera raster + per-light lookup),
 // at shadow-map resolutions 1024^2 ... 8192^2, 1280 x 720 pixels, on the chosen Vulkan device
 // (lavapipe unless --device or $PENUMBRA_VK_DEVICE says otherwise).
 //
 // Scene: the bundled default scenario with only its directional light (one map per run), plus
 // a terrain to load the rasteriser: --terrain (131k triangles) or --terrain-grid N (2 N^2, e.g.
-// 1024 for 2.1M). Median of --repeat runs per resolution on one session, every map drawn;
-// wall clock includes submission and waiting, not setup. A last row draws the sun in 4 cascades
-// of 2048^2 (the cascaded family), against 4 bare passes of the same views.
+// 1024 for 2.1M). Median of --repeat runs per resolution on one session, every map drawn, the
+// three passes interleaved in each run (a device whose speed drifts moves all three alike);
+// one warm-up run of each first, discarded; wall clock includes submission and waiting, not setup.
+// A last row draws the sun in 4 cascades of 2048^2 (the cascaded family), against 4 bare passes
+// of the same views (its production column is not measured: "-").
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -30,8 +34,8 @@ using bench::median;
 
 // The anchor: the same triangles into a depth-only target of the same size and format from the
 // same light matrix, vertex shader only, no colour target, no bias: what an engine's bare depth
-// pass costs on this device. The shadow pass also writes the triangle id per texel (for the
-// acne rule), which is what it pays beyond this.
+// pass costs on this device. The diagnostic shadow pass also writes the triangle id per texel
+// (for the acne rule), which is what it pays beyond this; the production pass should not.
 class BareDepthPass {
   public:
     BareDepthPass(const raster::VulkanContext& ctx, const Scene& scene, const glm::dvec3& origin) : ctx_(ctx) {
@@ -131,28 +135,33 @@ int main(int argc, char** argv) {
         std::printf("device: %s (%s)\nscene: %zu triangles, %dx%d px, 1 directional light\n", ctx.info().name.c_str(),
                     ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height);
         BareDepthPass bare(ctx, sc.scene, sc.camera.eye);
-        std::printf("%-10s %12s %12s %8s %14s %12s %12s\n", "map", "shadow ms", "bare ms", "ratio", "camera+lookup",
-                    "lookup ms", "wall ms");
+        std::printf("%-10s %10s %10s %10s %9s %9s %14s %10s %10s\n", "map", "diag ms", "prod ms", "bare ms",
+                    "diag/bare", "prod/bare", "camera+lookup", "lookup ms", "wall ms");
         for (int res : {1024, 2048, 4096, 8192}) {
             raster::Technique t = raster::parse_technique({{"resolution", res}, {"bias", {{"slope", 1.5}}}}, "bench");
-            std::vector<double> shadow, depth_only, camera, lookup, wall;
+            std::vector<double> shadow, production, depth_only, camera, lookup, wall;
             raster::RasterSession session(sc, ctx);
             raster::RenderOptions fresh;  // every render draws its map: timing runs reuse nothing
             fresh.reuse_maps = false;
+            raster::RenderOptions v_only = fresh;  // the production render: depth-only maps, V alone
+            v_only.lookups = false;
             const raster::RasterResult first = session.render(t, fresh);  // warm-up: pipelines, first touch
+            session.render(t, v_only);
             const glm::dmat4 view_proj = first.stats.lights[0].projection.view_proj[0];
             bare.render_ms(view_proj, static_cast<std::uint32_t>(res));
             for (int r = 0; r < repeat; ++r) {
                 raster::RasterResult out = session.render(t, fresh);
                 shadow.push_back(out.stats.gpu_ms["shadow"]);
+                production.push_back(session.render(t, v_only).stats.gpu_ms["shadow"]);
                 depth_only.push_back(bare.render_ms(view_proj, static_cast<std::uint32_t>(res)));
                 camera.push_back(out.stats.camera_ms + out.stats.gpu_ms["lookup"]);
                 lookup.push_back(out.stats.gpu_ms["lookup"]);
                 wall.push_back(out.stats.render_s * 1e3);
             }
-            std::printf("%5d^2    %12.2f %12.2f %8.2f %14.2f %12.2f %12.2f\n", res, median(shadow), median(depth_only),
-                        median(shadow) / std::max(median(depth_only), 1e-9), median(camera), median(lookup),
-                        median(wall));
+            const double bare_ms = std::max(median(depth_only), 1e-9);
+            std::printf("%5d^2    %10.3f %10.3f %10.3f %9.2f %9.2f %14.2f %10.2f %10.2f\n", res, median(shadow),
+                        median(production), median(depth_only), median(shadow) / bare_ms, median(production) / bare_ms,
+                        median(camera), median(lookup), median(wall));
         }
         {  // issue #34: a sun in 4 cascades of 2048^2 (the cascaded family's defaults), every layer drawn
             const raster::Technique t = raster::parse_technique(
@@ -174,9 +183,10 @@ int main(int argc, char** argv) {
                 lookup.push_back(out.stats.gpu_ms["lookup"]);
                 wall.push_back(out.stats.render_s * 1e3);
             }
-            std::printf("%zux2048^2 %12.2f %12.2f %8.2f %14.2f %12.2f %12.2f  (cascades)\n", views.size(),
-                        median(shadow), median(depth_only), median(shadow) / std::max(median(depth_only), 1e-9),
-                        median(camera), median(lookup), median(wall));
+            const double bare_ms = std::max(median(depth_only), 1e-9);
+            std::printf("%zux2048^2 %10.3f %10s %10.3f %9.2f %9s %14.2f %10.2f %10.2f  (cascades)\n", views.size(),
+                        median(shadow), "-", median(depth_only), median(shadow) / bare_ms, "-", median(camera),
+                        median(lookup), median(wall));
         }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "raster_bench: %s\n", e.what());

@@ -113,6 +113,15 @@ int main(int argc, char** argv) {
             std::printf("# peak resident %.1f MB\n", peak_rss_mb());
         }
         std::fputs(sweep::sweep_csv(t).c_str(), stdout);
+        // Timings to trust: how far each configuration's repeats spread ((max - min) / median).
+        std::printf("# spread of the repeats, production / diagnostic (* beyond %.0f%%):\n",
+                    sweep::kRepeatSpreadMargin * 100);
+        for (const auto& r : t.rows) {
+            std::string label;
+            for (const auto& v : r.values) label += (label.empty() ? "" : ",") + v;
+            std::printf("#   %s: %.3f / %.3f%s\n", label.c_str(), sweep::spread(r.production_ms),
+                        sweep::spread(r.diagnostic_ms), sweep::repeats_disagree(r) ? " *" : "");
+        }
     } catch (const std::exception& e) {
         std::fprintf(stderr, "sweep_bench: %s\n", e.what());
         return 1;

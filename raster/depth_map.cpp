@@ -1,7 +1,9 @@
 // The depth-map family (docs/raster.md): one depth map per light (six cube faces for a point
 // light) drawn with the technique's fit, format, culling and hardware depth bias, then one
 // compute lookup per light that applies the shader biases and the filter (none, 2x2 compare,
-// PCF, Poisson, PCSS) and writes V with the lookups behind it. Everything it builds is cached
+// PCF, Poisson, PCSS) and writes V with the lookups behind it. A render with lookups (the
+// diagnostic one) also stores the triangle id per map texel for the acne rule; a V-only render
+// (the production one) draws depth alone, the pass an engine pays. Everything it builds is cached
 // for the session's next render: pipelines by their specialisation, a map per light (one map
 // for all when they would not fit kMapBudgetBytes) by size and format, per-light buffers and
 // descriptor sets by light count; a map whose inputs did not change is not drawn again.
@@ -146,6 +148,18 @@ struct MapContent {
 // the lights share one map, drawn again for each light.
 constexpr std::uint64_t kMapBudgetBytes = kShadowMapBudget;  // common/memory_estimate.h: the estimate follows it
 
+// What each timed pass includes (raster.json's gpu_passes). The copy of the lookup's output
+// to the host is not timed.
+constexpr const char* kShadowWithIds =
+    "depth pass per drawn map layer with the technique's depth bias, also writing the triangle id per texel "
+    "(R32_UINT colour target, for the acne rule): the diagnostic shadow pass";
+constexpr const char* kShadowDepthOnly =
+    "depth-only pass per drawn map layer with the technique's depth bias (vertex shader only, no colour "
+    "target): the production shadow pass, as an engine draws it";
+constexpr const char* kLookupDiagnostic =
+    "compute pass per light: V and every diagnostic lookup (36 bytes a pixel), without the copy to the host";
+constexpr const char* kLookupV = "compute pass per light: V alone (4 bytes a pixel), without the copy to the host";
+
 std::uint64_t depth_texel_bytes(DepthFormat f) {
     return f == DepthFormat::d16 ? 2 : 4;
 }
@@ -167,11 +181,12 @@ class DepthMapFamily final : public TechniqueFamily {
         GpuImage depth, prim;
         std::vector<UniqueImageView> depth_layers, prim_layers;
         std::optional<MapContent> content;  // set: drawn, in SHADER_READ_ONLY_OPTIMAL
+        bool triangle_ids = false;          // `prim` holds the triangle ids of `content` (else stale)
         bool read_only = false;             // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
     };
 
     void check_supported(const Technique& t, RasterStats& stats);
-    VkPipeline shadow_pipeline(const Technique& t);
+    VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
     VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
     VkSampler compare_sampler(bool linear, bool clamp_to_border);
     void ensure_maps(const Technique& t, std::span<const Light> lights);
@@ -193,7 +208,7 @@ class DepthMapFamily final : public TechniqueFamily {
 
     DescriptorSets sets_;
     UniquePipelineLayout shadow_layout_, lookup_layout_;
-    std::map<std::tuple<VkFormat, Cull, bool>, UniquePipeline> shadow_pipelines_;
+    std::map<std::tuple<VkFormat, Cull, bool, bool>, UniquePipeline> shadow_pipelines_;
     std::map<SpecData, UniquePipeline> lookup_pipelines_;
     std::map<std::pair<bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
@@ -233,9 +248,12 @@ void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
 }
 
-VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t) {
+// With triangle ids: a fragment shader writes each texel's triangle into the R32_UINT target.
+// Without: no fragment shader and no colour target, the depth pass an engine draws. Both share
+// the vertex shader, depth bias, clamp and culling, so they store the same depths.
+VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids) {
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
-    auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias);
+    auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias, triangle_ids);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
         // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from
@@ -243,10 +261,10 @@ VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t) {
         VkCullModeFlags cull = t.cull == Cull::none   ? VK_CULL_MODE_NONE
                                : t.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
                                                       : VK_CULL_MODE_FRONT_BIT;
-        p = make_graphics_pipeline(
-            ctx_, shadow_layout_.get(),
-            {kShadowVert, sizeof(kShadowVert), kShadowFrag, sizeof(kShadowFrag), vk_format(t.depth_format),
-             VK_COMPARE_OP_LESS, cull, VK_FRONT_FACE_CLOCKWISE, true, bias});
+        p = make_graphics_pipeline(ctx_, shadow_layout_.get(),
+                                   {kShadowVert, sizeof(kShadowVert), triangle_ids ? kShadowFrag : nullptr,
+                                    triangle_ids ? sizeof(kShadowFrag) : 0, vk_format(t.depth_format),
+                                    VK_COMPARE_OP_LESS, cull, VK_FRONT_FACE_CLOCKWISE, true, bias});
     }
     return p.get();
 }
@@ -429,7 +447,11 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
                        t.bias.constant,         t.bias.slope,      t.bias.clamp};
     LightMap& map = map_of(li);
-    ls.map_reused = options.reuse_maps && ls.layers_sampled != 0 && map.content == content;
+    // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
+    // ids serves it too, but a depth-only map must be drawn again for the lookups.
+    const bool triangle_ids = options.lookups;
+    ls.map_reused =
+        options.reuse_maps && ls.layers_sampled != 0 && map.content == content && (map.triangle_ids || !triangle_ids);
     if (ls.layers_sampled != 0 && !ls.map_reused) {
         // A lookup may have read these images (a previous render, or the previous light of a
         // shared map); their contents are not needed again.
@@ -438,17 +460,20 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-        image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers, VK_IMAGE_LAYOUT_UNDEFINED,
-                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t));
+        // Without ids the id image stays as it is (SHADER_READ_ONLY, bound but never read).
+        if (triangle_ids)
+            image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
+                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE,
+                          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t, triangle_ids));
         VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
-            begin_rendering(cmd, map.prim_layers[layer].get(), map.depth_layers[layer].get(), res, res, 1.0f);
+            begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE,
+                            map.depth_layers[layer].get(), res, res, 1.0f);
             vkCmdSetDepthBias(cmd, static_cast<float>(t.bias.constant), static_cast<float>(t.bias.clamp),
                               static_cast<float>(t.bias.slope));
             glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
@@ -461,12 +486,15 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
                       VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                       kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
-                      VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                      VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        if (triangle_ids)
+            image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
+                          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
         map.content = content;
+        map.triangle_ids = triangle_ids;
     }
+    ls.map_triangle_ids = ls.layers_sampled != 0 && map.triangle_ids;
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
     vkCmdBindPipeline(
         cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
@@ -623,12 +651,14 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     for (std::size_t li = 0; li < n; ++li) {
         const auto q = static_cast<std::uint32_t>(2 + 3 * li);
         RasterLightStats& ls = stats.lights[li];
-        ls.gpu_ms.add("shadow", ms(q, q + 1));
-        ls.gpu_ms.add("lookup", ms(q + 1, q + 2));
+        ls.gpu_ms.add("shadow", ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
+        ls.gpu_ms.add("lookup", ms(q + 1, q + 2), options.lookups ? kLookupDiagnostic : kLookupV);
         stats.gpu_ms.add(ls.gpu_ms);
         frame.lights.push_back(read_back(li, options.lookups));
     }
-    if (any_point) stats.gpu_ms.add("layer_mask", ms(0, 1));
+    if (any_point)
+        stats.gpu_ms.add("layer_mask", ms(0, 1),
+                         "a compute pass per point light marking the cube faces some receiver samples");
 }
 
 }  // namespace

@@ -190,7 +190,7 @@ void begin_rendering(VkCommandBuffer cmd, VkImageView color, VkImageView depth, 
     VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
     ri.renderArea = {{0, 0}, {w, h}};
     ri.layerCount = 1;
-    ri.colorAttachmentCount = 1;
+    ri.colorAttachmentCount = color != VK_NULL_HANDLE ? 1 : 0;  // none: a depth-only pass
     ri.pColorAttachments = &ca;
     ri.pDepthAttachment = &da;
     vkCmdBeginRendering(cmd, &ri);

@@ -51,6 +51,7 @@ UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, 
 
 void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h);
 // Clears the R32_UINT colour target to "no primitive" and the depth target to `depth_clear`.
+// A null `color` begins a depth-only pass (for a pipeline made without a fragment shader).
 void begin_rendering(VkCommandBuffer cmd, VkImageView color, VkImageView depth, std::uint32_t w, std::uint32_t h,
                      float depth_clear);
 

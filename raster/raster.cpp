@@ -176,8 +176,26 @@ void PassTimes::add(std::string_view name, double ms) {
     entries.emplace_back(std::string(name), ms);
 }
 
+void PassTimes::add(std::string_view name, double ms, std::string_view what) {
+    add(name, ms);
+    if (what.empty()) return;
+    for (auto& [n, w] : includes)
+        if (n == name) {
+            // Passes of one name drawn two ways (a light's lookups beside another's samples): both said.
+            if (w.find(what) == std::string::npos) w += std::string("; and ") + std::string(what);
+            return;
+        }
+    includes.emplace_back(std::string(name), std::string(what));
+}
+
 void PassTimes::add(const PassTimes& other) {
-    for (const auto& [n, t] : other.entries) add(n, t);
+    for (const auto& [n, t] : other.entries) add(n, t, other.what(n));
+}
+
+std::string_view PassTimes::what(std::string_view name) const {
+    for (const auto& [n, w] : includes)
+        if (n == name) return w;
+    return {};
 }
 
 double PassTimes::operator[](std::string_view name) const {

@@ -19,11 +19,17 @@ namespace penumbra::raster {
 // GPU time per pass, by name, in the order first timed. The depth map times "shadow", "lookup"
 // and "layer_mask"; a new family's passes (a reduction, a blur, a stencil pass) are new names,
 // and raster.json's gpu_ms and sweep's production time take every entry without new fields.
+// What each figure includes (which pipeline, which outputs) is said per name in `includes`:
+// raster.json's gpu_passes (a production render's shadow pass is depth-only, a diagnostic
+// render's also writes the triangle id per texel).
 struct PassTimes {
     std::vector<std::pair<std::string, double>> entries;
-    void add(std::string_view name, double ms);  // added to the pass's time so far
+    std::vector<std::pair<std::string, std::string>> includes;
+    void add(std::string_view name, double ms);                         // added to the pass's time so far
+    void add(std::string_view name, double ms, std::string_view what);  // and what the pass is (each way once)
     void add(const PassTimes& other);
-    double operator[](std::string_view name) const;  // 0 when never timed
+    double operator[](std::string_view name) const;      // 0 when never timed
+    std::string_view what(std::string_view name) const;  // empty when not said
     double total() const;
 };
 
@@ -34,7 +40,10 @@ struct RasterLightStats {
     std::uint32_t layers_sampled = 0;  // bit per layer that some receiver samples
     int layers_rendered = 0;
     bool map_reused = false;  // the light's map already held what it would draw: no shadow pass
-    PassTimes gpu_ms;         // this light's passes
+    // The light's map holds the triangle id per texel (a render with lookups needs it for the
+    // acne rule); a V-only render draws (or reuses) the depth alone, as an engine does.
+    bool map_triangle_ids = false;
+    PassTimes gpu_ms;  // this light's passes
 };
 
 struct RasterStats {
@@ -55,7 +64,9 @@ struct RasterResult {
 
 struct RenderOptions {
     // The depth-map lookups behind V (RasterLightImage::lookups); callers that need only V
-    // (tune's and sweep's objective) save their read-back.
+    // (tune's and sweep's objective) save their read-back. Without them the render is a
+    // production one: its shadow passes are depth-only (no triangle-id target), V the same bit
+    // for bit (the same vertex shader, depth bias and rasterisation write the same depths).
     bool lookups = true;
     // Skip a shadow pass whose map is still in place from the previous render with the same
     // inputs (same light, fit, resolution, format, culling and depth bias): a lookup-only change

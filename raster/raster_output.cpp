@@ -77,6 +77,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
                             {"layers", layers},
                             {"layers_rendered", l.layers_rendered},
                             {"map_reused", l.map_reused},
+                            {"map_triangle_ids", l.map_triangle_ids},
                             {"pixels", {{"surface", surface}, {"fully_lit", lit}, {"outside_map", outside}}},
                             {"gpu_ms", pass_json(l.gpu_ms, {"shadow", "lookup"})}};
         // What the family says of the light (the depth maps: how an area light was drawn).
@@ -93,6 +94,11 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
     nlohmann::json gpu_ms = pass_json(s.gpu_ms, {"shadow", "lookup", "layer_mask"});
     gpu_ms["camera_raster"] = s.camera_ms;
     gpu_ms["camera"] = s.camera_ms + s.gpu_ms["lookup"];
+    // What each figure of gpu_ms includes, as the family said it.
+    nlohmann::json gpu_passes = nlohmann::json::object();
+    for (const auto& [name, what] : s.gpu_ms.includes) gpu_passes[name] = what;
+    gpu_passes["camera_raster"] = "the session's camera pass (triangle id per pixel), drawn once per session";
+    gpu_passes["camera"] = "camera_raster + lookup";
     return {
         {"scenario", scenario.file.string()},
         {"scene", scenario.scene_file.string()},
@@ -109,6 +115,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
           {"driver", s.device.driver},
           {"vulkan", s.device.api_version}}},
         {"gpu_ms", gpu_ms},
+        {"gpu_passes", gpu_passes},
         {"seconds",
          {{"load", timings.load_s}, {"device", timings.device_s}, {"setup", s.setup_s}, {"render", s.render_s}}},
         {"lights", lights},

@@ -11,9 +11,10 @@
 namespace penumbra::sweep {
 namespace {
 
-// The GPU milliseconds an engine pays for the shadow: every pass the family timed (the depth
-// map's shadow passes, lookups and cube-face mask; a new family's passes by their names). The
-// camera pass is drawn once per session and is not part of a configuration.
+// The GPU milliseconds of a render's shadow: every pass the family timed (the depth map's
+// shadow passes, lookups and cube-face mask; a new family's passes by their names). The camera
+// pass is drawn once per session and is not part of a configuration. A production render's
+// passes are what an engine pays (depth-only maps, V alone): kProductionMsIncludes.
 double shadow_cost_ms(const raster::RasterStats& s) {
     return s.gpu_ms.total();
 }
@@ -63,12 +64,14 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
         row.index = c.index;
         row.values = c.values;
         row.technique = c.technique.to_json();
-        // The verdict's render also builds (and, on lavapipe, compiles) the pipelines; it is not
-        // timed, nor is a first production render for the same reason.
+        // Warm-up (kWarmUpRenders of each kind, discarded): the verdict's render also builds
+        // (and, on lavapipe, compiles) the pipelines and counts as the first diagnostic one; the
+        // production pipelines are built by the first production render.
         const ValidateResult r = validate(scenario, c.technique, no_gate, diagnostic, &session, oracle);
+        for (int k = 1; k < kWarmUpRenders; ++k) session.render(c.technique, diagnostic.render);
         for (int k = 0; k < options.repeat; ++k)
             row.diagnostic_ms.push_back(shadow_cost_ms(session.render(c.technique, diagnostic.render).stats));
-        session.render(c.technique, production);
+        for (int k = 0; k < kWarmUpRenders; ++k) session.render(c.technique, production);
         for (int k = 0; k < options.repeat; ++k)
             row.production_ms.push_back(shadow_cost_ms(session.render(c.technique, production).stats));
         row.lights = nlohmann::json::array();

@@ -79,6 +79,23 @@ td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}
         h += "<p class=\"note\">This device is a CPU (lavapipe): its \"GPU\" times are the CPU's time to "
              "rasterise, which rank configurations on this machine and say little about a GPU's cost. Run the "
              "sweep with <code>--device</code> on a GPU for engine costs.</p>\n";
+    // Timings to trust: repeats that disagree say the device's speed changed during the run.
+    std::string disagree;
+    std::size_t n_disagree = 0;
+    for (const Row& r : t.rows)
+        if (repeats_disagree(r) && n_disagree++ < 20)
+            disagree += fmt::format("{}{} (production {:.3f}&ndash;{:.3f} ms, diagnostic {:.3f}&ndash;{:.3f} ms)",
+                                    disagree.empty() ? "" : "; ", report::escape_markup(label_of(t, r)),
+                                    minimum(r.production_ms), maximum(r.production_ms), minimum(r.diagnostic_ms),
+                                    maximum(r.diagnostic_ms));
+    if (n_disagree > 0)
+        h += fmt::format(
+            "<p class=\"note\">The repeats of {} configuration{} disagree by more than {:.0f}% of their median "
+            "((max &minus; min) / median, after {} discarded warm-up render{} of each kind): read their times "
+            "as uncertain. {}{}</p>\n",
+            n_disagree, n_disagree == 1 ? "" : "s", kRepeatSpreadMargin * 100, kWarmUpRenders,
+            kWarmUpRenders == 1 ? "" : "s", disagree,
+            n_disagree > 20 ? "; &hellip; (sweep.json: repeats_disagree)" : "");
     h += svg;
     // Every point of the front, by name: the plot's labels may overlap.
     const std::vector<bool> on = front(t);

@@ -280,7 +280,23 @@ double minimum(const std::vector<double>& v) {
     return v.empty() ? 0 : *std::min_element(v.begin(), v.end());
 }
 
+double maximum(const std::vector<double>& v) {
+    return v.empty() ? 0 : *std::max_element(v.begin(), v.end());
+}
+
+double spread(const std::vector<double>& v) {
+    const double m = median(v);
+    return v.size() < 2 || m <= 0 ? 0 : (maximum(v) - minimum(v)) / m;
+}
+
+bool repeats_disagree(const Row& r) {
+    return spread(r.production_ms) > kRepeatSpreadMargin || spread(r.diagnostic_ms) > kRepeatSpreadMargin;
+}
+
 json to_json(const Table& t) {
+    auto spread_json = [](const std::vector<double>& v) {
+        return json{{"min", minimum(v)}, {"median", median(v)}, {"max", maximum(v)}, {"spread", spread(v)}};
+    };
     json rows = json::array();
     for (const Row& r : t.rows) {
         json verdict = json::object();
@@ -292,12 +308,22 @@ json to_json(const Table& t) {
                         {"lights", r.lights},
                         {"production_ms", r.production_ms},
                         {"diagnostic_ms", r.diagnostic_ms},
+                        {"production_spread", spread_json(r.production_ms)},
+                        {"diagnostic_spread", spread_json(r.diagnostic_ms)},
+                        {"repeats_disagree", repeats_disagree(r)},
                         {"seconds", r.seconds}});
     }
     json j = {{"scenario", t.scenario}, {"keys", t.keys},     {"columns", t.columns},  {"total", t.total},
               {"repeat", t.repeat},     {"device", t.device}, {"configurations", rows}};
     j["fingerprint"] = t.fingerprint;
     j["setup_s"] = t.setup_s;
+    // What the figures include and how they were taken (constants of this version: a merged
+    // table says what each shard's run did).
+    j["timings"] = {{"production_ms", kProductionMsIncludes},
+                    {"diagnostic_ms", kDiagnosticMsIncludes},
+                    {"warm_up_renders", kWarmUpRenders},
+                    {"spread", "(max - min) / median of the repeats"},
+                    {"spread_margin", kRepeatSpreadMargin}};
     if (t.shard.n > 1) j["shard"] = {{"k", t.shard.k}, {"n", t.shard.n}};
     return j;
 }

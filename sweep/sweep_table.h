@@ -27,6 +27,22 @@ inline constexpr int kMaxRepeat = 100;
 inline constexpr double kVerdictSeconds = 1.0;
 inline constexpr double kRenderSeconds = 0.1;
 inline constexpr double kMaxRunSeconds = 12 * 3600.0;
+// Timings to trust (docs/sweep.md, "What is measured"): before the --repeat timed renders of
+// each kind, kWarmUpRenders renders are drawn and discarded (for the diagnostic kind the
+// verdict's render is the first of them); a configuration whose repeats spread by more than
+// kRepeatSpreadMargin of their median ((max - min) / median) is named in the report.
+inline constexpr int kWarmUpRenders = 1;
+inline constexpr double kRepeatSpreadMargin = 0.10;
+// What production_ms and diagnostic_ms include, as sweep.json's "timings" says.
+inline constexpr const char* kProductionMsIncludes =
+    "GPU ms of a production render: every pass the technique's family timed, as an engine draws it (depth "
+    "map: a depth-only shadow pass per drawn map layer with the technique's depth bias, no triangle-id target; "
+    "the lookup writing V alone; the cube-face mask for point lights); maps redrawn every time; neither the "
+    "camera pass nor the copy to the host";
+inline constexpr const char* kDiagnosticMsIncludes =
+    "GPU ms of a diagnostic render: the same passes as penumbra draws them for the verdict (depth map: the "
+    "shadow pass also writing the triangle id per texel; the lookup writing V and every diagnostic, 36 bytes a "
+    "pixel; the cube-face mask); maps redrawn every time; neither the camera pass nor the copy to the host";
 // Memory a run keeps per configuration: its parsed technique and values (about 1 KB), and per
 // row the resolved technique and the per-light verdict objects as JSON.
 inline constexpr std::uint64_t kConfigBytes = 2048;
@@ -128,6 +144,11 @@ struct Table {
 
 double median(std::vector<double> v);
 double minimum(const std::vector<double>& v);
+double maximum(const std::vector<double>& v);
+// (max - min) / median of a configuration's repeats; 0 for fewer than two or a zero median.
+double spread(const std::vector<double>& v);
+// The repeats of production_ms or diagnostic_ms spread by more than kRepeatSpreadMargin.
+bool repeats_disagree(const Row& r);
 
 nlohmann::json to_json(const Table& t);
 // sweep.json back into a table, every field checked (types, shapes and counts against keys,

@@ -713,5 +713,58 @@ TEST_F(Raster, ManyAreaSamplesTakeAFewMemoryAllocations) {
     }
 }
 
+// A production render (V alone) draws depth-only maps, the pass an engine draws, and gets the
+// diagnostic render's V bit for bit: the same vertex shader, depth bias and rasterisation store
+// the same depths. A depth-only map holds no triangle ids, so a render with lookups after it
+// draws the map again; a map with ids serves a V-only render as it is.
+TEST_F(Raster, AProductionRenderDrawsDepthOnlyMapsWithTheDiagnosticRendersV) {
+    Scenario sc = default_scenario();  // sun, spot and point light
+    sc.width = 320;
+    sc.height = 180;
+    const std::vector<nlohmann::json> techniques = {
+        {{"preset", "d3d12-textbook"}},
+        {{"resolution", 512}, {"bias", {{"constant", 0}, {"slope", 0}}}},  // no bias: acne in V
+        {{"resolution", 1024}, {"depth_format", "d16"}, {"bias", {{"constant", 6}, {"slope", 2.5}}}},
+        {{"filter", {{"type", "hw2x2"}}}, {"cull", "front"}},
+        {{"filter", {{"type", "pcf"}, {"size", 5}}}, {"bias", {{"receiver_plane", true}, {"normal_offset", 1}}}},
+        {{"filter", {{"type", "poisson"}}}, {"cull", "none"}, {"depth_format", "d24"}},
+    };
+    raster::RenderOptions production, diagnostic;
+    production.lookups = false;
+    production.reuse_maps = diagnostic.reuse_maps = false;
+    raster::RasterSession session(sc, *ctx_);
+    for (const auto& j : techniques) {
+        const raster::Technique t = raster::parse_technique(j, "test: technique");
+        const raster::RasterResult v = session.render(t, production);
+        const raster::RasterResult full = session.render(t, diagnostic);
+        ASSERT_EQ(v.frame.lights.size(), 3u);
+        for (std::size_t li = 0; li < 3; ++li) {
+            EXPECT_FALSE(v.stats.lights[li].map_triangle_ids) << j.dump() << ", light " << li;
+            EXPECT_TRUE(full.stats.lights[li].map_triangle_ids) << j.dump() << ", light " << li;
+            const std::vector<float>&a = v.frame.lights[li].V, &b = full.frame.lights[li].V;
+            ASSERT_EQ(a.size(), b.size());
+            EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)), 0) << j.dump() << ", light " << li;
+        }
+        EXPECT_NE(v.stats.gpu_ms.what("shadow"), full.stats.gpu_ms.what("shadow"));
+    }
+    // Reuse: a depth-only map is drawn again for the lookups (their stored triangle ids as a
+    // cold run's); a map with ids is reused by a V-only render.
+    const nlohmann::json j = {{"bias", {{"slope", 1.5}}}};
+    const raster::Technique t = raster::parse_technique(j, "test: technique");
+    raster::RenderOptions v_only;
+    v_only.lookups = false;
+    raster::RasterSession warm(sc, *ctx_);
+    warm.render(t, v_only);
+    const raster::RasterResult after_v = warm.render(t);
+    for (std::size_t li = 0; li < 3; ++li) EXPECT_FALSE(after_v.stats.lights[li].map_reused) << "light " << li;
+    expect_identical(after_v.frame, render(sc, j).frame, "lookups after a V-only render");
+    const raster::RasterResult v_again = warm.render(t, v_only);
+    for (std::size_t li = 0; li < 3; ++li) {
+        EXPECT_TRUE(v_again.stats.lights[li].map_reused) << "light " << li;
+        EXPECT_TRUE(v_again.stats.lights[li].map_triangle_ids) << "light " << li;
+    }
+    EXPECT_EQ(v_again.frame.lights[0].V, after_v.frame.lights[0].V);
+}
+
 }  // namespace
 }  // namespace penumbra

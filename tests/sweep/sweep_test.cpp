@@ -294,5 +294,36 @@ TEST(SweepMerge, SweepJsonCarriesSetupTimeAndFingerprint) {
     EXPECT_NE(f, definition_fingerprint("k", {}, keys, ca, 0.01, 3, {{"name", "other"}, {"driver", "1"}}));
 }
 
+// sweep.json says what each time includes and how it was taken, and per configuration the
+// spread of its repeats; repeats further apart than the margin are flagged.
+TEST(SweepMerge, SweepJsonSaysWhatItsTimesIncludeAndHowFarTheRepeatsSpread) {
+    Table t = shard_table({1, 1}, 2);
+    t.repeat = 3;
+    t.rows[0].production_ms = {1.0, 1.05, 1.02};  // spread 0.05 / 1.02: within the margin
+    t.rows[0].diagnostic_ms = {2.0, 2.0, 2.0};
+    t.rows[1].production_ms = {1.0, 1.5, 1.1};  // 0.5 / 1.1: beyond it
+    t.rows[1].diagnostic_ms = {2.0, 2.1, 2.0};
+    const nlohmann::json j = to_json(t);
+    const nlohmann::json& timings = j.at("timings");
+    EXPECT_TRUE(has(timings.at("production_ms").get<std::string>(), "depth-only shadow pass"));
+    EXPECT_TRUE(has(timings.at("diagnostic_ms").get<std::string>(), "triangle id"));
+    EXPECT_EQ(timings.at("warm_up_renders"), kWarmUpRenders);
+    EXPECT_EQ(timings.at("spread_margin"), kRepeatSpreadMargin);
+    const nlohmann::json& r0 = j.at("configurations")[0];
+    EXPECT_EQ(r0.at("production_spread").at("min"), 1.0);
+    EXPECT_EQ(r0.at("production_spread").at("median"), 1.02);
+    EXPECT_EQ(r0.at("production_spread").at("max"), 1.05);
+    EXPECT_NEAR(r0.at("production_spread").at("spread").get<double>(), 0.05 / 1.02, 1e-12);
+    EXPECT_EQ(r0.at("repeats_disagree"), false);
+    const nlohmann::json& r1 = j.at("configurations")[1];
+    EXPECT_NEAR(r1.at("production_spread").at("spread").get<double>(), 0.5 / 1.1, 1e-12);
+    EXPECT_EQ(r1.at("repeats_disagree"), true);
+    EXPECT_TRUE(repeats_disagree(t.rows[1]));
+    EXPECT_FALSE(repeats_disagree(t.rows[0]));
+    // One repeat has no spread; a merge writes what one run writes.
+    EXPECT_EQ(spread({3.0}), 0.0);
+    EXPECT_EQ(to_json(table_from_json(j, "x")), j);
+}
+
 }  // namespace
 }  // namespace penumbra::sweep
