@@ -65,6 +65,10 @@ void parse_moment_keys(MomentKind kind, JsonObject& o, Technique& t) {
         }
     } else {
         p->exponent = 40;  // TheRealMJP/Shadows' defaults, +40 / -5 for fp32
+        // Its VSMBias 0.01 floors the warped depth's deviation at 1e-4 c exp(c w), i.e. a depth
+        // deviation of 5e-5. The floor must be small here: the warped gap t - mean is at most
+        // exp(c w), so the floor alone leaks (2 c sigma)^2 of the light (0.0064 at sigma 1e-3).
+        p->min_variance = kEvsmMinVariance;
         if (o.has("evsm")) {
             JsonObject e = o.object("evsm");
             if (e.has("exponents")) {

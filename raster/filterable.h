@@ -30,6 +30,9 @@ const MomentParameters* moment_parameters(const Technique& t);
 // for evsm's second moment over depths warped to [-1, 1] (Filament's "42 fp32").
 inline constexpr double kMaxEsmExponent = 88;
 inline constexpr double kMaxEvsmExponent = 42;
+// evsm's default variance floor, squared depth units: TheRealMJP/Shadows' VSMBias 0.01 (a
+// deviation of 5e-5 depth units).
+inline constexpr double kEvsmMinVariance = 2.5e-9;
 
 // The math of shaders/lookup.comp's moment filters, on the CPU, for tests.
 // One-tailed Chebyshev upper bound on P(d >= t) from the first two moments (Donnelly & Lauritzen

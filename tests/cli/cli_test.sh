@@ -89,7 +89,7 @@ check "too many area samples exit 2" test "$rc" -eq 2
 run raster "$src/data/default/scenario.json" --out "$tmp/r7c" --set family=cascade
 check "unknown technique family exits 2" test "$rc" -eq 2
 check "unknown technique family is named with the known ones" \
-    grep -q 'technique.family: "cascade" is not a technique family (have "depth_map", "averaged_area")' <<<"$err"
+    grep -q 'technique.family: "cascade" is not a technique family (have "depth_map", "averaged_area"' <<<"$err"
 check "unknown technique family writes nothing" test ! -e "$tmp/r7c"
 check "raster.json's technique names its family" python3 -c "
 import json; assert json.load(open('$tmp/r7/raster.json'))['technique']['family'] == 'depth_map'"

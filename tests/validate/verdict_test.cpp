@@ -216,6 +216,10 @@ TEST_F(Verdict, VarianceMapsBleedLightUnderAStackedOccluderAndTheClassSaysSo) {
     // does not leak there.
     Judged esm = judge(sc, {{"family", "esm"}, {"resolution", 256}, {"blur", 4}});
     EXPECT_LT(esm.score.count(PixelClass::light_bleeding), bleeding.score.count(PixelClass::light_bleeding) / 10);
+    // EVSM's exponential warp separates the two depths: at the same blur and no reduction it
+    // bleeds less than VSM (Lauritzen & McCool 2008).
+    Judged evsm = judge(sc, {{"family", "evsm4"}, {"resolution", 256}, {"blur", 4}, {"evsm", {{"light_bleed", 0.0}}}});
+    EXPECT_LT(evsm.score.count(PixelClass::light_bleeding), bleeding.score.count(PixelClass::light_bleeding) / 2);
     // A depth-map family never gets the class.
     Judged depth_map = judge(sc, {{"resolution", 256}, {"filter", {{"type", "pcf"}, {"size", 9}}}});
     EXPECT_EQ(depth_map.score.count(PixelClass::light_bleeding), 0u);
