@@ -139,13 +139,15 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
     for (const char* k : {"blur"}) e.sweep_keys.push_back(k);
     const std::string own = kind == MomentKind::vsm ? "vsm" : kind == MomentKind::esm ? "esm" : "evsm";
     std::erase_if(e.sweep_keys, [](const std::string& k) { return k.rfind("filter.", 0) == 0; });
+    // tune searches bias knobs only (tune/tune.h) and has none yet for the variance floor, the
+    // light-bleed reduction or the exponents that tune a moment family: it refuses the family
+    // by name (exit 2) rather than search the wrong knobs.
+    e.tune_knobs.clear();
     if (kind == MomentKind::esm) {
         e.sweep_keys.push_back("esm.exponent");
-        e.tune_knobs = {"esm.exponent"};
     } else {
         for (const char* k : {".min_variance", ".light_bleed"}) e.sweep_keys.push_back(own + k);
         if (kind != MomentKind::vsm) e.sweep_keys.push_back("evsm.exponents");
-        e.tune_knobs = {own + ".min_variance", own + ".light_bleed"};
     }
     return e;
 }
