@@ -12,8 +12,8 @@ namespace penumbra::metrics {
 
 std::string_view to_string(PixelClass c) {
     static constexpr std::string_view kNames[kPixelClassCount] = {
-        "background", "back_facing", "uncertain",     "coverage_mismatch", "correct",
-        "aliasing",   "acne",        "peter_panning", "false_shadow",      "false_lit"};
+        "background", "back_facing",   "uncertain",    "coverage_mismatch", "correct",       "aliasing",
+        "acne",       "peter_panning", "false_shadow", "false_lit",         "light_bleeding"};
     return kNames[static_cast<int>(c)];
 }
 
@@ -61,7 +61,7 @@ constexpr float kWidthBand = 0.05f;
 
 struct RowSums {
     PixelCounts pixels;
-    std::array<std::uint64_t, 5> counts{}, counts_visible{};
+    std::array<std::uint64_t, kErrorClasses.size()> counts{}, counts_visible{};
     double abs_sum = 0, sq_sum = 0, signed_sum = 0;
     double gap_sum = 0, gap_max = 0, acne_sum = 0, acne_max = 0;
     std::uint64_t acne_measured = 0;
@@ -253,6 +253,10 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
                     if (std::abs(e) > opt.tolerance + o.E[i]) {
                         c = r.lookups ? classify_from_lookups(e, o, of.prim[i], lk, i, opt)
                                       : classify_from_geometry(e, o, i, scales);
+                        // 4. A moment map's Chebyshev bound leaking light into a true umbra,
+                        // beyond every other reach: light bleeding (docs/metrics.md).
+                        if (c == PixelClass::false_lit && opt.light_bleeding && o.V[i] <= opt.tolerance + o.E[i])
+                            c = PixelClass::light_bleeding;
                         ++s.counts[error_class_index(c)];
                         if (std::abs(e) >= opt.visible_threshold) ++s.counts_visible[error_class_index(c)];
                         if (c == PixelClass::peter_panning) {

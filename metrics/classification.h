@@ -26,13 +26,15 @@ enum class PixelClass : std::uint8_t {
     peter_panning = 7,
     false_shadow = 8,
     false_lit = 9,
+    light_bleeding = 10,  // moment-map families only (ScoringOptions::light_bleeding)
 };
-inline constexpr int kPixelClassCount = 10;
+inline constexpr int kPixelClassCount = 11;
 std::string_view to_string(PixelClass c);
 
-// The five error classes in report order (counts/rates keys).
-inline constexpr std::array<PixelClass, 5> kErrorClasses = {
-    PixelClass::acne, PixelClass::peter_panning, PixelClass::aliasing, PixelClass::false_shadow, PixelClass::false_lit};
+// The six error classes in report order (counts/rates keys).
+inline constexpr std::array<PixelClass, 6> kErrorClasses = {PixelClass::acne,      PixelClass::peter_panning,
+                                                            PixelClass::aliasing,  PixelClass::false_shadow,
+                                                            PixelClass::false_lit, PixelClass::light_bleeding};
 // Position of an error class in kErrorClasses (kErrorClasses.size() for the other classes).
 constexpr std::size_t error_class_index(PixelClass c) {
     std::size_t k = 0;
@@ -53,6 +55,10 @@ struct ScoringOptions {
     bool perceptual = true;                  // false: skip the FLIP-style image (search loops need counts only)
     std::optional<float> texel_footprint_m;  // V only: shadow-map texel size at the receivers, metres
     std::optional<float> bias_reach_m;       // V only: every bias together, metres along the light ray
+    // The technique filters moments (the vsm, esm and evsm families): a pixel brighter than a
+    // true umbra, beyond the filter's and the bias's reach, is light_bleeding instead of
+    // false_lit (docs/metrics.md). Off for depth-map families, whose verdicts it never changes.
+    bool light_bleeding = false;
 };
 
 // What the classes of a light rest on (docs/metrics.md, "What each class rests on").
@@ -103,11 +109,11 @@ struct SoftScore {
 
 struct LightScore {
     PixelCounts pixels;
-    std::array<std::uint64_t, 5> counts{};  // indexed like kErrorClasses
+    std::array<std::uint64_t, kErrorClasses.size()> counts{};  // indexed like kErrorClasses
     std::uint64_t wrong = 0;
     // The wrong pixels whose |error| reaches ScoringOptions::visible_threshold: a pixel 1% too
     // dark and a missing shadow are one count above, only the second one here.
-    std::array<std::uint64_t, 5> counts_visible{};
+    std::array<std::uint64_t, kErrorClasses.size()> counts_visible{};
     std::uint64_t wrong_visible = 0;
     double mae = 0, rmse = 0, wrong_fraction = 0;
     double bias = 0;                          // mean signed error (raster - oracle) over scored pixels

@@ -23,6 +23,7 @@
 #include "common/stopwatch.h"
 #include "raster/area_lights.h"
 #include "raster/cascades.h"
+#include "raster/filterable.h"
 #include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
@@ -270,9 +271,10 @@ VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids
 }
 
 VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode) {
+    const MomentParameters* moments = moment_parameters(t);
     SpecData spec = {kind,
-                     filter_kind(t.filter.type),
-                     static_cast<std::uint32_t>(t.filter.size),
+                     moments ? gpu::kFilterVsm + static_cast<std::uint32_t>(moments->kind) : filter_kind(t.filter.type),
+                     static_cast<std::uint32_t>(moments ? moments->blur : t.filter.size),
                      static_cast<std::uint32_t>(t.filter.taps),
                      t.filter.bilinear_taps ? 1u : 0u,
                      t.bias.receiver_plane ? 1u : 0u,
@@ -406,6 +408,8 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     }
     // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
     p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
+    if (const MomentParameters* m = moment_parameters(t))
+        p.moments = glm::vec4(m->min_variance, m->light_bleed, m->exponent, m->negative_exponent);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
         p.view_proj[l] = glm::mat4(projection.view_proj[l]);
         p.light_axis[l] = glm::vec4(glm::vec3(projection.axis[l]), 0.0f);

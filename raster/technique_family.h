@@ -57,6 +57,7 @@ class TechniqueFamily {
 struct ScoringHints {
     double filter_reach_texels = 1;  // aliasing band: texel footprints around a true boundary
     double depth_quantum = 0;        // acne: depth differences below this are rounding (depth units)
+    bool light_bleeding = false;     // a moment family: a lit true umbra is light_bleeding (docs/metrics.md)
 };
 
 // A registered family (pbrt-v4's `Create` is the model): everything the rest of penumbra asks of
@@ -101,5 +102,6 @@ FamilyEntry averaged_area_family_entry();
 FamilyEntry cascaded_family_entry();  // raster/cascades.cpp: draws with make_depth_map_family
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
+void add_filterable_families(std::deque<FamilyEntry>& families);  // vsm, esm, evsm2, evsm4 (raster/filterable.cpp)
 
 }  // namespace penumbra::raster

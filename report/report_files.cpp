@@ -35,6 +35,9 @@ const char* class_meaning(PixelClass c) {
         case PixelClass::false_shadow: return "shadowed where nothing occludes the light, for another reason";
         case PixelClass::false_lit:
             return "lit where an occluder blocks the light: casters clipped, culled or outside the map";
+        case PixelClass::light_bleeding:
+            return "lit inside a true umbra, away from its edges: a moment map's filter mixed this receiver's "
+                   "occluder with a farther surface (raise the light-bleed reduction or min variance)";
         case PixelClass::correct: return "within the tolerance of the truth; drawn in the truth's own shading";
         case PixelClass::uncertain: return "not scored: the truth is within float error of a shadow boundary";
         case PixelClass::coverage_mismatch:
@@ -60,6 +63,7 @@ glm::vec3 class_colour(PixelClass c) {
         case PixelClass::peter_panning: return {0.05f, 0.75f, 1.0f};
         case PixelClass::false_shadow: return {0.55f, 0.2f, 1.0f};
         case PixelClass::false_lit: return {0.15f, 0.9f, 0.2f};
+        case PixelClass::light_bleeding: return {1.0f, 0.45f, 0.75f};
     }
     return {1, 1, 1};
 }

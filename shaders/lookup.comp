@@ -187,7 +187,85 @@ float pcss_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) 
     return sum / float(kPoissonTapCount);
 }
 
+// Moment families (raster/filterable.h). The moments of the map's depths under a separable
+// Gaussian of radius kPcfSize texels (sigma = radius / 2) and a bilinear tap at uv, gathered
+// here: the weights of texel (i, j) are the bilinear weights convolved with the Gaussian's, so
+// this is what a blurred moment map sampled with hardware bilinear filtering returns.
+float gauss(int k) {
+    int r = int(kPcfSize);
+    if (k < -r || k > r) return 0.0;
+    if (r == 0) return 1.0;
+    float sigma = 0.5 * float(r);
+    return exp(-0.5 * float(k * k) / (sigma * sigma));
+}
+
+vec4 warp(float d) {
+    if (kFilterType == kFilterVsm) return vec4(d, d * d, 0.0, 0.0);
+    if (kFilterType == kFilterEsm) return vec4(exp(p.moments.z * d), 0.0, 0.0, 0.0);
+    float w = 2.0 * d - 1.0;  // EVSM warps depth remapped to [-1, 1]
+    float pos = exp(p.moments.z * w), neg = -exp(-p.moments.w * w);
+    return vec4(pos, pos * pos, neg, neg * neg);
+}
+
+vec4 filtered_moments(vec2 uv, uint layer) {
+    int r = int(kPcfSize), res = int(p.map.x);
+    vec2 st = uv - 0.5;
+    vec2 base = floor(st);
+    vec2 f = st - base;
+    float norm = 0.0;
+    for (int k = -r; k <= r; ++k) norm += gauss(k);
+    vec4 sum = vec4(0.0);
+    for (int j = -r; j <= r + 1; ++j) {
+        float wy = ((1.0 - f.y) * gauss(j) + f.y * gauss(j - 1)) / norm;
+        for (int i = -r; i <= r + 1; ++i) {
+            float wx = ((1.0 - f.x) * gauss(i) + f.x * gauss(i - 1)) / norm;
+            // The map's edge texels repeat beyond it, as a clamp-to-edge sampler reads them.
+            ivec2 t = clamp(ivec2(base) + ivec2(i, j), ivec2(0), ivec2(res - 1));
+            sum += wx * wy * warp(texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r);
+        }
+    }
+    return sum;
+}
+
+// One-tailed Chebyshev bound on P(depth >= t) with a variance floor (Donnelly & Lauritzen 2006).
+float chebyshev(vec2 m, float t, float min_variance) {
+    if (t <= m.x) return 1.0;
+    float variance = max(m.y - m.x * m.x, min_variance);
+    float d = t - m.x;
+    return variance / (variance + d * d);
+}
+
+// Light-bleed reduction: linstep(amount, 1, p).
+float reduce_bleeding(float pmax) {
+    return clamp((pmax - p.moments.y) / (1.0 - p.moments.y), 0.0, 1.0);
+}
+
+float moment_visibility(vec3 m, uint layer) {
+    int res = int(p.map.x);
+    ivec2 centre = ivec2(floor(m.xy));
+    bool in_map = all(greaterThanEqual(centre, ivec2(0))) && all(lessThan(centre, ivec2(res)));
+    if (!in_map && kLightKind != kLightPoint) return 1.0;  // outside the map: the border is lit
+    vec4 mo = filtered_moments(m.xy, layer);
+    float t = depth_units_ref(m.z);
+    if (kFilterType == kFilterVsm) return reduce_bleeding(chebyshev(mo.xy, t, p.moments.x));
+    if (kFilterType == kFilterEsm) {
+        // exp(c d) filtered times exp(-c t), in logs: exp(-c t) alone underflows float.
+        return clamp(exp(log(max(mo.x, 1e-38)) - p.moments.z * t), 0.0, 1.0);
+    }
+    // EVSM: the variance floor scaled by each warp's slope at t (TheRealMJP/Shadows).
+    float w = 2.0 * t - 1.0;
+    float pos = exp(p.moments.z * w), neg = -exp(-p.moments.w * w);
+    float pos_floor = p.moments.x * (2.0 * p.moments.z * pos) * (2.0 * p.moments.z * pos);
+    float v = chebyshev(mo.xy, pos, pos_floor);
+    if (kFilterType == kFilterEvsm4) {
+        float neg_floor = p.moments.x * (2.0 * p.moments.w * neg) * (2.0 * p.moments.w * neg);
+        v = min(v, chebyshev(mo.zw, neg, neg_floor));
+    }
+    return reduce_bleeding(v);
+}
+
 float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) {
+    if (kFilterType >= kFilterVsm) return moment_visibility(m, layer);
     if (kFilterType == kFilterPcss) return pcss_visibility(pix, layer, m, dz, z_receiver);
     if (kFilterType == kFilterHw2x2) return tap_bilinear(m.xy, layer, m, dz);
     if (kFilterType == kFilterPcf) {

@@ -55,6 +55,11 @@ PENUMBRA_CONST uint kFilterHw2x2 = 1;
 PENUMBRA_CONST uint kFilterPcf = 2;
 PENUMBRA_CONST uint kFilterPoisson = 3;
 PENUMBRA_CONST uint kFilterPcss = 4;
+// Moment families (raster/filterable.h): kSpecPcfSize is their blur radius in texels.
+PENUMBRA_CONST uint kFilterVsm = 5;
+PENUMBRA_CONST uint kFilterEsm = 6;
+PENUMBRA_CONST uint kFilterEvsm2 = 7;
+PENUMBRA_CONST uint kFilterEvsm4 = 8;
 
 PENUMBRA_CONST uint kModeLookup = 0;      // write LookupTexel per pixel
 PENUMBRA_CONST uint kModeFaceMask = 1;    // only mark the cube faces receivers would sample
@@ -92,6 +97,7 @@ struct LookupParams {
     vec4 cascade;
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
+    vec4 moments;                       // min variance, light-bleed reduction, exponent, negative exponent
 };
 
 // Per pixel and light, what the technique decided and the lookups behind it.

@@ -156,6 +156,40 @@ TEST(Classification, LightLostToBiasIsPeterPanningAndReportsTheGap) {
     EXPECT_NEAR(s.lights[0].rate(PixelClass::peter_panning), 2.0 / 3.0, 1e-12);
 }
 
+// docs/metrics.md, class 5: light in a true umbra, beyond the filter's and the bias's reach, is
+// light_bleeding for a moment family and false_lit for any other; a penumbra, a pixel near a
+// boundary or one within the bias reach keep their classes.
+TEST(Classification, LightInATrueUmbraIsLightBleedingOnlyForMomentFamilies) {
+    for (bool lookups : {true, false}) {
+        Frames f(5, 1);
+        f.rl().V.assign(5, 0.2f);  // the raster leaks 0.2 everywhere
+        for (std::size_t i = 0; i < 5; ++i) f.shadow(i, 0.5f);
+        f.ol().V[1] = 0.5f;  // a true penumbra, not an umbra (the raster brighter still)
+        f.rl().V[1] = 0.8f;
+        f.ol().boundary_m[2] = 0.005f;  // within one 0.01 m texel of a true boundary
+        f.ol().occluder_m[3] = 0.005f;  // occluder within the bias reach (one texel)
+        f.rl().V[4] = 0.0f;             // right
+        ScoringOptions opt;
+        opt.texel_footprint_m = 0.01f;  // V only: the scales the lookups give
+        opt.bias_reach_m = 0.0f;
+        if (!lookups) f.drop_lookups();
+        const FrameScore depth_map = f.score(opt);
+        EXPECT_EQ(class_of(depth_map, 0), PixelClass::false_lit) << lookups;
+        EXPECT_EQ(depth_map.lights[0].count(PixelClass::light_bleeding), 0u);
+        opt.light_bleeding = true;
+        const FrameScore moments = f.score(opt);
+        EXPECT_EQ(class_of(moments, 0), PixelClass::light_bleeding) << lookups;
+        EXPECT_EQ(class_of(moments, 1), PixelClass::false_lit) << lookups;
+        EXPECT_EQ(class_of(moments, 2), PixelClass::aliasing) << lookups;
+        EXPECT_EQ(class_of(moments, 3), PixelClass::peter_panning) << lookups;
+        EXPECT_EQ(class_of(moments, 4), PixelClass::correct) << lookups;
+        EXPECT_EQ(moments.lights[0].count(PixelClass::light_bleeding), 1u);
+        EXPECT_EQ(moments.lights[0].count_visible(PixelClass::light_bleeding), 1u);  // 0.2 >= 0.1
+        EXPECT_EQ(to_json(moments.lights[0])["counts"]["light_bleeding"], 1);
+        EXPECT_EQ(to_json(depth_map.lights[0])["counts"]["light_bleeding"], 0);
+    }
+}
+
 TEST(Classification, AliasingTakesPrecedenceOverAcneAndPeterPanning) {
     Frames f(2, 1);
     f.rl().V[0] = 0.0f;                    // own-surface false shadow ...

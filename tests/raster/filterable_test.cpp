@@ -1,0 +1,181 @@
+// The filterable families (issue #35): their keys, their refusals, and the Chebyshev math of
+// the lookup shader against hand-computed values.
+#include "raster/filterable.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <glm/glm.hpp>
+#include <memory>
+
+#include "common/camera.h"
+#include "common/errors.h"
+#include "raster/raster.h"
+#include "raster/technique_family.h"
+#include "tests/test_support.h"
+
+namespace penumbra {
+namespace {
+
+using raster::parse_technique;
+using ::testing::HasSubstr;
+
+std::string error_of(const nlohmann::json& j) {
+    try {
+        parse_technique(j, "s.json: technique");
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(Filterable, VsmKeysHaveTheirDefaultsAndNestUnderTheFamilysName) {
+    const raster::Technique t = parse_technique({{"family", "vsm"}}, "s.json: technique");
+    const raster::MomentParameters* p = raster::moment_parameters(t);
+    ASSERT_NE(p, nullptr);
+    EXPECT_EQ(p->kind, raster::MomentKind::vsm);
+    EXPECT_EQ(p->blur, 0);
+    EXPECT_DOUBLE_EQ(p->light_bleed, 0.15);  // Filament's lightBleedReduction
+    EXPECT_EQ(t.bias.constant, 0.0);         // no hardware bias: the variance floor stands in for it
+    const nlohmann::json j = t.to_json();
+    EXPECT_EQ(j.at("vsm").at("light_bleed"), 0.15);
+    EXPECT_EQ(j.at("blur"), 0);
+    EXPECT_EQ(j.at("mipmaps"), false);
+
+    nlohmann::json tech = {{"family", "vsm"}, {"vsm", {{"light_bleed", 0.3}}}, {"blur", 4}};
+    raster::apply_override(tech, "vsm.min_variance=0.0001");
+    const raster::Technique u = parse_technique(tech, "t");
+    EXPECT_DOUBLE_EQ(raster::moment_parameters(u)->min_variance, 1e-4);
+    EXPECT_DOUBLE_EQ(raster::moment_parameters(u)->light_bleed, 0.3);
+    // The filter reaches the blur radius plus the bilinear tap's texel.
+    EXPECT_DOUBLE_EQ(raster::family_of(u).hints(u).filter_reach_texels, 5.0);
+    EXPECT_TRUE(raster::family_of(u).hints(u).light_bleeding);
+    EXPECT_FALSE(raster::family_of(parse_technique(nlohmann::json::object(), "t"))
+                     .hints(parse_technique(nlohmann::json::object(), "t"))
+                     .light_bleeding);
+}
+
+TEST(Filterable, EveryFamilyWritesWhatItParses) {
+    const std::vector<nlohmann::json> cases = {
+        {{"family", "vsm"}, {"blur", 3}, {"vsm", {{"min_variance", 1e-5}, {"light_bleed", 0.2}}}},
+        {{"family", "esm"}, {"esm", {{"exponent", 50}}}},
+        {{"family", "evsm2"}, {"evsm", {{"exponents", {30, 4}}}}},
+        {{"family", "evsm4"}, {"blur", 2}},
+    };
+    for (const auto& j : cases) {
+        const raster::Technique t = parse_technique(j, "t");
+        const nlohmann::json written = t.to_json();
+        EXPECT_EQ(parse_technique(written, "t").to_json(), written) << j.dump();
+    }
+    EXPECT_EQ(parse_technique({{"family", "evsm4"}}, "t").to_json().at("evsm").at("exponents"),
+              nlohmann::json({40.0, 5.0}));  // TheRealMJP/Shadows' +40 / -5
+}
+
+TEST(Filterable, BadKeysAreInputErrorsNamingTheKeyPathAndTheReason) {
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"vsm", {{"light_bleed", 1.5}}}}),
+                HasSubstr("s.json: technique.vsm.light_bleed"));
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"vsm", {{"bleed", 0.1}}}}), HasSubstr("bleed"));
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"esm", {{"exponent", 10}}}}), HasSubstr("esm"));
+    EXPECT_THAT(error_of({{"family", "esm"}, {"esm", {{"exponent", 100}}}}),
+                AllOf(HasSubstr("technique.esm.exponent"), HasSubstr("float32")));
+    EXPECT_THAT(error_of({{"family", "evsm4"}, {"evsm", {{"exponents", {50, 5}}}}}),
+                AllOf(HasSubstr("technique.evsm.exponents"), HasSubstr("42")));
+    EXPECT_THAT(error_of({{"family", "evsm2"}, {"evsm", {{"exponents", {40}}}}}), HasSubstr("[positive, negative]"));
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"filter", {{"type", "pcf"}}}}),
+                AllOf(HasSubstr("technique.filter"), HasSubstr("moments")));
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"blur", -1}}), HasSubstr("technique.blur"));
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"mipmaps", true}}), HasSubstr("technique.mipmaps"));
+    EXPECT_THAT(error_of({{"blur", 2}}), HasSubstr("blur"));  // not a depth-map key
+}
+
+// Two occluders in one filter footprint, half at each depth: the moments are their mean and
+// mean square, and Chebyshev's bound for a receiver behind both is worked out by hand.
+TEST(Filterable, ChebyshevBoundOfTwoDepthsMatchesTheHandComputedValue) {
+    const double d1 = 0.2, d2 = 0.6, t = 0.7;
+    const double m1 = 0.5 * (d1 + d2), m2 = 0.5 * (d1 * d1 + d2 * d2);  // mean 0.4, variance 0.04
+    EXPECT_NEAR(raster::chebyshev_upper_bound(m1, m2, t, 0.0), 0.04 / (0.04 + 0.09), 1e-12);
+    // A receiver at or in front of the mean is lit; the bound falls as it recedes.
+    EXPECT_EQ(raster::chebyshev_upper_bound(m1, m2, 0.4, 0.0), 1.0);
+    EXPECT_LT(raster::chebyshev_upper_bound(m1, m2, 0.9, 0.0), raster::chebyshev_upper_bound(m1, m2, t, 0.0));
+    // That 0.31 is light bleeding: the receiver lies behind both occluders, truly in shadow.
+    // The reduction linstep(0.35, 1, p) removes it, and keeps a fully lit receiver lit.
+    EXPECT_EQ(raster::reduce_light_bleeding(0.04 / 0.13, 0.35), 0.0);
+    EXPECT_EQ(raster::reduce_light_bleeding(1.0, 0.35), 1.0);
+    EXPECT_NEAR(raster::reduce_light_bleeding(0.675, 0.35), 0.5, 1e-12);
+    // One depth: zero variance, the floor decides how fast the receiver darkens behind it.
+    EXPECT_NEAR(raster::chebyshev_upper_bound(0.5, 0.25, 0.51, 1e-4), 1e-4 / (1e-4 + 1e-4), 1e-9);
+}
+
+// A plate's straight edge over a flat ground, the sun straight down: in the light's view the
+// ground and the plate are two constant depths, and for a receiver on the ground with a
+// fraction a of plate texels in the filter footprint, Chebyshev's bound is exactly
+// a(1-a) / (a(1-a) + a^2) = 1 - a: VSM's shadow across the blurred edge is the filtered lit
+// fraction. a is worked out here from the texel centres on the plate's side of its projected
+// edge, weighted by the separable Gaussian (sigma = radius / 2) convolved with the bilinear tap.
+TEST(FilterableOnDevice, VsmAcrossABlurredEdgeIsTheFilteredLitFraction) {
+    raster::ContextOptions co;
+    co.validation = true;
+    raster::VulkanContext ctx(co);
+    test::SceneBuilder b;
+    b.quad({-4, 0, -4}, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4});        // the ground: triangles 0, 1
+    b.quad({-4, 1, -4}, {-4, 1, 4}, {0.37, 1, 4}, {0.37, 1, -4});  // the plate, its edge at x = 0.37
+    // Seen from the side, below the plate: the ground under its edge is in view.
+    const Scenario sc = test::make_scenario(b.build(), test::look_at({3, 0.6, 0.3}, {0, 0, 0}, 50),
+                                            {test::directional({0, -1, 0})}, 320, 240);
+    const int blur = 3;
+    const raster::Technique t =
+        parse_technique({{"family", "vsm"}, {"resolution", 128}, {"blur", blur}, {"vsm", {{"light_bleed", 0.0}}}}, "t");
+    const raster::RasterResult r = raster::run_raster(sc, t, ctx);
+    const glm::dmat4 vp = r.stats.lights[0].projection.view_proj[0];
+    const glm::dvec3 eye = sc.camera.eye;
+    auto to_map = [&](glm::dvec3 world) {
+        const glm::dvec4 c = vp * glm::dvec4(world - eye, 1.0);
+        return (glm::dvec2(c) / c.w * 0.5 + 0.5) * 128.0;
+    };
+    // The plate's side of its edge, in the map: the sign of a 2D cross product.
+    const glm::dvec2 e0 = to_map({0.37, 1, -4}), e1 = to_map({0.37, 1, 4});
+    auto side = [&](glm::dvec2 q) { return (e1.x - e0.x) * (q.y - e0.y) - (e1.y - e0.y) * (q.x - e0.x); };
+    const double plate_side = side(to_map({-1, 1, 0}));
+    const double sigma = 0.5 * blur;
+    auto g = [&](int k) { return std::abs(k) > blur ? 0.0 : std::exp(-0.5 * k * k / (sigma * sigma)); };
+    double norm = 0;
+    for (int k = -blur; k <= blur; ++k) norm += g(k);
+
+    const glm::dvec2 plane = ndc_to_image_plane(sc.camera, sc.width, sc.height);
+    int tested = 0, in_transition = 0, off = 0;
+    double worst = 0;
+    for (int y = 0; y < sc.height; ++y)
+        for (int x = 0; x < sc.width; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * sc.width + x;
+            if (r.frame.A[i] == 0 || r.frame.prim[i] > 1) continue;  // the ground only
+            const glm::dvec2 ndc((x + 0.5) * 2.0 / sc.width - 1.0, 1.0 - (y + 0.5) * 2.0 / sc.height);
+            const glm::dvec3 d = sc.camera.forward + ndc.x * plane.x * sc.camera.right + ndc.y * plane.y * sc.camera.up;
+            const glm::dvec3 P = eye + d * (-eye.y / d.y);
+            if (std::abs(P.z) > 2 || std::abs(P.x - 0.37) > 1) continue;
+            const glm::dvec2 m = to_map(P);
+            const glm::dvec2 st = m - 0.5, base = glm::floor(st), f = st - base;
+            double a = 0;
+            for (int j = -blur; j <= blur + 1; ++j)
+                for (int k = -blur; k <= blur + 1; ++k) {
+                    const double w =
+                        ((1 - f.x) * g(k) + f.x * g(k - 1)) * ((1 - f.y) * g(j) + f.y * g(j - 1)) / (norm * norm);
+                    const glm::dvec2 centre = base + glm::dvec2(k, j) + 0.5;
+                    if (side(centre) * plate_side > 0) a += w;
+                }
+            const double err = std::abs(r.frame.lights[0].V[i] - (1.0 - a));
+            ++tested;
+            if (a > 0.05 && a < 0.95) ++in_transition;
+            if (err > 0.01) ++off;
+            worst = std::max(worst, err);
+        }
+    EXPECT_GT(tested, 2000);
+    EXPECT_GT(in_transition, 200);  // the blurred edge is in view
+    // Texel centres that fall on the edge line itself may go either way in the rasteriser.
+    EXPECT_LE(off, tested / 50) << "worst " << worst << ", tested " << tested << ", in the transition "
+                                << in_transition;
+    EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages()[0];
+}
+}  // namespace
+}  // namespace penumbra
