@@ -14,7 +14,7 @@ run sweep "$tmp/a.json" --out "$tmp/one" "${vary[@]}"
 check "sweep exits 0" test "$rc" -eq 0
 for f in sweep.csv sweep.json pareto.svg pareto.png report.html; do check "sweep writes $f" test -s "$tmp/one/$f"; done
 check "sweep.csv names the varied keys and the columns" grep -q \
-    '^resolution,filter.type,wrong_fraction,mae,rates.acne,rates.peter_panning,rates.aliasing,rates.false_shadow,rates.false_lit,perceptual.mean,production_ms,diagnostic_ms' \
+    '^resolution,filter.type,wrong_fraction,mae,rates.acne,rates.peter_panning,rates.aliasing,rates.false_shadow,rates.false_lit,rates.light_bleeding,perceptual.mean,production_ms,diagnostic_ms' \
     "$tmp/one/sweep.csv"
 check "sweep.csv has a row per configuration" test "$(wc -l <"$tmp/one/sweep.csv")" -eq 7
 check "GPU times are measured" python3 -c "
@@ -32,7 +32,7 @@ check "the plot renders in Chromium" timeout 120 chromium --headless --no-sandbo
 # Shards: the cache is shared read-only once the oracle is in it.
 chmod -R a-w "$tmp/cache"
 verdict() {  # the verdict columns of a sweep.csv (all but the four timing columns)
-    cut -d, -f1-10 "$1"
+    cut -d, -f1-11 "$1"
 }
 for n in 2 3; do
     dirs=()
