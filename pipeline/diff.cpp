@@ -33,13 +33,19 @@ LightNumbers parse_light(const nlohmann::json& value, const std::string& file, c
     n.scored = static_cast<std::uint64_t>(l.object("pixels").integer("scored", 0, kMaxCount));
     JsonObject counts = l.object("counts"), rates = l.object("rates");
     n.has_visible = l.has("counts_visible") && l.has("rates_visible");
+    // Runs written before light_bleeding existed have no such key: 0 there.
+    auto absent = [](JsonObject& o, std::size_t k) {
+        return std::string_view(kClasses[k]) == "light_bleeding" && !o.has(kClasses[k]);
+    };
     for (std::size_t k = 0; k < kClasses.size(); ++k) {
+        if (absent(counts, k) && absent(rates, k)) continue;
         n.counts[k] = static_cast<std::uint64_t>(counts.integer(kClasses[k], 0, kMaxCount));
         n.rates[k] = rates.number_in(kClasses[k], 0.0, 1.0, "a fraction in [0, 1]");
     }
     if (n.has_visible) {
         JsonObject cv = l.object("counts_visible"), rv = l.object("rates_visible");
         for (std::size_t k = 0; k < kClasses.size(); ++k) {
+            if (absent(cv, k) && absent(rv, k)) continue;
             n.counts_visible[k] = static_cast<std::uint64_t>(cv.integer(kClasses[k], 0, kMaxCount));
             n.rates_visible[k] = rv.number_in(kClasses[k], 0.0, 1.0, "a fraction in [0, 1]");
         }

@@ -20,8 +20,10 @@ namespace penumbra::diff {
 inline constexpr double kDefaultWorseTolerance = 0.001;
 
 // The classes of a wrong pixel, in report.json's order.
-inline constexpr std::array<const char*, 5> kClasses = {"acne", "peter_panning", "aliasing", "false_shadow",
-                                                        "false_lit"};
+// The error classes as report.json names them; a run without one (light_bleeding is newer
+// than the others) reads it as 0.
+inline constexpr std::array<const char*, 6> kClasses = {"acne",         "peter_panning", "aliasing",
+                                                        "false_shadow", "false_lit",     "light_bleeding"};
 
 // One light's numbers in a run; for stress, one light of one case.
 struct LightNumbers {
@@ -29,8 +31,8 @@ struct LightNumbers {
     int index = 0;
     std::string type;
     std::uint64_t scored = 0;
-    std::array<std::uint64_t, 5> counts{}, counts_visible{};
-    std::array<double, 5> rates{}, rates_visible{};
+    std::array<std::uint64_t, kClasses.size()> counts{}, counts_visible{};
+    std::array<double, kClasses.size()> rates{}, rates_visible{};
     bool has_visible = false;  // counts_visible and rates_visible were in the run (not in stress.json)
     double wrong_fraction = 0;
     std::optional<double> perceptual_mean, perceptual_max;
@@ -67,7 +69,7 @@ struct ClassChange {
 struct LightChange {
     LightNumbers a, b;
     bool visible_basis = false;  // rates_visible compared (else rates)
-    std::array<ClassChange, 5> classes;
+    std::array<ClassChange, kClasses.size()> classes;
     bool identical = false;  // the light's objects are equal
     bool worse() const;
 };

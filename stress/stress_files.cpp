@@ -17,8 +17,8 @@ std::string percent(const nlohmann::json& v) {
 
 std::string rate_cells(const nlohmann::json& light) {
     std::string s = fmt::format("<td>{}</td>", percent(light.at("wrong_fraction")));
-    for (const char* k : {"acne", "peter_panning", "aliasing", "false_shadow", "false_lit"})
-        s += fmt::format("<td>{}</td>", percent(light.at("rates").at(k)));
+    for (const char* k : {"acne", "peter_panning", "aliasing", "false_shadow", "false_lit", "light_bleeding"})
+        s += fmt::format("<td>{}</td>", percent(light.at("rates").value(k, nlohmann::json())));
     return s;
 }
 
@@ -89,7 +89,7 @@ canonical version (far and scale cases). The oracle invariant compares the case'
 version's outside uncertain pixels (docs/stress.md).</p>
 <table>
 <tr><th>case</th><th>oracle invariant</th><th>light</th><th>wrong</th><th>acne</th><th>peter-panning</th>
-<th>aliasing</th><th>false shadow</th><th>false lit</th><th>wrong at canonical</th><th>class map</th></tr>
+<th>aliasing</th><th>false shadow</th><th>false lit</th><th>light bleeding</th><th>wrong at canonical</th><th>class map</th></tr>
 {}</table>
 <p><small>penumbra {}</small></p>
 </body></html>

@@ -84,6 +84,19 @@ TEST(Diff, WithoutVisibleCountsTheRatesAreCompared) {
     EXPECT_NE(d.worse_lines[0].find("aliasing rate"), std::string::npos) << d.worse_lines[0];
 }
 
+// light_bleeding is newer than the other classes: a run without it reads it as 0, and a rise of
+// it in the other run is worse like any class's.
+TEST(Diff, LightBleedingIsComparedAndAbsentInOlderRunsIsZero) {
+    nlohmann::json b = report(0.01);
+    b["lights"][0]["counts_visible"]["light_bleeding"] = 50;
+    b["lights"][0]["rates_visible"]["light_bleeding"] = 0.05;
+    b["lights"][0]["counts"]["light_bleeding"] = 50;
+    b["lights"][0]["rates"]["light_bleeding"] = 0.05;
+    const DiffResult d = diff_runs(run(report(0.01)), run(b, "b/report.json"), 0.01);
+    ASSERT_EQ(d.worse_lines.size(), 1u);
+    EXPECT_NE(d.worse_lines[0].find("light_bleeding visible rate"), std::string::npos) << d.worse_lines[0];
+}
+
 TEST(Diff, RunsOfOtherScenariosAreRefusedNamingWhatDiffers) {
     try {
         diff_runs(run(report(0.01)), run(report(0.01, "c1"), "b/report.json"), 0.0);
