@@ -97,7 +97,7 @@ struct LookupParams {
     vec4 cascade;
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
-    vec4 moments;                       // min variance, light-bleed reduction, exponent, negative exponent
+    vec4 moments;  // min variance, light-bleed reduction, exponent, negative exponent
 };
 
 // Per pixel and light, what the technique decided and the lookups behind it.

@@ -80,7 +80,7 @@ TEST(Report, WritesEveryFileWithLegendsAndEmbeddedImages) {
     EXPECT_EQ(text.find("src=\"light0"), std::string::npos) << "images must be embedded, not linked";
     std::size_t images = 0;
     for (std::size_t at = 0; (at = text.find("data:image/png;base64,", at)) != std::string::npos; ++at) ++images;
-    EXPECT_EQ(images, 4u);  // the three maps, and the class map's thumbnail in the summary
+    EXPECT_EQ(images, 4u);                            // the three maps, and the class map's thumbnail in the summary
     EXPECT_EQ(text.find("Gate"), std::string::npos);  // no gate given, none shown
 }
 
