@@ -14,6 +14,7 @@
 #include "common/errors.h"
 #include "raster/raster.h"
 #include "raster/technique_family.h"
+#include "tests/raster/technique_errors.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -23,12 +24,7 @@ using raster::parse_technique;
 using ::testing::HasSubstr;
 
 std::string error_of(const nlohmann::json& j) {
-    try {
-        parse_technique(j, "s.json: technique");
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
+    return test::technique_error(j);
 }
 
 TEST(Filterable, VsmKeysHaveTheirDefaultsAndNestUnderTheFamilysName) {

@@ -13,6 +13,7 @@
 #include "raster/light_projection.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
+#include "tests/raster/technique_errors.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -22,12 +23,7 @@ using raster::parse_technique;
 using ::testing::HasSubstr;
 
 std::string error_of(const nlohmann::json& j) {
-    try {
-        parse_technique(j, "s.json: technique");
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
+    return test::technique_error(j);
 }
 
 TEST(FamilyKey, DefaultIsTheDepthMapAndToJsonNamesIt) {

@@ -9,6 +9,7 @@
 
 #include "common/errors.h"
 #include "raster/light_projection.h"
+#include "tests/raster/technique_errors.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -18,12 +19,7 @@ using raster::parse_technique;
 using ::testing::HasSubstr;
 
 std::string error_of(const nlohmann::json& j) {
-    try {
-        parse_technique(j, "s.json: technique");
-    } catch (const InputError& e) {
-        return e.what();
-    }
-    return "";
+    return test::technique_error(j);
 }
 
 TEST(Technique, DefaultsAreDocumented) {
