@@ -111,4 +111,18 @@ class JsonObject {
     std::set<std::string> read_;
 };
 
+// The enumerator `key` names (by its to_string, found by argument-dependent lookup), `fallback`
+// when the key is absent; any other string fails naming the key and every value it may take.
+template <typename E>
+E pick_enum(JsonObject& o, const std::string& key, E fallback, std::initializer_list<E> values) {
+    if (!o.has(key)) return fallback;
+    const std::string s = o.string(key);
+    std::string expected;
+    for (E v : values) {
+        if (s == to_string(v)) return v;
+        expected += (expected.empty() ? "\"" : ", \"") + std::string(to_string(v)) + "\"";
+    }
+    o.fail(key, "\"" + s + "\" is not one of " + expected);
+}
+
 }  // namespace penumbra

@@ -62,18 +62,6 @@ const Cascades* cascades_of(const Technique& t) {
 
 namespace {
 
-template <typename E>
-E pick_enum(JsonObject& o, const std::string& key, E fallback, std::initializer_list<E> values) {
-    if (!o.has(key)) return fallback;
-    const std::string s = o.string(key);
-    std::string expected;
-    for (E v : values) {
-        if (s == to_string(v)) return v;
-        expected += fmt::format("{}\"{}\"", expected.empty() ? "" : ", ", to_string(v));
-    }
-    o.fail(key, fmt::format("\"{}\" is not one of {}", s, expected));
-}
-
 Cascades parse_cascades(JsonObject& o) {
     Cascades c;
     const bool has_fractions = o.has("fractions");

@@ -117,18 +117,6 @@ const std::vector<Preset>& presets() {
 
 namespace {
 
-template <typename E>
-E pick(JsonObject& o, const std::string& key, E fallback, std::initializer_list<E> values) {
-    if (!o.has(key)) return fallback;
-    std::string s = o.string(key);
-    std::string expected;
-    for (E v : values) {
-        if (s == to_string(v)) return v;
-        expected += fmt::format("{}\"{}\"", expected.empty() ? "" : ", ", to_string(v));
-    }
-    o.fail(key, fmt::format("\"{}\" is not one of {}", s, expected));
-}
-
 // Reads the bias keys an object gives (any subset), checked; unknown keys are errors.
 BiasOverride read_bias(JsonObject& b) {
     BiasOverride o;
@@ -234,7 +222,7 @@ Technique parse_technique(const json& value, const std::string& label) {
     t.family = family.name;
     family.parse(o, t);
     t.precision =
-        pick(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
+        pick_enum(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
     o.finish();
     return t;
 }
@@ -242,12 +230,13 @@ Technique parse_technique(const json& value, const std::string& label) {
 void parse_depth_map_keys(JsonObject& o, Technique& t) {
     const std::string& file = o.file_label();
     t.resolution = static_cast<int>(o.integer("resolution", 2048, 16, 16384));
-    t.depth_format = pick(o, "depth_format", DepthFormat::d32, {DepthFormat::d16, DepthFormat::d24, DepthFormat::d32});
-    t.fit = pick(o, "fit", Fit::scene_bounds, {Fit::scene_sphere, Fit::scene_bounds, Fit::camera_frustum});
+    t.depth_format =
+        pick_enum(o, "depth_format", DepthFormat::d32, {DepthFormat::d16, DepthFormat::d24, DepthFormat::d32});
+    t.fit = pick_enum(o, "fit", Fit::scene_bounds, {Fit::scene_sphere, Fit::scene_bounds, Fit::camera_frustum});
     t.shadow_distance = o.number_in("shadow_distance", 0.0, 0.0, 1e12, "metres >= 0 (0: the whole view)");
     if (t.shadow_distance > 0 && t.fit != Fit::camera_frustum)
         o.fail("shadow_distance", "only the camera_frustum fit has a shadow distance");
-    t.cull = pick(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
+    t.cull = pick_enum(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
     if (o.has("bias")) {
         JsonObject b = o.object("bias");
         apply(read_bias(b), t.bias);
@@ -270,8 +259,8 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
     if (o.has("filter")) {
         JsonObject f = o.object("filter");
         t.filter.type =
-            pick(f, "type", FilterType::none,
-                 {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss});
+            pick_enum(f, "type", FilterType::none,
+                      {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss});
         t.filter.size = static_cast<int>(f.integer("size", 3, 1, 15));
         t.filter.taps = static_cast<int>(f.integer("taps", 16, 1, 64));
         t.filter.radius_texels = f.number_in("radius_texels", 1.5, 0.0, 64.0, "texels in [0, 64]");
