@@ -244,7 +244,7 @@ float moment_visibility(vec3 m, uint layer) {
     int res = int(p.map.x);
     ivec2 centre = ivec2(floor(m.xy));
     bool in_map = all(greaterThanEqual(centre, ivec2(0))) && all(lessThan(centre, ivec2(res)));
-    if (!in_map && kLightKind != kLightPoint) return 1.0;  // outside the map: the border is lit
+    if (!in_map && kLightKind != kLightPoint) return 1.0;  // outside a 2D map: lit, as a depth tap there
     vec4 mo = filtered_moments(m.xy, layer);
     float t = depth_units_ref(m.z);
     if (kFilterType == kFilterVsm) return reduce_bleeding(chebyshev(mo.xy, t, p.moments.x));
