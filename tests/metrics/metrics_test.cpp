@@ -161,14 +161,17 @@ TEST(Classification, LightLostToBiasIsPeterPanningAndReportsTheGap) {
 // boundary or one within the bias reach keep their classes.
 TEST(Classification, LightInATrueUmbraIsLightBleedingOnlyForMomentFamilies) {
     for (bool lookups : {true, false}) {
-        Frames f(5, 1);
-        f.rl().V.assign(5, 0.2f);  // the raster leaks 0.2 everywhere
-        for (std::size_t i = 0; i < 5; ++i) f.shadow(i, 0.5f);
+        Frames f(6, 1);
+        f.rl().V.assign(6, 0.2f);  // the raster leaks 0.2 everywhere
+        for (std::size_t i = 0; i < 6; ++i) f.shadow(i, 0.5f);
         f.ol().V[1] = 0.5f;  // a true penumbra, not an umbra (the raster brighter still)
         f.rl().V[1] = 0.8f;
         f.ol().boundary_m[2] = 0.005f;  // within one 0.01 m texel of a true boundary
         f.ol().occluder_m[3] = 0.005f;  // occluder within the bias reach (one texel)
         f.rl().V[4] = 0.0f;             // right
+        // Just outside the umbra: V above tau + E (here 1.5 tau, E = 0) is a penumbra's edge.
+        f.ol().V[5] = 1.5f * ScoringOptions{}.tolerance;
+        f.rl().V[5] = 0.9f;
         ScoringOptions opt;
         opt.texel_footprint_m = 0.01f;  // V only: the scales the lookups give
         opt.bias_reach_m = 0.0f;
@@ -183,6 +186,7 @@ TEST(Classification, LightInATrueUmbraIsLightBleedingOnlyForMomentFamilies) {
         EXPECT_EQ(class_of(moments, 2), PixelClass::aliasing) << lookups;
         EXPECT_EQ(class_of(moments, 3), PixelClass::peter_panning) << lookups;
         EXPECT_EQ(class_of(moments, 4), PixelClass::correct) << lookups;
+        EXPECT_EQ(class_of(moments, 5), PixelClass::false_lit) << lookups;
         EXPECT_EQ(moments.lights[0].count(PixelClass::light_bleeding), 1u);
         EXPECT_EQ(moments.lights[0].count_visible(PixelClass::light_bleeding), 1u);  // 0.2 >= 0.1
         EXPECT_EQ(to_json(moments.lights[0])["counts"]["light_bleeding"], 1);

@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "common/output_files.h"
+#include "report/bitmap_font.h"
 #include "report/report.h"
 #include "report/report_files.h"
 #include "tests/metrics/synthetic_frames.h"
@@ -60,6 +61,18 @@ TEST(ReportLegend, TheSwatchOfAClassIsThePngColourOfItsPixels) {
         const unsigned char* p = &pixels[3 * static_cast<std::size_t>(pixel)];
         const std::string swatch = fmt::format("background:#{:02x}{:02x}{:02x}\"></span>{}<", p[0], p[1], p[2], name);
         EXPECT_NE(page.find(swatch), std::string::npos) << swatch;
+    }
+    // The PNG's own legend band (under the 40 image rows) has a full swatch of each correct
+    // colour too: a reader of the PNG alone sees the same key.
+    for (const int pixel : {0, 20}) {
+        const unsigned char* want = &pixels[3 * static_cast<std::size_t>(pixel)];
+        int in_band = 0;
+        for (int y = scenario.height; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const unsigned char* p = &pixels[3 * (static_cast<std::size_t>(y) * w + x)];
+                in_band += p[0] == want[0] && p[1] == want[1] && p[2] == want[2];
+            }
+        EXPECT_GE(in_band, kGlyphHeight * kGlyphHeight) << "pixel " << pixel;
     }
 }
 
