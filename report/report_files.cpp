@@ -1,6 +1,7 @@
 #include "report/report_files.h"
 
 #include <fmt/format.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <cmath>
@@ -433,22 +434,28 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
             {fmt::format("light{}.class", li), {}, std::vector<std::uint32_t>(e.cls.begin(), e.cls.end())});
         channels.push_back({fmt::format("light{}.perceptual", li), e.perceptual, {}});
     }
-    write_exr(out, "errors.exr", W, H, channels);
-
+    // Each file is encoded on its own task (the bytes do not depend on the order); the page
+    // embeds the PNGs once they are all written.
+    tbb::task_group files;
+    files.run([&] { write_exr(out, "errors.exr", W, H, channels); });
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
-        write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li]);
-        int h = 0;
-
-        const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
-                                                       {kBrighter, "raster brighter than truth"},
-                                                       {glm::vec3(0.06f), "within tolerance"},
-                                                       {glm::vec3(0.01f), "not scored"}};
-        auto errors = with_legend(error_image(oracle.lights[li], e, n), W, H, error_legend, h);
-        write_png(out, light_file(li, "error"), W, h, errors);
-        write_png(out, light_file(li, "compare"), 2 * W, H,
-                  compare_image(oracle.A, oracle.lights[li].V, raster.lights[li].V, W, H));
+        files.run([&, li] { write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li]); });
+        files.run([&, li] {
+            const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
+                                                           {kBrighter, "raster brighter than truth"},
+                                                           {glm::vec3(0.06f), "within tolerance"},
+                                                           {glm::vec3(0.01f), "not scored"}};
+            int h = 0;
+            auto errors = with_legend(error_image(oracle.lights[li], e, n), W, H, error_legend, h);
+            write_png(out, light_file(li, "error"), W, h, errors);
+        });
+        files.run([&, li] {
+            write_png(out, light_file(li, "compare"), 2 * W, H,
+                      compare_image(oracle.A, oracle.lights[li].V, raster.lights[li].V, W, H));
+        });
     }
+    files.wait();
     out.write_json("report.json", report);
     out.write_text("report.html", html_page(in, score, report, out));
 }
