@@ -216,6 +216,27 @@ TEST_F(ShadowVolume, AnOpenMeshIsReportedAndTheRuleDecidesWhetherItCasts) {
     expect_exact(cast, 0, "open box included");
 }
 
+TEST_F(ShadowVolume, AWarmSessionKeepsEachLightsVolumesUntilTheRuleChanges) {
+    const Scenario sc = test::make_scenario(boxes_on_a_plane().build(), test::look_at({3, 6, 7}, {0, 0.3, 0}, 45),
+                                            {test::point({2.2, 2.5, 1.8})}, 160, 120);
+    raster::RasterSession session(sc, *ctx_);
+    const raster::Technique skip = raster::parse_technique(kVolumes, "test: technique");
+    nlohmann::json include_json = kVolumes;
+    include_json["shadow_volume"] = {{"open_meshes", "include"}};
+    const raster::Technique include = raster::parse_technique(include_json, "test: technique");
+    const raster::RasterResult first = session.render(skip);
+    const raster::RasterResult again = session.render(skip);
+    const raster::RasterResult changed = session.render(include);
+    EXPECT_FALSE(first.stats.lights[0].family_keys["volumes_reused"].get<bool>());
+    EXPECT_TRUE(again.stats.lights[0].family_keys["volumes_reused"].get<bool>());
+    EXPECT_EQ(again.stats.lights[0].family_keys["extrude_ms"].get<double>(), 0.0);
+    EXPECT_FALSE(changed.stats.lights[0].family_keys["volumes_reused"].get<bool>());
+    EXPECT_EQ(first.frame.lights[0].V, again.frame.lights[0].V);
+    // The ground, included, casts onto nothing: the same shadows.
+    EXPECT_EQ(changed.stats.lights[0].family_keys["open_meshes"][0]["casts"], true);
+    EXPECT_EQ(first.frame.lights[0].V, changed.frame.lights[0].V);
+}
+
 TEST(ShadowVolumeTopology, ABoxIsClosedAndEveryOpenOrNonManifoldEdgeIsCounted) {
     test::SceneBuilder b;
     b.box({0, 0, 0}, {1, 1, 1});
