@@ -502,14 +502,14 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             ls.gpu_ms.add("stencil", stencil, "the light's volumes into the stencil, two-sided, one draw");
             ls.gpu_ms.add("resolve", resolve, "stencil == 0 to V, and its copy back");
             stats.gpu_ms.add(ls.gpu_ms);
-            ls.family_keys = describe(li, lights[li]);
+            ls.family_keys = describe(li);
             stats.lights.push_back(std::move(ls));
         }
     }
 
   private:
     // raster.json's shadow_volume object of light li.
-    nlohmann::json describe(std::size_t li, const Light& light) const {
+    nlohmann::json describe(std::size_t li) const {
         const LightVolume& v = volumes_[li];
         nlohmann::json open = nlohmann::json::array();
         std::size_t open_edges = 0, non_manifold_edges = 0;
@@ -529,8 +529,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                             {"casts", !skipped}});
         }
         const std::size_t bytes = v.vertex_count * sizeof(glm::vec4);
-        return {{"light", light.origin},
-                {"meshes", topology_.meshes.size()},
+        return {{"meshes", topology_.meshes.size()},
                 {"closed_meshes", topology_.meshes.size() - open.size()},
                 {"open_meshes", open},
                 {"open_edges", open_edges},
@@ -616,7 +615,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             resolve_ = make_pipeline(ctx, volume_layout_.get(), r);
         }
         if (volumes_.size() < lights) volumes_.resize(lights);
-        if (readback_lights_ < lights) {
+        if (!queries_ || readback_lights_ < lights) {  // also with no lights: the depth pass is timed
             readback_ = create_buffer(ctx, std::max<std::size_t>(lights, 1) * s_.pixels * sizeof(float),
                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
             readback_lights_ = lights;

@@ -235,6 +235,11 @@ TEST_F(ShadowVolume, AWarmSessionKeepsEachLightsVolumesUntilTheRuleChanges) {
     // The ground, included, casts onto nothing: the same shadows.
     EXPECT_EQ(changed.stats.lights[0].family_keys["open_meshes"][0]["casts"], true);
     EXPECT_EQ(first.frame.lights[0].V, changed.frame.lights[0].V);
+    // A scenario without lights draws the depth pass alone.
+    Scenario dark = sc;
+    dark.lights.clear();
+    raster::RasterSession none(dark, *ctx_);
+    EXPECT_TRUE(none.render(skip).frame.lights.empty());
 }
 
 TEST(ShadowVolumeTopology, ABoxIsClosedAndEveryOpenOrNonManifoldEdgeIsCounted) {
