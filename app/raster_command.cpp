@@ -35,9 +35,13 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
     if (!c.quiet) {
         const auto& s = result.stats;
         for (const auto& w : s.warnings) fmt::print(stderr, "warning: {}\n", w);
-        fmt::print("raster: {}x{} px, {} lights on {}; {}^2 {} map; GPU shadow {:.2f} ms, camera {:.2f} ms\n",
-                   scenario.width, scenario.height, scenario.lights.size(), s.device.name, technique.resolution,
-                   raster::to_string(technique.depth_format), s.gpu_ms["shadow"], s.camera_ms + s.gpu_ms["lookup"]);
+        // A family without a map (shadow volumes) has resolution 0: its passes are all GPU time.
+        const std::string map = technique.resolution > 0
+                                    ? fmt::format("{}^2 {} map; GPU shadow {:.2f} ms", technique.resolution,
+                                                  raster::to_string(technique.depth_format), s.gpu_ms["shadow"])
+                                    : fmt::format("{}, no map; GPU {:.2f} ms", s.family, s.gpu_ms.total());
+        fmt::print("raster: {}x{} px, {} lights on {}; {}, camera {:.2f} ms\n", scenario.width, scenario.height,
+                   scenario.lights.size(), s.device.name, map, s.camera_ms + s.gpu_ms["lookup"]);
         fmt::print("results: {}/raster.exr, raster.json, raster.png\n", c.out.string());
     }
     return kExitSuccess;

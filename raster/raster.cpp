@@ -81,6 +81,7 @@ void prepare_scene(SceneOnGpu& s) {
         if (scene.double_sided[t]) bits[t / 32] |= 1u << (t % 32);
     }
     s.index_count = static_cast<std::uint32_t>(idx.size());
+    s.camera_view_proj = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
     s.positions = upload(ctx, pos.data(), pos.size() * sizeof(float),
                          VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     s.indices = upload(ctx, idx.data(), idx.size() * sizeof(std::uint32_t),
@@ -128,7 +129,7 @@ void prepare_scene(SceneOnGpu& s) {
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
         begin_rendering(cmd, s.gbuffer_prim.view.get(), depth.view.get(), s.width, s.height, 0.0f);
         if (s.index_count > 0) {
-            glm::mat4 vp = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
+            const glm::mat4 vp = s.camera_view_proj;
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.get());
             VkDescriptorSet set = sets[0];
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.get(), 0, 1, &set, 0, nullptr);

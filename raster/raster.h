@@ -44,6 +44,9 @@ struct RasterLightStats {
     // acne rule); a V-only render draws (or reuses) the depth alone, as an engine does.
     bool map_triangle_ids = false;
     PassTimes gpu_ms;  // this light's passes
+    // What the family's renderer says of the light for raster.json (its describe_light may
+    // return it): counts a family learns only while drawing, such as a shadow volume's edges.
+    nlohmann::json family_keys = nlohmann::json::object();
 };
 
 struct RasterStats {

@@ -111,6 +111,10 @@ const std::vector<Preset>& presets() {
                 {"shader_depth", 0},
                 {"receiver_plane", false}}},
               {"filter", {{"type", "none"}}}}},
+        {"rtr-shadow-volume",
+         "seed 001's stencil shadow volumes: silhouettes extruded to infinity, z-fail (Carmack's reverse) with "
+         "two-sided stencil, open meshes skipped (Everitt & Kilgard 2002)",
+         json{{"family", "shadow_volume"}, {"shadow_volume", {{"open_meshes", "skip"}, {"method", "zfail"}}}}},
     };
     return kPresets;
 }

@@ -38,8 +38,9 @@ struct SceneOnGpu {
     // uint3 per triangle, bits
     GpuBuffer positions, indices, double_sided;
     std::uint32_t index_count = 0;
-    GpuImage gbuffer_prim;  // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
-    std::vector<float> A;   // 1 where a triangle covers the pixel
+    GpuImage gbuffer_prim;             // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
+    glm::mat4 camera_view_proj{1.0f};  // the camera pass's clip space (reversed depth), for families that redraw it
+    std::vector<float> A;              // 1 where a triangle covers the pixel
     std::vector<std::uint32_t> prim;
     double camera_ms = 0;  // GPU time of the camera pass
 };
@@ -58,6 +59,9 @@ struct ScoringHints {
     double filter_reach_texels = 1;  // aliasing band: texel footprints around a true boundary
     double depth_quantum = 0;        // acne: depth differences below this are rounding (depth units)
     bool light_bleeding = false;     // a moment family: a lit true umbra is light_bleeding (docs/metrics.md)
+    // No texels and no bias (shadow volumes): V-only scoring is given a footprint and a bias
+    // reach of 0, so no wrong pixel is excused as aliasing or peter-panning (docs/metrics.md).
+    bool exact = false;
 };
 
 // A registered family (pbrt-v4's `Create` is the model): everything the rest of penumbra asks of
@@ -103,5 +107,6 @@ FamilyEntry cascaded_family_entry();  // raster/cascades.cpp: draws with make_de
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
 void add_filterable_families(std::deque<FamilyEntry>& families);  // vsm, esm, evsm2, evsm4 (raster/filterable.cpp)
+FamilyEntry shadow_volume_family_entry();                         // raster/shadow_volume.cpp
 
 }  // namespace penumbra::raster
