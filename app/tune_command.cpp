@@ -139,11 +139,9 @@ int run_tune_command(const TuneArgs& a) {
             for (std::size_t li = 0; li < rv.after.score.lights.size(); ++li) {
                 const auto vb = tune::visible_bias_error(rv.before.score.lights[li]);
                 const auto va = tune::visible_bias_error(rv.after.score.lights[li]);
-                fmt::print(
-                    "  {} light {}: visible acne + peter-panning {:.5f} -> {:.5f}, perceptual error {:.5f} -> "
-                    "{:.5f}\n",
-                    rv.scenario->label, li, vb.sum(), va.sum(), rv.before.score.lights[li].perceptual.mean,
-                    rv.after.score.lights[li].perceptual.mean);
+                fmt::print("  {} light {}: {} {:.5f} -> {:.5f}, perceptual error {:.5f} -> {:.5f}\n",
+                           rv.scenario->label, li, tune::VisibleBiasError::label(vb, va), vb.sum(), va.sum(),
+                           rv.before.score.lights[li].perceptual.mean, rv.after.score.lights[li].perceptual.mean);
             }
         for (std::size_t k = 0; k < report.holdout.size(); ++k)
             for (const auto& l : report.holdout[k].after.score.lights)
@@ -171,8 +169,8 @@ Subcommand add_tune_command(CLI::App& parent) {
     add_common(cmd, a->common);
     add_technique(cmd, a->technique);
     cmd->add_option("--knobs", a->knobs,
-                    "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane "
-                    "(default constant,slope)")
+                    "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane; a moment "
+                    "family's from min_variance,light_bleed,exponent,moment_bias (default constant,slope)")
         ->check(kUserName);
     cmd->add_option("--max-acne", a->max_acne,
                     "Cap on the acne rate of every scenario and light (visible acne under the default objective; "

@@ -61,7 +61,8 @@ double msm_visibility(const std::array<double, 4>& moments, double z, double alp
         const double free = ((b[2] - b[1]) * z + b[2] - b[3]) / ((b[1] - b[0]) * z + b[1] - b[2]);
         const double w = z > free ? 1.0 : 0.0;
         const double four =
-            (b[1] - b[0] + (b[2] - b[0] - (free + 1) * (b[1] - b[0])) * (free - w - z) / (z * (z - free))) / (free - w) +
+            (b[1] - b[0] + (b[2] - b[0] - (free + 1) * (b[1] - b[0])) * (free - w - z) / (z * (z - free))) /
+                (free - w) +
             1 - b[0];
         if (std::isfinite(four)) shadow = four;
     }
@@ -184,11 +185,10 @@ void parse_moment_keys(MomentKind kind, JsonObject& o, Technique& t) {
             p->variant = pick_enum(m, "variant", MsmVariant::hamburger, {MsmVariant::hamburger, MsmVariant::hausdorff});
             p->storage_bits = static_cast<int>(m.integer("storage", 32, 16, 32));
             if (p->storage_bits != 16 && p->storage_bits != 32)
-                m.fail("storage", fmt::format("{} is not 16 (optimised 16-bit quantisation) or 32 (float)",
-                                              p->storage_bits));
-            p->moment_bias = m.number_in("moment_bias",
-                                         p->storage_bits == 16 ? kMsmMomentBias16 : kMsmMomentBias32, 0.0, 0.5,
-                                         "a fraction in [0, 0.5]");
+                m.fail("storage",
+                       fmt::format("{} is not 16 (optimised 16-bit quantisation) or 32 (float)", p->storage_bits));
+            p->moment_bias = m.number_in("moment_bias", p->storage_bits == 16 ? kMsmMomentBias16 : kMsmMomentBias32,
+                                         0.0, 0.5, "a fraction in [0, 0.5]");
             m.finish();
         }
     }
@@ -210,9 +210,7 @@ nlohmann::json moment_keys_json(const Technique& t) {
                          {"light_bleed", p.light_bleed}};
             break;
         case MomentKind::msm:
-            j["msm"] = {{"variant", to_string(p.variant)},
-                        {"storage", p.storage_bits},
-                        {"moment_bias", p.moment_bias}};
+            j["msm"] = {{"variant", to_string(p.variant)}, {"storage", p.storage_bits}, {"moment_bias", p.moment_bias}};
             break;
     }
     return j;
@@ -248,17 +246,25 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
                             : kind == MomentKind::msm ? "msm"
                                                       : "evsm";
     std::erase_if(e.sweep_keys, [](const std::string& k) { return k.rfind("filter.", 0) == 0; });
-    // tune searches bias knobs only (tune/tune.h) and has none yet for the variance floor, the
-    // light-bleed reduction or the exponents that tune a moment family: it refuses the family
-    // by name (exit 2) rather than search the wrong knobs.
+    // tune searches the family's own knobs (tune/tune.h): the variance floor, the light-bleed
+    // reduction, the exponent, the moment bias. The depth-map biases stay keys, not knobs: the
+    // family's defaults leave them off.
     e.tune_knobs.clear();
     if (kind == MomentKind::esm) {
         e.sweep_keys.push_back("esm.exponent");
+        e.tune_knobs.push_back("esm.exponent");
     } else if (kind == MomentKind::msm) {
         for (const char* k : {"msm.variant", "msm.storage", "msm.moment_bias"}) e.sweep_keys.push_back(k);
+        e.tune_knobs.push_back("msm.moment_bias");
     } else {
-        for (const char* k : {".min_variance", ".light_bleed"}) e.sweep_keys.push_back(own + k);
-        if (kind != MomentKind::vsm) e.sweep_keys.push_back("evsm.exponents");
+        for (const char* k : {".min_variance", ".light_bleed"}) {
+            e.sweep_keys.push_back(own + k);
+            e.tune_knobs.push_back(own + k);
+        }
+        if (kind != MomentKind::vsm) {
+            e.sweep_keys.push_back("evsm.exponents");
+            e.tune_knobs.push_back("evsm.exponents");
+        }
     }
     return e;
 }

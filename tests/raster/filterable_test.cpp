@@ -62,9 +62,9 @@ TEST(Filterable, MsmKeysHaveThePapersDefaultsAndVariantIsSettable) {
     EXPECT_EQ(p->variant, raster::MsmVariant::hamburger);
     EXPECT_EQ(p->storage_bits, 32);
     EXPECT_DOUBLE_EQ(p->moment_bias, 3e-5);
-    EXPECT_DOUBLE_EQ(raster::moment_parameters(parse_technique({{"family", "msm"}, {"msm", {{"storage", 16}}}}, "t"))
-                         ->moment_bias,
-                     6e-5);  // 16-bit storage rounds more: the larger bias
+    EXPECT_DOUBLE_EQ(
+        raster::moment_parameters(parse_technique({{"family", "msm"}, {"msm", {{"storage", 16}}}}, "t"))->moment_bias,
+        6e-5);  // 16-bit storage rounds more: the larger bias
     EXPECT_TRUE(raster::family_of(t).hints(t).light_bleeding);
     EXPECT_EQ(t.to_json().at("msm"),
               nlohmann::json({{"variant", "hamburger"}, {"storage", 32}, {"moment_bias", 3e-5}}));
@@ -232,8 +232,8 @@ TEST(Filterable, MsmBoundOfTwoDepthsMatchesTheHandComputedValues) {
     EXPECT_GT(raster::msm_visibility(far, 0.76, raster::kMsmMomentBias32, raster::MsmVariant::hamburger), 0.7);
     // At an exact tie with the four-point solution's free point the formula is 0/0: a number
     // in [0, 1] comes out, never NaN.
-    const double tie = raster::msm_visibility(moments_of({{0.745, 0.75}, {1.0, 0.25}}), 0.745,
-                                              raster::kMsmMomentBias32, raster::MsmVariant::hausdorff);
+    const double tie = raster::msm_visibility(moments_of({{0.745, 0.75}, {1.0, 0.25}}), 0.745, raster::kMsmMomentBias32,
+                                              raster::MsmVariant::hausdorff);
     EXPECT_TRUE(tie >= 0.0 && tie <= 1.0) << tie;
 }
 
