@@ -177,8 +177,9 @@ void parse_moment_keys(MomentKind kind, JsonObject& o, Technique& t) {
             p->light_bleed = e.number_in("light_bleed", p->light_bleed, 0.0, 0.999, "a fraction in [0, 0.999]");
             e.finish();
         }
-    } else if (kind == MomentKind::msm) {
-        p->light_bleed = 0;  // Peters & Klein's bound needs none (TheRealMJP/Shadows: 0 by default)
+    } else {
+        // msm: Peters & Klein's bound needs no light-bleed reduction (TheRealMJP/Shadows: 0 by default).
+        p->light_bleed = 0;
         p->min_variance = 0;
         if (o.has("msm")) {
             JsonObject m = o.object("msm");
