@@ -178,6 +178,18 @@ void check_family_knobs(const raster::Technique& technique, std::span<const Knob
     }
 }
 
+std::string default_knobs(const raster::Technique& technique) {
+    const raster::FamilyEntry& family = raster::family_of(technique);
+    std::string own;
+    for (const std::string& key : family.tune_knobs) {
+        if (key.starts_with("bias.")) return "constant,slope";
+        std::string name = key.substr(key.find('.') + 1);
+        if (name == "exponents") name = "exponent";
+        own += (own.empty() ? "" : ",") + name;
+    }
+    return own.empty() ? "constant,slope" : own;
+}
+
 std::string describe(const Setting& s, std::span<const Knob> knobs) {
     std::string text;
     for (Knob k : knobs) {

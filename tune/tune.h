@@ -50,6 +50,9 @@ std::vector<Knob> parse_knobs(const std::string& list, const std::string& option
 // tune_knobs ("bias.<knob>", or "<family>.<knob>": "vsm.light_bleed", "esm.exponent",
 // "evsm.exponents", "msm.moment_bias"): a family without depth-map biases has nothing for it to move.
 void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option);
+// The knobs tune searches when --knobs is not given: "constant,slope" for a family with
+// depth-map biases, else the family's own ("light_bleed,min_variance" style, as parse_knobs reads).
+std::string default_knobs(const raster::Technique& technique);
 
 // The range a continuous knob is searched over, in its own unit, on a log scale; 0 is "off"
 // (for clamp, 0 is Vulkan's "unclamped", the most bias).

@@ -280,6 +280,15 @@ TEST(TuneKnobs, MomentFamiliesListTheirOwnKnobs) {
     EXPECT_NE(refusal({{"family", "vsm"}}, {Knob::exponent}).find("not a knob"), std::string::npos);
     EXPECT_NE(refusal(nlohmann::json::object(), {Knob::light_bleed}).find("not a knob"), std::string::npos);
     EXPECT_EQ(parse_knobs("light_bleed", "--knobs"), std::vector<Knob>{Knob::light_bleed});
+    // Without --knobs: the bias knobs for a depth map, the family's own for a moment family.
+    EXPECT_EQ(default_knobs(raster::parse_technique(nlohmann::json::object(), "t")), "constant,slope");
+    EXPECT_EQ(default_knobs(raster::parse_technique({{"family", "vsm"}}, "t")), "min_variance,light_bleed");
+    EXPECT_EQ(default_knobs(raster::parse_technique({{"family", "evsm4"}}, "t")), "min_variance,light_bleed,exponent");
+    EXPECT_EQ(default_knobs(raster::parse_technique({{"family", "msm"}}, "t")), "moment_bias");
+    for (const char* f : {"vsm", "esm", "evsm2", "evsm4", "msm"}) {
+        const raster::Technique t = raster::parse_technique({{"family", f}}, "t");
+        EXPECT_NO_THROW(check_family_knobs(t, parse_knobs(default_knobs(t), "--knobs"), "--knobs")) << f;
+    }
     // The setting carries the family's value in and out of the technique.
     const raster::Technique vsm = raster::parse_technique({{"family", "vsm"}, {"vsm", {{"light_bleed", 0.2}}}}, "t");
     const std::vector<Knob> lb = {Knob::light_bleed};
