@@ -244,10 +244,11 @@ KnobRange knob_range(Knob k) {
         case Knob::world: return {1e-2, 1e2, "texel footprints"};
         case Knob::normal_offset: return {1e-2, 1e1, "texels"};
         // The moment families' (docs/raster.md, "Filterable shadow maps"): around their defaults,
-        // up to where each stops making sense (the exponent: evsm's float32 cap).
+        // up to where each stops making sense (the exponent: esm's float32 cap; evsm's values
+        // beyond its own cap of 42 are drawn at 42, apply_to_family).
         case Knob::min_variance: return {1e-9, 1e-2, "squared depth units"};
         case Knob::light_bleed: return {1e-2, 0.95, "fraction"};
-        case Knob::exponent: return {1, raster::kMaxEvsmExponent, "exponent"};
+        case Knob::exponent: return {1, raster::kMaxEsmExponent, "exponent"};
         case Knob::moment_bias: return {1e-7, 1e-2, "fraction"};
         case Knob::receiver_plane: break;
     }
