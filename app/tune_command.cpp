@@ -24,7 +24,7 @@ struct TuneArgs {
     std::vector<std::filesystem::path> scenarios, holdout;
     Common common;
     TechniqueArgs technique;
-    std::string knobs = "constant,slope";
+    std::string knobs;  // empty: tune::default_knobs of the technique's family
     double max_acne = 0.001;
     int budget = 80;
     double precision = 0.05;
@@ -41,7 +41,7 @@ int run_tune_command(const TuneArgs& a) {
     const Common& c = a.common;
     // Everything the user wrote is checked before any work starts.
     tune::TuneOptions options;
-    options.knobs = tune::parse_knobs(a.knobs, "--knobs");
+    if (!a.knobs.empty()) options.knobs = tune::parse_knobs(a.knobs, "--knobs");
     options.budget = a.budget;
     options.precision = a.precision;
     options.lookups = !a.visibility_only;
@@ -56,6 +56,7 @@ int run_tune_command(const TuneArgs& a) {
     for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
     for (const auto& f : a.holdout) holdout.push_back(load_for_command(f, c));
     const raster::Technique start = resolve_technique(scenarios.front(), a.technique);
+    if (a.knobs.empty()) options.knobs = tune::parse_knobs(tune::default_knobs(start), "--knobs");
     tune::check_family_knobs(start, options.knobs, "--knobs");
     for (const auto* list : {&scenarios, &holdout})
         for (const Scenario& s : *list) {
@@ -139,11 +140,9 @@ int run_tune_command(const TuneArgs& a) {
             for (std::size_t li = 0; li < rv.after.score.lights.size(); ++li) {
                 const auto vb = tune::visible_bias_error(rv.before.score.lights[li]);
                 const auto va = tune::visible_bias_error(rv.after.score.lights[li]);
-                fmt::print(
-                    "  {} light {}: visible acne + peter-panning {:.5f} -> {:.5f}, perceptual error {:.5f} -> "
-                    "{:.5f}\n",
-                    rv.scenario->label, li, vb.sum(), va.sum(), rv.before.score.lights[li].perceptual.mean,
-                    rv.after.score.lights[li].perceptual.mean);
+                fmt::print("  {} light {}: {} {:.5f} -> {:.5f}, perceptual error {:.5f} -> {:.5f}\n",
+                           rv.scenario->label, li, tune::VisibleBiasError::label(vb, va), vb.sum(), va.sum(),
+                           rv.before.score.lights[li].perceptual.mean, rv.after.score.lights[li].perceptual.mean);
             }
         for (std::size_t k = 0; k < report.holdout.size(); ++k)
             for (const auto& l : report.holdout[k].after.score.lights)
@@ -170,9 +169,11 @@ Subcommand add_tune_command(CLI::App& parent) {
         ->check(kUserPath);
     add_common(cmd, a->common);
     add_technique(cmd, a->technique);
-    cmd->add_option("--knobs", a->knobs,
-                    "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane "
-                    "(default constant,slope)")
+    cmd->add_option(
+           "--knobs", a->knobs,
+           "Bias knobs to tune, from constant,slope,clamp,world,normal_offset,receiver_plane; a moment "
+           "family's from min_variance,light_bleed,exponent,moment_bias (default constant,slope; a moment family's "
+           "own knobs for it)")
         ->check(kUserName);
     cmd->add_option("--max-acne", a->max_acne,
                     "Cap on the acne rate of every scenario and light (visible acne under the default objective; "

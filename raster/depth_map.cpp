@@ -408,8 +408,7 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     }
     // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
     p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
-    if (const MomentParameters* m = moment_parameters(t))
-        p.moments = glm::vec4(m->min_variance, m->light_bleed, m->exponent, m->negative_exponent);
+    if (const MomentParameters* m = moment_parameters(t)) p.moments = moment_uniform(*m);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
         p.view_proj[l] = glm::mat4(projection.view_proj[l]);
         p.light_axis[l] = glm::vec4(glm::vec3(projection.axis[l]), 0.0f);

@@ -1,6 +1,7 @@
 // The filterable families (docs/raster.md, "Filterable shadow maps"): variance shadow maps
 // (Donnelly & Lauritzen 2006), exponential shadow maps (Annen et al. 2008) and exponential
-// variance shadow maps (Lauritzen & McCool 2008), with two or four moments. They share the
+// variance shadow maps (Lauritzen & McCool 2008), with two or four moments, and moment shadow
+// maps (Peters & Klein 2015), with four. They share the
 // depth-map family's map and keys (resolution, format, fit, cull, bias, lights), and its lookup
 // gathers the moments of the map's depths under a separable Gaussian and a bilinear tap, which
 // is what sampling a blurred moment map with hardware bilinear filtering gives.
@@ -14,8 +15,94 @@
 namespace penumbra::raster {
 
 const char* to_string(MomentKind k) {
-    static const char* const kNames[] = {"vsm", "esm", "evsm2", "evsm4"};
+    static const char* const kNames[] = {"vsm", "esm", "evsm2", "evsm4", "msm"};
     return kNames[static_cast<int>(k)];
+}
+
+const char* to_string(MsmVariant v) {
+    return v == MsmVariant::hamburger ? "hamburger" : "hausdorff";
+}
+
+glm::vec4 moment_uniform(const MomentParameters& p) {
+    if (p.kind == MomentKind::msm)
+        return glm::vec4(static_cast<float>(p.moment_bias), 0.0f, p.variant == MsmVariant::hausdorff ? 1.0f : 0.0f,
+                         static_cast<float>(p.storage_bits));
+    return glm::vec4(p.min_variance, p.light_bleed, p.exponent, p.negative_exponent);
+}
+
+double msm_visibility(const std::array<double, 4>& moments, double z, double alpha, MsmVariant variant) {
+    // The bias mixes in a little of the moments of a spread-out distribution, so that the Hankel
+    // matrix below stays positive definite under rounding (Peters & Klein 2015, section 5).
+    std::array<double, 4> b{};
+    for (int i = 0; i < 4; ++i) b[i] = (1 - alpha) * moments[i] + alpha * 0.5;
+    // Solve B c = (1, z, z^2) for the Hankel matrix B = [[1, b1, b2], [b1, b2, b3], [b2, b3, b4]]
+    // by its LDL^T factorisation: c's polynomial vanishes at the two other support points of
+    // the distribution with these moments that puts weight on z.
+    const double d22 = b[1] - b[0] * b[0];
+    const double l32 = (b[2] - b[0] * b[1]) / d22;
+    const double d33 = b[3] - b[1] * b[1] - l32 * l32 * d22;
+    double c2 = z - b[0];
+    double c3 = (z * z - b[1] - l32 * c2) / d33;
+    c2 = c2 / d22 - l32 * c3;
+    const double c1 = 1 - b[0] * c2 - b[1] * c3;
+    const double p = c2 / c3, q = c1 / c3;
+    const double r = std::sqrt(std::max(0.25 * p * p - q, 0.0));
+    const double z2 = -0.5 * p - r, z3 = -0.5 * p + r;
+    double shadow = 0;
+    if (z > z3) {
+        shadow = 1 - (z2 * z3 - b[0] * (z2 + z3) + b[1]) / ((z - z2) * (z - z3));
+    } else if (z > z2) {
+        shadow = (z * z3 - b[0] * (z + z3) + b[1]) / ((z3 - z2) * (z - z2));
+    }
+    if (variant == MsmVariant::hausdorff && (z2 < 0 || z3 > 1)) {
+        // Those points leave [0, 1]: the bound of four points, one of them 0 or 1 (Peters &
+        // Klein 2015, the Hausdorff moment problem). Where the receiver ties the free point the
+        // formula is 0/0 and the three-point bound stays (penumbra's guard; the paper has none).
+        const double free = ((b[2] - b[1]) * z + b[2] - b[3]) / ((b[1] - b[0]) * z + b[1] - b[2]);
+        const double w = z > free ? 1.0 : 0.0;
+        const double four =
+            (b[1] - b[0] + (b[2] - b[0] - (free + 1) * (b[1] - b[0])) * (free - w - z) / (z * (z - free))) /
+                (free - w) +
+            1 - b[0];
+        if (std::isfinite(four)) shadow = four;
+    }
+    return 1 - std::clamp(shadow, 0.0, 1.0);
+}
+
+namespace {
+
+// Peters & Klein 2015, section 4.3: q = A b + (kOffset, 0, 0, 0), rows of A; and A's inverse.
+constexpr double kMsmOffset = 0.035955884801;
+constexpr double kMsmA[4][4] = {{-2.07224649, 32.23703778, -68.571074599, 39.3703274134},
+                                {13.7948857237, -59.4683975703, 82.0359750338, -35.364903257},
+                                {0.105877704, -1.9077466311, 9.3496555107, -6.6543490743},
+                                {9.7924062118, -33.7652110555, 47.9456096605, -23.9728048165}};
+constexpr double kMsmAInverse[4][4] = {{0.2227744146, 0.0771972861, 0.7926986636, 0.0319417555},
+                                       {0.1549679261, 0.1394629426, 0.7963415838, -0.1722823173},
+                                       {0.1451988946, 0.2120202157, 0.7258694464, -0.2758014811},
+                                       {0.163127443, 0.2591432266, 0.6539092497, -0.3376131734}};
+
+}  // namespace
+
+std::array<double, 4> msm_optimise(const std::array<double, 4>& b) {
+    std::array<double, 4> q{};
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) q[i] += kMsmA[i][j] * b[j];
+    q[0] += kMsmOffset;
+    return q;
+}
+
+std::array<double, 4> msm_unoptimise(const std::array<double, 4>& q) {
+    std::array<double, 4> b{};
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) b[i] += kMsmAInverse[i][j] * (q[j] - (j == 0 ? kMsmOffset : 0.0));
+    return b;
+}
+
+std::array<double, 4> round_to_unorm16(const std::array<double, 4>& q) {
+    std::array<double, 4> r{};
+    for (int i = 0; i < 4; ++i) r[i] = std::round(std::clamp(q[i], 0.0, 1.0) * 65535.0) / 65535.0;
+    return r;
 }
 
 const MomentParameters* moment_parameters(const Technique& t) {
@@ -63,7 +150,7 @@ void parse_moment_keys(MomentKind kind, JsonObject& o, Technique& t) {
                                                p->exponent, kMaxEsmExponent));
             e.finish();
         }
-    } else {
+    } else if (kind != MomentKind::msm) {
         p->exponent = 40;  // TheRealMJP/Shadows' defaults, +40 / -5 for fp32
         // Its VSMBias 0.01 floors the warped depth's deviation at 1e-4 c exp(c w), i.e. a depth
         // deviation of 5e-5. The floor must be small here: the warped gap t - mean is at most
@@ -90,6 +177,21 @@ void parse_moment_keys(MomentKind kind, JsonObject& o, Technique& t) {
             p->light_bleed = e.number_in("light_bleed", p->light_bleed, 0.0, 0.999, "a fraction in [0, 0.999]");
             e.finish();
         }
+    } else {
+        // msm: Peters & Klein's bound needs no light-bleed reduction (TheRealMJP/Shadows: 0 by default).
+        p->light_bleed = 0;
+        p->min_variance = 0;
+        if (o.has("msm")) {
+            JsonObject m = o.object("msm");
+            p->variant = pick_enum(m, "variant", MsmVariant::hamburger, {MsmVariant::hamburger, MsmVariant::hausdorff});
+            p->storage_bits = static_cast<int>(m.integer("storage", 32, 16, 32));
+            if (p->storage_bits != 16 && p->storage_bits != 32)
+                m.fail("storage",
+                       fmt::format("{} is not 16 (optimised 16-bit quantisation) or 32 (float)", p->storage_bits));
+            p->moment_bias = m.number_in("moment_bias", p->storage_bits == 16 ? kMsmMomentBias16 : kMsmMomentBias32,
+                                         0.0, 0.5, "a fraction in [0, 0.5]");
+            m.finish();
+        }
     }
     t.family_parameters = std::move(p);
 }
@@ -107,6 +209,9 @@ nlohmann::json moment_keys_json(const Technique& t) {
             j["evsm"] = {{"exponents", {p.exponent, p.negative_exponent}},
                          {"min_variance", p.min_variance},
                          {"light_bleed", p.light_bleed}};
+            break;
+        case MomentKind::msm:
+            j["msm"] = {{"variant", to_string(p.variant)}, {"storage", p.storage_bits}, {"moment_bias", p.moment_bias}};
             break;
     }
     return j;
@@ -130,24 +235,37 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
         const MomentParameters& p = parameters_of(t);
         return nlohmann::json{{"moments",
                                {{"kind", to_string(p.kind)},
-                                {"count", p.kind == MomentKind::esm     ? 1
-                                          : p.kind == MomentKind::evsm4 ? 4
-                                                                        : 2},
+                                {"count", p.kind == MomentKind::esm                                  ? 1
+                                          : p.kind == MomentKind::evsm4 || p.kind == MomentKind::msm ? 4
+                                                                                                     : 2},
                                 {"blur_texels", p.blur},
                                 {"gathered_in_lookup", true}}}};
     };
     for (const char* k : {"blur"}) e.sweep_keys.push_back(k);
-    const std::string own = kind == MomentKind::vsm ? "vsm" : kind == MomentKind::esm ? "esm" : "evsm";
+    const std::string own = kind == MomentKind::vsm   ? "vsm"
+                            : kind == MomentKind::esm ? "esm"
+                            : kind == MomentKind::msm ? "msm"
+                                                      : "evsm";
     std::erase_if(e.sweep_keys, [](const std::string& k) { return k.rfind("filter.", 0) == 0; });
-    // tune searches bias knobs only (tune/tune.h) and has none yet for the variance floor, the
-    // light-bleed reduction or the exponents that tune a moment family: it refuses the family
-    // by name (exit 2) rather than search the wrong knobs.
+    // tune searches the family's own knobs (tune/tune.h): the variance floor, the light-bleed
+    // reduction, the exponent, the moment bias. The depth-map biases stay keys, not knobs: the
+    // family's defaults leave them off.
     e.tune_knobs.clear();
     if (kind == MomentKind::esm) {
         e.sweep_keys.push_back("esm.exponent");
+        e.tune_knobs.push_back("esm.exponent");
+    } else if (kind == MomentKind::msm) {
+        for (const char* k : {"msm.variant", "msm.storage", "msm.moment_bias"}) e.sweep_keys.push_back(k);
+        e.tune_knobs.push_back("msm.moment_bias");
     } else {
-        for (const char* k : {".min_variance", ".light_bleed"}) e.sweep_keys.push_back(own + k);
-        if (kind != MomentKind::vsm) e.sweep_keys.push_back("evsm.exponents");
+        for (const char* k : {".min_variance", ".light_bleed"}) {
+            e.sweep_keys.push_back(own + k);
+            e.tune_knobs.push_back(own + k);
+        }
+        if (kind != MomentKind::vsm) {
+            e.sweep_keys.push_back("evsm.exponents");
+            e.tune_knobs.push_back("evsm.exponents");
+        }
     }
     return e;
 }
@@ -169,6 +287,10 @@ void add_filterable_families(std::deque<FamilyEntry>& families) {
         moment_family_entry(MomentKind::evsm4,
                             "exponential variance shadow maps (Lauritzen & McCool 2008): positive and negative "
                             "warps, the smaller Chebyshev bound"));
+    families.push_back(
+        moment_family_entry(MomentKind::msm,
+                            "moment shadow maps (Peters & Klein 2015): four moments, the sharpest lower bound on the "
+                            "shadow (Hamburger or Hausdorff), 32-bit or optimised 16-bit storage"));
 }
 
 }  // namespace penumbra::raster

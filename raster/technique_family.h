@@ -106,7 +106,7 @@ FamilyEntry averaged_area_family_entry();
 FamilyEntry cascaded_family_entry();  // raster/cascades.cpp: draws with make_depth_map_family
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
-void add_filterable_families(std::deque<FamilyEntry>& families);  // vsm, esm, evsm2, evsm4 (raster/filterable.cpp)
+void add_filterable_families(std::deque<FamilyEntry>& families);  // vsm, esm, evsm2, evsm4, msm (raster/filterable.cpp)
 FamilyEntry shadow_volume_family_entry();                         // raster/shadow_volume.cpp
 
 }  // namespace penumbra::raster

@@ -199,8 +199,32 @@ float gauss(int k) {
     return exp(-0.5 * float(k * k) / (sigma * sigma));
 }
 
+// Moment shadow maps' optimised 16-bit quantisation (Peters & Klein 2015, section 4.3): the four
+// moments mapped affinely onto [0, 1]^4 before rounding, and back after filtering (the paper's
+// matrices; raster/filterable.cpp has the same numbers, and the tests compare the two).
+bool msm16() { return kFilterType == kFilterMsm && p.moments.w < 24.0; }
+vec4 unorm16(vec4 q) { return round(clamp(q, 0.0, 1.0) * 65535.0) / 65535.0; }
+vec4 msm_optimise(vec4 b) {
+    const mat4 a = mat4(-2.07224649, 13.7948857237, 0.105877704, 9.7924062118,  // column 1
+                        32.23703778, -59.4683975703, -1.9077466311, -33.7652110555,
+                        -68.571074599, 82.0359750338, 9.3496555107, 47.9456096605,
+                        39.3703274134, -35.364903257, -6.6543490743, -23.9728048165);
+    return a * b + vec4(0.035955884801, 0.0, 0.0, 0.0);
+}
+vec4 msm_unoptimise(vec4 q) {
+    const mat4 inv = mat4(0.2227744146, 0.1549679261, 0.1451988946, 0.163127443,  // column 1
+                          0.0771972861, 0.1394629426, 0.2120202157, 0.2591432266,
+                          0.7926986636, 0.7963415838, 0.7258694464, 0.6539092497,
+                          0.0319417555, -0.1722823173, -0.2758014811, -0.3376131734);
+    return inv * (q - vec4(0.035955884801, 0.0, 0.0, 0.0));
+}
+
 vec4 warp(float d) {
     if (kFilterType == kFilterVsm) return vec4(d, d * d, 0.0, 0.0);
+    if (kFilterType == kFilterMsm) {
+        vec4 b = vec4(d, d * d, d * d * d, d * d * d * d);
+        return msm16() ? unorm16(msm_optimise(b)) : b;  // the moment pass's 16-bit target
+    }
     if (kFilterType == kFilterEsm) return vec4(exp(p.moments.z * d), 0.0, 0.0, 0.0);
     float w = 2.0 * d - 1.0;  // EVSM warps depth remapped to [-1, 1]
     float pos = exp(p.moments.z * w), neg = -exp(-p.moments.w * w);
@@ -235,6 +259,44 @@ float chebyshev(vec2 m, float t, float min_variance) {
     return variance / (variance + d * d);
 }
 
+// Moment shadow maps (Peters & Klein 2015): the sharpest lower bound on the shadow of a receiver
+// at depth z given the four moments, after the moment bias p.moments.x; Hamburger over the real
+// line, Hausdorff (p.moments.z = 1) over [0, 1]. The same steps as msm_visibility in
+// raster/filterable.cpp, which the tests check this against.
+float msm_visibility(vec4 moments, float z) {
+    float alpha = p.moments.x;
+    vec4 b = mix(moments, vec4(0.5), alpha);
+    // LDL^T of the Hankel matrix [[1, b1, b2], [b1, b2, b3], [b2, b3, b4]], solving B c = (1, z, z^2).
+    float d22 = b.y - b.x * b.x;
+    float l32 = (b.z - b.x * b.y) / d22;
+    float d33 = b.w - b.y * b.y - l32 * l32 * d22;
+    float c2 = z - b.x;
+    float c3 = (z * z - b.y - l32 * c2) / d33;
+    c2 = c2 / d22 - l32 * c3;
+    float c1 = 1.0 - b.x * c2 - b.y * c3;
+    // The other two support points: the roots of c1 + c2 x + c3 x^2.
+    float pp = c2 / c3, q = c1 / c3;
+    float r = sqrt(max(0.25 * pp * pp - q, 0.0));
+    float z2 = -0.5 * pp - r, z3 = -0.5 * pp + r;
+    float shadow = 0.0;
+    if (z > z3) {
+        shadow = 1.0 - (z2 * z3 - b.x * (z2 + z3) + b.y) / ((z - z2) * (z - z3));
+    } else if (z > z2) {
+        shadow = (z * z3 - b.x * (z + z3) + b.y) / ((z3 - z2) * (z - z2));
+    }
+    if (p.moments.z > 0.5 && (z2 < 0.0 || z3 > 1.0)) {
+        // Hausdorff: those points leave [0, 1]; four points, one of them at 0 or 1. Where the
+        // receiver ties the free point the formula is 0/0: the three-point bound stays.
+        float free = ((b.z - b.y) * z + b.z - b.w) / ((b.y - b.x) * z + b.y - b.z);
+        float w = z > free ? 1.0 : 0.0;
+        float four = (b.y - b.x + (b.z - b.x - (free + 1.0) * (b.y - b.x)) * (free - w - z) / (z * (z - free))) /
+                         (free - w) +
+                     1.0 - b.x;
+        if (!isnan(four) && !isinf(four)) shadow = four;
+    }
+    return 1.0 - clamp(shadow, 0.0, 1.0);
+}
+
 // Light-bleed reduction: linstep(amount, 1, p).
 float reduce_bleeding(float pmax) {
     return clamp((pmax - p.moments.y) / (1.0 - p.moments.y), 0.0, 1.0);
@@ -248,6 +310,11 @@ float moment_visibility(vec3 m, uint layer) {
     vec4 mo = filtered_moments(m.xy, layer);
     float t = depth_units_ref(m.z);
     if (kFilterType == kFilterVsm) return reduce_bleeding(chebyshev(mo.xy, t, p.moments.x));
+    if (kFilterType == kFilterMsm) {
+        // A blurred 16-bit map is rounded again when the blur pass stores it.
+        if (msm16()) mo = msm_unoptimise(kPcfSize > 0u ? unorm16(mo) : mo);
+        return msm_visibility(mo, t);
+    }
     if (kFilterType == kFilterEsm) {
         // exp(c d) filtered times exp(-c t), in logs: exp(-c t) alone underflows float.
         return clamp(exp(log(max(mo.x, 1e-38)) - p.moments.z * t), 0.0, 1.0);

@@ -60,6 +60,7 @@ PENUMBRA_CONST uint kFilterVsm = 5;
 PENUMBRA_CONST uint kFilterEsm = 6;
 PENUMBRA_CONST uint kFilterEvsm2 = 7;
 PENUMBRA_CONST uint kFilterEvsm4 = 8;
+PENUMBRA_CONST uint kFilterMsm = 9;  // moments: moment bias, unused, variant (1 hausdorff), storage bits
 
 PENUMBRA_CONST uint kModeLookup = 0;      // write LookupTexel per pixel
 PENUMBRA_CONST uint kModeFaceMask = 1;    // only mark the cube faces receivers would sample
@@ -97,7 +98,7 @@ struct LookupParams {
     vec4 cascade;
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
-    vec4 moments;  // min variance, light-bleed reduction, exponent, negative exponent
+    vec4 moments;  // min variance, light-bleed reduction, exponent, negative exponent (msm: kFilterMsm)
 };
 
 // Per pixel and light, what the technique decided and the lookups behind it.

@@ -9,13 +9,15 @@
 #include "common/errors.h"
 #include "common/stopwatch.h"
 #include "metrics/metric_table.h"
+#include "raster/filterable.h"
 #include "raster/technique_family.h"
 
 namespace penumbra::tune {
 namespace {
 
-constexpr std::array<const char*, 6> kKnobNames = {"constant", "slope",         "clamp",
-                                                   "world",    "normal_offset", "receiver_plane"};
+constexpr std::array<const char*, 10> kKnobNames = {"constant",      "slope",         "clamp",       "world",
+                                                    "normal_offset", "min_variance",  "light_bleed", "exponent",
+                                                    "moment_bias",   "receiver_plane"};
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::size_t index_of(Knob k) {
@@ -69,7 +71,7 @@ double objective_value(const metrics::Metric* m, const metrics::LightScore& ls, 
 // Pools an evaluation's light outcomes: worst acne, and the objective, its tie-break and the
 // visible error weighted by scored pixels.
 void pool(Evaluation& e, const Objective& objective) {
-    double pooled_min = 0, pooled_then = 0, vis_acne = 0, vis_pp = 0, scored_total = 0;
+    double pooled_min = 0, pooled_then = 0, vis_acne = 0, vis_pp = 0, vis_lb = 0, scored_total = 0;
     e.worst_acne = 0;
     for (const LightOutcome& o : e.lights) {
         const double w = static_cast<double>(o.scored);
@@ -78,12 +80,13 @@ void pool(Evaluation& e, const Objective& objective) {
         pooled_then += o.then * w;
         vis_acne += o.visible.acne * w;
         vis_pp += o.visible.peter_panning * w;
+        vis_lb += o.visible.light_bleeding * w;
         scored_total += w;
     }
     if (scored_total > 0) {
         e.minimized = pooled_min / scored_total;
         e.then = pooled_then / scored_total;
-        e.visible = {vis_acne / scored_total, vis_pp / scored_total};
+        e.visible = {vis_acne / scored_total, vis_pp / scored_total, vis_lb / scored_total};
     }
     e.feasible = e.worst_acne <= objective.max_acne;
 }
@@ -110,6 +113,7 @@ void set_override(raster::BiasOverride& o, const raster::Bias& b, std::span<cons
             case Knob::world: o.world = b.world; break;
             case Knob::normal_offset: o.normal_offset = b.normal_offset; break;
             case Knob::receiver_plane: o.receiver_plane = b.receiver_plane; break;
+            default: break;  // a family knob is the technique's, never a light's
         }
 }
 
@@ -121,7 +125,27 @@ void apply_to_bias(raster::Bias& b, std::span<const Knob> knobs, const Setting& 
             case Knob::world: b.world = s[k] * footprint_m; break;
             case Knob::normal_offset: b.normal_offset = s[k]; break;
             case Knob::receiver_plane: b.receiver_plane = s.receiver_plane; break;
+            default: break;  // apply_to_family
         }
+}
+
+// The family knobs of `s` into a copy of the technique's moment parameters. The exponent is
+// esm's c, or evsm's positive one (its negative one stays), within the storage's safe range.
+void apply_to_family(raster::Technique& t, std::span<const Knob> knobs, const Setting& s) {
+    const raster::MomentParameters* base = raster::moment_parameters(t);
+    if (!base || std::none_of(knobs.begin(), knobs.end(), is_family_knob)) return;
+    auto p = std::make_shared<raster::MomentParameters>(*base);
+    for (Knob k : knobs) switch (k) {
+            case Knob::min_variance: p->min_variance = s[k]; break;
+            case Knob::light_bleed: p->light_bleed = std::min(s[k], 0.999); break;
+            case Knob::exponent:
+                p->exponent = std::min(
+                    s[k], p->kind == raster::MomentKind::esm ? raster::kMaxEsmExponent : raster::kMaxEvsmExponent);
+                break;
+            case Knob::moment_bias: p->moment_bias = s[k]; break;
+            default: break;
+        }
+    t.family_parameters = std::move(p);
 }
 
 }  // namespace
@@ -130,16 +154,40 @@ const char* to_string(Knob k) {
     return kKnobNames[index_of(k)];
 }
 
+bool is_family_knob(Knob k) {
+    return k == Knob::min_variance || k == Knob::light_bleed || k == Knob::exponent || k == Knob::moment_bias;
+}
+
 void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option) {
     const raster::FamilyEntry& family = raster::family_of(technique);
     for (Knob k : knobs) {
-        const std::string key = fmt::format("bias.{}", to_string(k));
-        if (std::find(family.tune_knobs.begin(), family.tune_knobs.end(), key) != family.tune_knobs.end()) continue;
+        // A bias knob is "bias.<knob>"; a family knob "<family>.<knob>" (evsm's "exponents").
+        const std::string name = to_string(k);
+        auto listed = [&](const std::string& key) {
+            if (!is_family_knob(k)) return key == "bias." + name;
+            const std::size_t dot = key.find('.');
+            if (dot == std::string::npos || key.starts_with("bias.")) return false;
+            const std::string own = key.substr(dot + 1);
+            return own == name || (k == Knob::exponent && own == "exponents");
+        };
+        if (std::any_of(family.tune_knobs.begin(), family.tune_knobs.end(), listed)) continue;
         std::string have;
         for (const auto& n : family.tune_knobs) have += fmt::format("{}{}", have.empty() ? "" : ", ", n);
         throw InputError(fmt::format("{}: {} is not a knob of technique family \"{}\" (its knobs: {})", option,
                                      to_string(k), family.name, have.empty() ? "none" : have));
     }
+}
+
+std::string default_knobs(const raster::Technique& technique) {
+    const raster::FamilyEntry& family = raster::family_of(technique);
+    std::string own;
+    for (const std::string& key : family.tune_knobs) {
+        if (key.starts_with("bias.")) return "constant,slope";
+        std::string name = key.substr(key.find('.') + 1);
+        if (name == "exponents") name = "exponent";
+        own += (own.empty() ? "" : ",") + name;
+    }
+    return own.empty() ? "constant,slope" : own;
 }
 
 std::string describe(const Setting& s, std::span<const Knob> knobs) {
@@ -171,7 +219,8 @@ std::vector<Knob> parse_knobs(const std::string& list, const std::string& option
         if (it == kKnobNames.end())
             throw InputError(
                 fmt::format("{}: unknown knob \"{}\" (knobs: constant, slope, clamp, world, "
-                            "normal_offset, receiver_plane)",
+                            "normal_offset, receiver_plane; a moment family's: min_variance, light_bleed, exponent, "
+                            "moment_bias)",
                             option, name));
         const Knob k = static_cast<Knob>(it - kKnobNames.begin());
         if (std::find(knobs.begin(), knobs.end(), k) != knobs.end())
@@ -182,7 +231,7 @@ std::vector<Knob> parse_knobs(const std::string& list, const std::string& option
     if (std::none_of(knobs.begin(), knobs.end(), [](Knob k) { return k != Knob::clamp && is_continuous(k); }))
         throw InputError(
             fmt::format("{}: \"{}\" has no knob that adds bias (constant, slope, world or "
-                        "normal_offset)",
+                        "normal_offset) or a moment family's (min_variance, light_bleed, exponent, moment_bias)",
                         option, list));
     return knobs;
 }
@@ -194,6 +243,13 @@ KnobRange knob_range(Knob k) {
         case Knob::clamp: return {1e-7, 1e-1, "depth units"};
         case Knob::world: return {1e-2, 1e2, "texel footprints"};
         case Knob::normal_offset: return {1e-2, 1e1, "texels"};
+        // The moment families' (docs/raster.md, "Filterable shadow maps"): around their defaults,
+        // up to where each stops making sense (the exponent: esm's float32 cap; evsm's values
+        // beyond its own cap of 42 are drawn at 42, apply_to_family).
+        case Knob::min_variance: return {1e-9, 1e-2, "squared depth units"};
+        case Knob::light_bleed: return {1e-2, 0.95, "fraction"};
+        case Knob::exponent: return {1, raster::kMaxEsmExponent, "exponent"};
+        case Knob::moment_bias: return {1e-7, 1e-2, "fraction"};
         case Knob::receiver_plane: break;
     }
     return {0, 0, ""};
@@ -204,6 +260,7 @@ raster::Technique apply_setting(const raster::Technique& base, std::span<const K
     raster::Technique t = base;
     t.preset.clear();  // the tuned bias is no longer the preset's
     apply_to_bias(t.bias, knobs, s, footprint_m);
+    apply_to_family(t, knobs, s);
     // A light's own value of a tuned knob would win over the setting: the setting is for all.
     for (raster::LightOverride& l : t.lights) {
         raster::BiasOverride& o = l.bias;
@@ -214,6 +271,7 @@ raster::Technique apply_setting(const raster::Technique& base, std::span<const K
                 case Knob::world: o.world.reset(); break;
                 case Knob::normal_offset: o.normal_offset.reset(); break;
                 case Knob::receiver_plane: o.receiver_plane.reset(); break;
+                default: break;
             }
     }
     return t;
@@ -229,11 +287,14 @@ raster::Technique apply_settings(const raster::Technique& base, std::span<const 
         apply_to_bias(b, knobs, per_light[li], footprint_m);
         set_override(t.lights[li].bias, b, knobs);
     }
+    if (!per_light.empty()) apply_to_family(t, knobs, per_light[0]);  // one value for all (tune() makes sure)
     return t;
 }
 
-Setting setting_of(const raster::Bias& b, std::span<const Knob> knobs, double footprint_m) {
+Setting setting_of(const raster::Bias& b, std::span<const Knob> knobs, double footprint_m,
+                   const raster::Technique* technique) {
     Setting s;
+    const raster::MomentParameters* m = technique ? raster::moment_parameters(*technique) : nullptr;
     for (Knob k : knobs) switch (k) {
             case Knob::constant: s[k] = b.constant; break;
             case Knob::slope: s[k] = b.slope; break;
@@ -241,12 +302,17 @@ Setting setting_of(const raster::Bias& b, std::span<const Knob> knobs, double fo
             case Knob::world: s[k] = footprint_m > 0 ? b.world / footprint_m : 0.0; break;
             case Knob::normal_offset: s[k] = b.normal_offset; break;
             case Knob::receiver_plane: s.receiver_plane = b.receiver_plane; break;
+            case Knob::min_variance: s[k] = m ? m->min_variance : 0.0; break;
+            case Knob::light_bleed: s[k] = m ? m->light_bleed : 0.0; break;
+            case Knob::exponent: s[k] = m ? m->exponent : 0.0; break;
+            case Knob::moment_bias: s[k] = m ? m->moment_bias : 0.0; break;
         }
     return s;
 }
 
 VisibleBiasError visible_bias_error(const metrics::LightScore& ls) {
-    return {ls.rate_visible(metrics::PixelClass::acne), ls.rate_visible(metrics::PixelClass::peter_panning)};
+    return {ls.rate_visible(metrics::PixelClass::acne), ls.rate_visible(metrics::PixelClass::peter_panning),
+            ls.rate_visible(metrics::PixelClass::light_bleeding)};
 }
 
 bool Objective::grows_with_bias() const {
@@ -259,17 +325,19 @@ std::string worse_than(const Evaluation& after, const Evaluation& before) {
     auto worse = [](double a, double b) { return a > b + 1e-12; };
     if (after.lights.empty() || before.lights.empty())
         return worse(after.visible.sum(), before.visible.sum())
-                   ? fmt::format("visible acne + peter-panning {:.6f}, the start's {:.6f}", after.visible.sum(),
-                                 before.visible.sum())
+                   ? fmt::format("visible acne + peter-panning + light bleeding {:.6f}, the start's {:.6f}",
+                                 after.visible.sum(), before.visible.sum())
                    : "";
     for (const LightOutcome& a : after.lights)
         for (const LightOutcome& b : before.lights)
             if (a.scenario == b.scenario && a.light == b.light && worse(a.visible.sum(), b.visible.sum()))
                 return fmt::format(
-                    "scenario {} light {}: visible acne + peter-panning {:.6f} (acne {:.6f}, peter-panning {:.6f}), "
-                    "the start's {:.6f} (acne {:.6f}, peter-panning {:.6f})",
-                    a.scenario, a.light, a.visible.sum(), a.visible.acne, a.visible.peter_panning, b.visible.sum(),
-                    b.visible.acne, b.visible.peter_panning);
+                    "scenario {} light {}: visible acne + peter-panning + light bleeding {:.6f} (acne {:.6f}, "
+                    "peter-panning {:.6f}, light bleeding {:.6f}), the start's {:.6f} (acne {:.6f}, peter-panning "
+                    "{:.6f}, light bleeding {:.6f})",
+                    a.scenario, a.light, a.visible.sum(), a.visible.acne, a.visible.peter_panning,
+                    a.visible.light_bleeding, b.visible.sum(), b.visible.acne, b.visible.peter_panning,
+                    b.visible.light_bleeding);
     return "";
 }
 
@@ -702,8 +770,9 @@ TuneResult tune(Evaluator& ev, const TuneOptions& options) {
     // The start first: it fixes the reference footprint, and no light may end worse than it.
     Evaluation start = ev.evaluate(base, Setting{});
     const double footprint = ev.footprint_m();
-    start.setting = setting_of(base.bias, options.knobs, footprint);
-    if (options.shared_bias) {
+    start.setting = setting_of(base.bias, options.knobs, footprint, &base);
+    // A family knob is the technique's: one value for every light, as with a shared bias.
+    if (options.shared_bias || std::any_of(options.knobs.begin(), options.knobs.end(), is_family_knob)) {
         TuneResult r =
             search([&](const Setting& s) { return ev.evaluate(s); }, options, base.bias.receiver_plane, &start);
         recommend(r, ev, options);

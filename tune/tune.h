@@ -22,17 +22,37 @@
 
 namespace penumbra::tune {
 
-// The bias knobs, each bounded and scaled as it behaves (docs/tune.md, "Knobs").
-enum class Knob { constant, slope, clamp, world, normal_offset, receiver_plane };
-inline constexpr std::size_t kContinuousKnobs = 5;  // all but receiver_plane
+// The bias knobs, each bounded and scaled as it behaves (docs/tune.md, "Knobs"), then the
+// moment families' own (raster/filterable.h): the variance floor (vsm, evsm), the light-bleed
+// reduction (vsm, evsm), the exponent (esm; evsm's positive one) and msm's moment bias. Those are
+// the technique's, not a light's: tune searches them with one value for every light.
+enum class Knob {
+    constant,
+    slope,
+    clamp,
+    world,
+    normal_offset,
+    min_variance,
+    light_bleed,
+    exponent,
+    moment_bias,
+    receiver_plane
+};
+inline constexpr std::size_t kContinuousKnobs = 9;  // all but receiver_plane
+// A moment family's knob (set in the family's parameters, not in the bias).
+bool is_family_knob(Knob k);
 
 const char* to_string(Knob k);
 // "constant,slope": unknown or repeated names are InputError naming `option` and the name.
 std::vector<Knob> parse_knobs(const std::string& list, const std::string& option);
 
 // Refuses (InputError naming `option`) a knob that the technique's family does not list in its
-// tune_knobs ("bias.<knob>"): a family without depth-map biases has nothing for it to move.
+// tune_knobs ("bias.<knob>", or "<family>.<knob>": "vsm.light_bleed", "esm.exponent",
+// "evsm.exponents", "msm.moment_bias"): a family without depth-map biases has nothing for it to move.
 void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option);
+// The knobs tune searches when --knobs is not given: "constant,slope" for a family with
+// depth-map biases, else the family's own ("light_bleed,min_variance" style, as parse_knobs reads).
+std::string default_knobs(const raster::Technique& technique);
 
 // The range a continuous knob is searched over, in its own unit, on a log scale; 0 is "off"
 // (for clamp, 0 is Vulkan's "unclamped", the most bias).
@@ -63,17 +83,25 @@ raster::Technique apply_setting(const raster::Technique& base, std::span<const K
 // The technique `base` with light i's tuned knobs set to `per_light[i]` in its override.
 raster::Technique apply_settings(const raster::Technique& base, std::span<const Knob> knobs,
                                  std::span<const Setting> per_light, double footprint_m);
-// The tuned knobs of a bias, as a setting (world in footprints of `footprint_m`).
-Setting setting_of(const raster::Bias& bias, std::span<const Knob> knobs, double footprint_m);
+// The tuned knobs of a bias, as a setting (world in footprints of `footprint_m`); the family
+// knobs are the technique's (`technique`, when given).
+Setting setting_of(const raster::Bias& bias, std::span<const Knob> knobs, double footprint_m,
+                   const raster::Technique* technique = nullptr);
 
 // The default objective: visible acne plus visible peter-panning per scored pixel, the error the
 // bias controls (docs/tune.md, "Objective"). Under it the acne cap is on visible acne.
 inline constexpr const char* kVisibleBiasError = "visible_bias_error";
 // Visible acne and visible peter-panning of one light, per scored pixel: pixels of the class
 // whose |error| reaches the scoring's visible threshold (--visible-threshold, docs/metrics.md).
+// A moment family's knobs trade acne for light bleeding instead: it counts too (0 for the others).
 struct VisibleBiasError {
-    double acne = 0, peter_panning = 0;
-    double sum() const { return acne + peter_panning; }
+    double acne = 0, peter_panning = 0, light_bleeding = 0;
+    double sum() const { return acne + peter_panning + light_bleeding; }
+    // "visible acne + peter-panning", and " + light bleeding" when either counted some.
+    static std::string label(const VisibleBiasError& a, const VisibleBiasError& b) {
+        return a.light_bleeding > 0 || b.light_bleeding > 0 ? "visible acne + peter-panning + light bleeding"
+                                                            : "visible acne + peter-panning";
+    }
 };
 VisibleBiasError visible_bias_error(const metrics::LightScore& ls);
 

@@ -76,7 +76,9 @@ std::vector<Row> compared(const ValidateResult& b, const ValidateResult& a, std:
     const VisibleBiasError va = visible_bias_error(la);
     rows.push_back({"visible acne rate", vb.acne, va.acne});
     rows.push_back({"visible peter-panning rate", vb.peter_panning, va.peter_panning});
-    rows.push_back({"visible acne + peter-panning", vb.sum(), va.sum()});
+    if (vb.light_bleeding > 0 || va.light_bleeding > 0)
+        rows.push_back({"visible light bleeding rate", vb.light_bleeding, va.light_bleeding});
+    rows.push_back({VisibleBiasError::label(vb, va), vb.sum(), va.sum()});
     rows.push_back({"perceptual error mean", lb.perceptual.mean, la.perceptual.mean});
     rows.push_back({"wrong fraction", lb.wrong_fraction, la.wrong_fraction});
     rows.push_back({"peter-panning gap p95 (m)", lb.peter_panning_gap_p95, la.peter_panning_gap_p95});

@@ -29,6 +29,7 @@ nlohmann::json light_outcomes(const Evaluation& e) {
                      {"acne_rate", o.acne_rate},
                      {"visible_acne", o.visible.acne},
                      {"visible_peter_panning", o.visible.peter_panning},
+                     {"visible_light_bleeding", o.visible.light_bleeding},
                      {"minimized", o.minimized},
                      {"then", o.then},
                      {"scored", o.scored}});
@@ -43,6 +44,7 @@ nlohmann::json evaluation_json(const Evaluation& e, std::span<const Knob> knobs)
             {"feasible", e.feasible},
             {"visible_acne", e.visible.acne},
             {"visible_peter_panning", e.visible.peter_panning},
+            {"visible_light_bleeding", e.visible.light_bleeding},
             {"seconds", e.seconds},
             {"lights", light_outcomes(e)}};
 }
@@ -55,7 +57,10 @@ nlohmann::json revalidation_json(std::span<const Revalidation> rs, std::span<con
         auto with_visible = [](const ValidateResult& v, std::size_t li) {
             nlohmann::json j = metrics::to_json(v.score.lights[li]);
             const VisibleBiasError e = visible_bias_error(v.score.lights[li]);
-            j["visible_bias_error"] = {{"acne", e.acne}, {"peter_panning", e.peter_panning}, {"sum", e.sum()}};
+            j["visible_bias_error"] = {{"acne", e.acne},
+                                       {"peter_panning", e.peter_panning},
+                                       {"light_bleeding", e.light_bleeding},
+                                       {"sum", e.sum()}};
             return j;
         };
         for (std::size_t li = 0; li < rs[k].before.score.lights.size(); ++li)
@@ -120,9 +125,8 @@ std::vector<std::pair<std::size_t, std::string>> worse_lights(std::span<const Re
             const VisibleBiasError va = visible_bias_error(a.lights[li]);
             const double pb = b.lights[li].perceptual.mean, pa = a.lights[li].perceptual.mean;
             if (va.sum() > vb.sum() + 1e-12)
-                out.emplace_back(li, fmt::format("{} light {}: visible acne + peter-panning {:.6f} against the "
-                                                 "start's {:.6f}",
-                                                 name, li, va.sum(), vb.sum()));
+                out.emplace_back(li, fmt::format("{} light {}: {} {:.6f} against the start's {:.6f}", name, li,
+                                                 VisibleBiasError::label(va, vb), va.sum(), vb.sum()));
             else if (pa > pb + 1e-12)
                 out.emplace_back(li, fmt::format("{} light {}: perceptual error mean {:.6f} against the start's {:.6f}",
                                                  name, li, pa, pb));

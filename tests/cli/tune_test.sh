@@ -82,6 +82,17 @@ run tune "$tmp/a.json" --out "$tmp/t3" --set resolution=512 --set bias.constant=
 check "--gate without a feasible setting exits 1" test "$rc" -eq 1
 check "--gate prints the best reachable" grep -q "best reachable" <<<"$err"
 
+# A moment family: without --knobs its own knobs are searched, one value for every light.
+run tune "$tmp/a.json" --out "$tmp/vsm" --set family=vsm --set filter.type=none --set resolution=256 --budget 3 -q
+check "tune of a vsm technique exits 0" test "$rc" -eq 0
+check "a vsm technique's knobs are its own" python3 -c "
+import json; j = json.load(open('$tmp/vsm/tune.json'))
+assert [k['name'] for k in j['knobs']] == ['min_variance', 'light_bleed'] and j['mode'] == 'shared_bias', j['knobs']
+assert 'light_bleed' in json.load(open('$tmp/vsm/technique.json'))['vsm']"
+run tune "$tmp/a.json" --out "$tmp/vsm2" --set family=vsm --set filter.type=none --knobs constant
+check "a bias knob of a moment family exits 2" test "$rc" -eq 2
+check "a bias knob of a moment family is named" grep -q -- '--knobs: constant is not a knob of technique family "vsm"' <<<"$err"
+
 # Bad input: exit 2 naming it, before any work, nothing written.
 run tune "$tmp/a.json" --out "$tmp/t4" --knobs constant,slop
 check "unknown knob exits 2" test "$rc" -eq 2
