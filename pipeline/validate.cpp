@@ -41,6 +41,8 @@ std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, c
     so.filter_reach_texels = static_cast<float>(hints.filter_reach_texels);
     so.depth_quantum = static_cast<float>(hints.depth_quantum);
     so.light_bleeding = hints.light_bleeding;
+    if (hints.texel_footprint_m) so.texel_footprint_m = static_cast<float>(*hints.texel_footprint_m);
+    if (hints.bias_reach_m) so.bias_reach_m = static_cast<float>(*hints.bias_reach_m);
     std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
     for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
     return scoring;

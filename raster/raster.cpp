@@ -61,6 +61,7 @@ void prepare_scene(SceneOnGpu& s) {
                                      s.height, max_dim));
 
     const Scene& scene = sc.scene;
+    s.camera_view_proj = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
     std::vector<float> pos(scene.positions.size() * 3);
     const bool world_float32 = s.precision == Precision::world_float32;
     for (std::size_t i = 0; i < scene.positions.size(); ++i) {
@@ -128,7 +129,7 @@ void prepare_scene(SceneOnGpu& s) {
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
         begin_rendering(cmd, s.gbuffer_prim.view.get(), depth.view.get(), s.width, s.height, 0.0f);
         if (s.index_count > 0) {
-            glm::mat4 vp = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
+            glm::mat4 vp = s.camera_view_proj;
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.get());
             VkDescriptorSet set = sets[0];
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.get(), 0, 1, &set, 0, nullptr);

@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -42,6 +43,8 @@ struct SceneOnGpu {
     std::vector<float> A;   // 1 where a triangle covers the pixel
     std::vector<std::uint32_t> prim;
     double camera_ms = 0;  // GPU time of the camera pass
+    glm::mat4 camera_view_proj{
+        1.0f};  // the camera pass's clip matrix (camera-relative positions, y flipped, reversed z)
 };
 
 class TechniqueFamily {
@@ -58,6 +61,9 @@ struct ScoringHints {
     double filter_reach_texels = 1;  // aliasing band: texel footprints around a true boundary
     double depth_quantum = 0;        // acne: depth differences below this are rounding (depth units)
     bool light_bleeding = false;     // a moment family: a lit true umbra is light_bleeding (docs/metrics.md)
+    // A family without a map or a bias (planar projection) gives both as 0: no wrong pixel is then
+    // excused as aliasing or peter-panning. Unset: estimated from the frames when there are no lookups.
+    std::optional<double> texel_footprint_m, bias_reach_m;
 };
 
 // A registered family (pbrt-v4's `Create` is the model): everything the rest of penumbra asks of
@@ -99,7 +105,8 @@ void register_technique_family(FamilyEntry entry);
 // The built-in families (each in its own file), and their drawing alone.
 FamilyEntry depth_map_family_entry();
 FamilyEntry averaged_area_family_entry();
-FamilyEntry cascaded_family_entry();  // raster/cascades.cpp: draws with make_depth_map_family
+FamilyEntry cascaded_family_entry();           // raster/cascades.cpp: draws with make_depth_map_family
+FamilyEntry planar_projection_family_entry();  // raster/planar_projection.cpp
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
 void add_filterable_families(std::deque<FamilyEntry>& families);  // vsm, esm, evsm2, evsm4 (raster/filterable.cpp)

@@ -500,6 +500,10 @@ TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
         {{"family", "cascaded"},
          {"filter", {{"type", "pcf"}}},
          {"cascades", {{"split", "uniform"}, {"max_distance", 15}, {"overlap", 0.3}, {"fit", "bounds"}}}},
+        {{"preset", "rtr-midpoint"}, {"resolution", 512}},
+        {{"depth_layer", "midpoint"}, {"bias", {{"slope", 1.5}}}},
+        {{"depth_layer", "second"}},
+        {{"preset", "rtr-planar"}},
         {{"bias", {{"slope", 1.5}}}},
     };
     raster::RasterSession session(sc, *ctx_);
