@@ -814,10 +814,19 @@ FamilyEntry depth_map_family_entry() {
                             layers * static_cast<int>(depth_texel_bytes(t.depth_format)) + (layers - 1) * 4, 0};
     };
     e.describe_light = [](const Technique& t, const Light& light, const RasterLightStats&) {
+        nlohmann::json j = nlohmann::json::object();
+        // What the map stores, when it is not the nearest surface (docs/raster.md, "Midpoint and second depth").
+        if (t.depth_layer == DepthLayer::midpoint)
+            j["depth_layer"] = {{"stores", "midpoint"},
+                                {"depth_layers", 2},
+                                {"second", "nearest surface more than 2 depth quanta behind the first (peeled)"},
+                                {"no_second", "the clear value 1 (the far plane)"}};
+        else if (t.depth_layer == DepthLayer::second)
+            j["depth_layer"] = {{"stores", "second"}, {"depth_layers", 1}, {"faces", "back faces only (cull front)"}};
         // An area light is drawn from its centre: with PCSS sizing the penumbra by the light's size.
-        if (!is_area_light(light.type)) return nlohmann::json::object();
-        return nlohmann::json{
-            {"area", {{"method", t.filter.type == FilterType::pcss ? "pcss" : "centre_point"}, {"maps", 1}}}};
+        if (is_area_light(light.type))
+            j["area"] = {{"method", t.filter.type == FilterType::pcss ? "pcss" : "centre_point"}, {"maps", 1}};
+        return j;
     };
     e.sweep_keys = {"resolution",
                     "depth_format",

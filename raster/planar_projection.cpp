@@ -337,9 +337,11 @@ FamilyEntry planar_projection_family_entry() {
     e.memory = [](const Technique&) { return RasterMemory{0, 4, 0, 0, 0, 0}; };
     e.describe_light = [](const Technique& t, const Light&, const RasterLightStats&) {
         const PlanarProjection* p = planar_of(t);
-        return nlohmann::json{{"planar",
+        return nlohmann::json{{"projection", "planar"},
+                              {"planar",
                                {{"plane", p && p->plane ? plane_json(*p->plane) : nlohmann::json("largest_upward")},
-                                {"receivers", "the plane only"}}}};
+                                {"receivers", "the plane only"},
+                                {"stencil", "one mark per pixel: never darkened twice"}}}};
     };
     e.sweep_keys = {"planar.plane", "precision"};
     e.make = [](const SceneOnGpu& scene) -> std::unique_ptr<TechniqueFamily> {

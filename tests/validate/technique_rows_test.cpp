@@ -164,13 +164,18 @@ TEST_F(TechniqueRows, PlanarProjectionIsRightOnTheGroundAndFalseLightEverywhereE
     const ValidateResult r = run(sc, {{"preset", "rtr-planar"}});
     const metrics::LightScore& s = r.score.lights[0];
     // On the ground: the shadow of both boxes, right to within a rasterised edge.
-    std::uint64_t ground_scored = 0, ground_wrong = 0;
+    std::uint64_t ground_scored = 0, ground_wrong = 0, ground_dark = 0;
     const auto& cls = r.score.images[0].cls;
     for (std::size_t i = 0; i < cls.size(); ++i) {
         if (r.raster.frame.prim[i] >= 2 || cls[i] < static_cast<std::uint8_t>(PixelClass::correct)) continue;
         ++ground_scored;
         ground_wrong += cls[i] != static_cast<std::uint8_t>(PixelClass::correct);
+        ground_dark += r.raster.frame.lights[0].V[i] == 0.0f;
     }
+    EXPECT_GT(ground_dark, 500u) << "the boxes' shadows on the ground";
+    std::printf("  ground: %llu of %llu scored pixels wrong, %llu in shadow\n",
+                static_cast<unsigned long long>(ground_wrong), static_cast<unsigned long long>(ground_scored),
+                static_cast<unsigned long long>(ground_dark));
     ASSERT_GT(ground_scored, 10000u);
     EXPECT_LE(ground_wrong, ground_scored / 200) << "more than 0.5% wrong on the receiver plane";
     // Off the ground nothing is shadowed: the low box's faces in the floating box's shadow are
