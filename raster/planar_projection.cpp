@@ -185,6 +185,7 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
 void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> lights, const RenderOptions&,
                                     RasterFrame& frame, RasterStats& stats) {
     auto t0 = SteadyClock::now();
+    stats.hw2x2 = "unused";  // no map, no compare
     const Scenario& sc = s_.scenario;
     const Scene& scene = sc.scene;
     const PlanarProjection* params = planar_of(t);
