@@ -28,6 +28,7 @@
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
 #include "lookup_comp.h"
+#include "peel_frag.h"
 #include "shadow_frag.h"
 #include "shadow_vert.h"
 
@@ -142,6 +143,7 @@ struct MapContent {
     DepthFormat format = DepthFormat::d32;
     Cull cull = Cull::back;
     double constant = 0, slope = 0, clamp = 0;
+    DepthLayer depth_layer = DepthLayer::first;
     bool operator==(const MapContent&) const = default;
 };
 
@@ -160,6 +162,21 @@ constexpr const char* kShadowDepthOnly =
 constexpr const char* kLookupDiagnostic =
     "compute pass per light: V and every diagnostic lookup (36 bytes a pixel), without the copy to the host";
 constexpr const char* kLookupV = "compute pass per light: V alone (4 bytes a pixel), without the copy to the host";
+constexpr const char* kSecondDepth =
+    "midpoint depth's second pass per drawn map layer: every triangle again, fragments at or in front of the first "
+    "layer discarded, the rest writing the midpoint between the first layer and themselves (depth test less)";
+
+// Timestamps per light: before the shadow pass, after it, after the second-depth pass (midpoint
+// only, else at once), after the lookup.
+constexpr std::uint32_t kQueriesPerLight = 4;
+
+// The midpoint pass's set: the first depth layer, read by texelFetch.
+constexpr std::array<BindingDecl, 1> kPeelBindings = {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER}}};
+struct PeelPush {
+    glm::mat4 view_proj;
+    std::uint32_t layer;
+    float epsilon;  // depth units: the first layer's own surface, drawn again, is within it
+};
 
 std::uint64_t depth_texel_bytes(DepthFormat f) {
     return f == DepthFormat::d16 ? 2 : 4;
@@ -181,6 +198,10 @@ class DepthMapFamily final : public TechniqueFamily {
     struct LightMap {
         GpuImage depth, prim;
         std::vector<UniqueImageView> depth_layers, prim_layers;
+        // Midpoint depth only: the first layer (`depth` then holds the midpoint the lookup reads)
+        // and the second pass's triangle ids (its pipeline has a colour target; nothing reads them).
+        GpuImage first, second_prim;
+        std::vector<UniqueImageView> first_layers, second_prim_layers;
         std::optional<MapContent> content;  // set: drawn, in SHADER_READ_ONLY_OPTIMAL
         bool triangle_ids = false;          // `prim` holds the triangle ids of `content` (else stale)
         bool read_only = false;             // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
@@ -188,10 +209,14 @@ class DepthMapFamily final : public TechniqueFamily {
 
     void check_supported(const Technique& t, RasterStats& stats);
     VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
+    VkPipeline peel_pipeline(const Technique& t);
     VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
     VkSampler compare_sampler(bool linear, bool clamp_to_border);
     void ensure_maps(const Technique& t, std::span<const Light> lights);
-    LightMap& map_of(std::size_t li) { return maps_[maps_.size() == 1 ? 0 : li]; }
+    std::size_t map_of_index(std::size_t li) const { return maps_.size() == 1 ? 0 : li; }
+    LightMap& map_of(std::size_t li) { return maps_[map_of_index(li)]; }
+    void record_second_depth(VkCommandBuffer cmd, const Technique& t, LightMap& map, std::size_t map_index,
+                             const RasterLightStats& ls, std::uint32_t res);
     void record_map_layouts(VkCommandBuffer cmd);
     void ensure_slots(std::size_t n, bool lookups);
     void ensure_queries(std::uint32_t count);
@@ -207,8 +232,10 @@ class DepthMapFamily final : public TechniqueFamily {
     bool hardware_compare_ = false;
     bool direct_readback_ = false;  // the device shares host memory: the lookup writes where the CPU reads
 
-    DescriptorSets sets_;
-    UniquePipelineLayout shadow_layout_, lookup_layout_;
+    DescriptorSets sets_, peel_sets_;
+    UniquePipelineLayout shadow_layout_, lookup_layout_, peel_layout_;
+    std::map<std::pair<VkFormat, Cull>, UniquePipeline> peel_pipelines_;
+    bool maps_midpoint_ = false;  // maps_ have their first-layer images
     std::map<std::tuple<VkFormat, Cull, bool, bool>, UniquePipeline> shadow_pipelines_;
     std::map<SpecData, UniquePipeline> lookup_pipelines_;
     std::map<std::pair<bool, bool>, UniqueSampler> compare_samplers_;
@@ -228,9 +255,12 @@ DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
     : s_(scene),
       ctx_(scene.ctx),
       direct_readback_(scene.ctx.info().type == "cpu" || scene.ctx.info().type == "integrated-gpu"),
-      sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
+      sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT),
+      peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT) {
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
+    peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
+                                        VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
     nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
 }
 
@@ -270,6 +300,21 @@ VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids
     return p.get();
 }
 
+// Midpoint depth's second pass: no bias (the midpoint is the bias), the technique's culling.
+VkPipeline DepthMapFamily::peel_pipeline(const Technique& t) {
+    UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), t.cull}];
+    if (!p) {
+        VkCullModeFlags cull = t.cull == Cull::none   ? VK_CULL_MODE_NONE
+                               : t.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
+                                                      : VK_CULL_MODE_FRONT_BIT;
+        p = make_graphics_pipeline(
+            ctx_, peel_layout_.get(),
+            {kShadowVert, sizeof(kShadowVert), kPeelFrag, sizeof(kPeelFrag), vk_format(t.depth_format),
+             VK_COMPARE_OP_LESS, cull, VK_FRONT_FACE_CLOCKWISE, true, false});
+    }
+    return p.get();
+}
+
 VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode) {
     const MomentParameters* moments = moment_parameters(t);
     SpecData spec = {kind,
@@ -300,18 +345,19 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
                : cascaded(t, l)           ? static_cast<std::uint32_t>(cascades_of(t)->count)
                                           : 1u;
     };
+    const bool midpoint = t.depth_layer == DepthLayer::midpoint;
     std::vector<std::uint32_t> wanted;
     std::uint64_t bytes = 0;
     for (const Light& l : lights) {
         wanted.push_back(layers_of(l));
-        bytes += std::uint64_t{res} * res * layers_of(l) * (depth_texel_bytes(t.depth_format) + 4);
+        bytes += std::uint64_t{res} * res * layers_of(l) * (depth_texel_bytes(t.depth_format) + 4) * (midpoint ? 2 : 1);
     }
     if (wanted.empty() || bytes > kMapBudgetBytes) {
         std::uint32_t most = 1;
         for (const Light& l : lights) most = std::max(most, layers_of(l));
         wanted = {most};  // one map for all
     }
-    bool same = maps_.size() == wanted.size();
+    bool same = maps_.size() == wanted.size() && maps_midpoint_ == midpoint;
     for (std::size_t i = 0; same && i < wanted.size(); ++i)
         same = maps_[i].depth.format == format && maps_[i].depth.width == res && maps_[i].depth.layers == wanted[i];
     if (same) return;
@@ -325,13 +371,30 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
         maps_arena_.add(maps_[i].prim, kPrimFormat, res, res, wanted[i],
                         VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
                         true);
+        if (!midpoint) continue;
+        maps_arena_.add(maps_[i].first, format, res, res, wanted[i],
+                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                        VK_IMAGE_ASPECT_DEPTH_BIT, true);
+        maps_arena_.add(maps_[i].second_prim, kPrimFormat, res, res, wanted[i], VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
+                        VK_IMAGE_ASPECT_COLOR_BIT, true);
     }
     maps_arena_.commit();
+    maps_midpoint_ = midpoint;
     for (LightMap& m : maps_)
         for (std::uint32_t l = 0; l < m.depth.layers; ++l) {
             m.depth_layers.push_back(create_layer_view(ctx_, m.depth, l, VK_IMAGE_ASPECT_DEPTH_BIT));
             m.prim_layers.push_back(create_layer_view(ctx_, m.prim, l, VK_IMAGE_ASPECT_COLOR_BIT));
+            if (!midpoint) continue;
+            m.first_layers.push_back(create_layer_view(ctx_, m.first, l, VK_IMAGE_ASPECT_DEPTH_BIT));
+            m.second_prim_layers.push_back(create_layer_view(ctx_, m.second_prim, l, VK_IMAGE_ASPECT_COLOR_BIT));
         }
+    if (!midpoint) return;
+    peel_sets_.reserve(maps_.size());
+    for (std::size_t i = 0; i < maps_.size(); ++i) {
+        std::array<DescriptorResource, kPeelBindings.size()> r{};
+        r[0].image = {nearest_.get(), maps_[i].first.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        peel_sets_.write(i, r);
+    }
 }
 
 // The lookup descriptors name the maps in SHADER_READ_ONLY, the mask dispatches' too (which
@@ -444,11 +507,12 @@ void DepthMapFamily::record_masks(VkCommandBuffer cmd, std::span<const Light> li
 
 void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li,
                                   RasterLightStats& ls, const RenderOptions& options) {
-    const auto q = static_cast<std::uint32_t>(2 + 3 * li);
+    const auto q = static_cast<std::uint32_t>(2 + kQueriesPerLight * li);
     const auto res = static_cast<std::uint32_t>(t.resolution);
+    const bool midpoint = t.depth_layer == DepthLayer::midpoint;
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
     MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
-                       t.bias.constant,         t.bias.slope,      t.bias.clamp};
+                       t.bias.constant,         t.bias.slope,      t.bias.clamp, t.depth_layer};
     LightMap& map = map_of(li);
     // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
     // ids serves it too, but a depth-only map must be drawn again for the lookups.
@@ -463,6 +527,14 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+        // Midpoint: the first pass draws the first layer, read by the second pass, which draws `depth`.
+        if (midpoint)
+            image_barrier(
+                cmd, map.first.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.first.layers, VK_IMAGE_LAYOUT_UNDEFINED,
+                VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE,
+                kFragmentTests,
+                VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+        const std::vector<UniqueImageView>& first_views = midpoint ? map.first_layers : map.depth_layers;
         // Without ids the id image stays as it is (SHADER_READ_ONLY, bound but never read).
         if (triangle_ids)
             image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
@@ -475,8 +547,8 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
-            begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE,
-                            map.depth_layers[layer].get(), res, res, 1.0f);
+            begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE, first_views[layer].get(),
+                            res, res, 1.0f);
             vkCmdSetDepthBias(cmd, static_cast<float>(t.bias.constant), static_cast<float>(t.bias.clamp),
                               static_cast<float>(t.bias.slope));
             glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
@@ -485,6 +557,8 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
             vkCmdEndRendering(cmd);
             ++ls.layers_rendered;
         }
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
+        if (midpoint) record_second_depth(cmd, t, map, map_of_index(li), ls, res);
         image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
                       VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                       kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
@@ -498,14 +572,16 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
         map.triangle_ids = triangle_ids;
     }
     ls.map_triangle_ids = ls.layers_sampled != 0 && map.triangle_ids;
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
+    if (ls.layers_sampled == 0 || ls.map_reused)
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 2);
     vkCmdBindPipeline(
         cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
         lookup_pipeline(t, light_kind(t, light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
     VkDescriptorSet set = sets_[li];
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 2);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 3);
     const Slot& slot = slots_[li];
     if (direct_readback_) {
         memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
@@ -518,6 +594,37 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.output_host.buffer.get(), 1, &region);
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                    VK_ACCESS_2_HOST_READ_BIT);
+}
+
+// Midpoint depth (Woo 1992): every sampled layer drawn again into `depth`, keeping behind each
+// texel's first layer the nearest surface's midpoint with it (shaders/peel.frag). The
+// first layer was just drawn into `map.first` (with the technique's bias, if any).
+void DepthMapFamily::record_second_depth(VkCommandBuffer cmd, const Technique& t, LightMap& map, std::size_t map_index,
+                                         const RasterLightStats& ls, std::uint32_t res) {
+    image_barrier(cmd, map.first.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.first.layers,
+                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, kFragmentTests,
+                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    image_barrier(cmd, map.second_prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.second_prim.layers,
+                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
+                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, peel_pipeline(t));
+    VkDescriptorSet set = peel_sets_[map_index];
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, peel_layout_.get(), 0, 1, &set, 0, nullptr);
+    // Two depth quanta: the first layer's own surface drawn again lies within one of it (a UNORM
+    // map rounds it), and never behind by more.
+    const float epsilon = static_cast<float>(2 * std::max(depth_resolution(t.depth_format), std::ldexp(1.0, -22)));
+    for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
+        if (!(ls.layers_sampled & (1u << layer))) continue;
+        begin_rendering(cmd, map.second_prim_layers[layer].get(), map.depth_layers[layer].get(), res, res, 1.0f);
+        vkCmdSetDepthBias(cmd, 0.0f, 0.0f, 0.0f);
+        const PeelPush push{glm::mat4(ls.projection.view_proj[layer]), layer, epsilon};
+        vkCmdPushConstants(cmd, peel_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
+                           sizeof(push), &push);
+        if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
+        vkCmdEndRendering(cmd);
+    }
 }
 
 const GpuBuffer& DepthMapFamily::host_copy(const Slot& slot) const {
@@ -567,7 +674,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         std::any_of(lights.begin(), lights.end(), [](const Light& l) { return l.type == LightType::point; });
     ensure_maps(t, lights);
     ensure_slots(n, options.lookups);
-    ensure_queries(static_cast<std::uint32_t>(2 + 3 * n));
+    ensure_queries(static_cast<std::uint32_t>(2 + kQueriesPerLight * n));
     if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
 
     const Scenario& sc = s_.scenario;
@@ -633,7 +740,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         if (cascaded(t, lights[li]))
             stats.lights[li].layers_sampled = (1u << stats.lights[li].projection.view_proj.size()) - 1u;
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
-        if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(3 * n));
+        if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(kQueriesPerLight * n));
         record_map_layouts(cmd);
         for (std::size_t li = 0; li < n; ++li)
             record_light(cmd, t.for_light(li), lights[li], li, stats.lights[li], options);
@@ -641,7 +748,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     stats.render_s += seconds_since(t1);
 
     // All timestamps in one query-pool read.
-    const std::uint32_t queries = static_cast<std::uint32_t>(2 + 3 * n);
+    const std::uint32_t queries = static_cast<std::uint32_t>(2 + kQueriesPerLight * n);
     std::vector<std::uint64_t> ts(queries, 0);
     const std::uint32_t first = any_point ? 0 : 2;
     if (queries > first)
@@ -652,10 +759,11 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         return ts[b] >= ts[a] ? static_cast<double>(ts[b] - ts[a]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
     };
     for (std::size_t li = 0; li < n; ++li) {
-        const auto q = static_cast<std::uint32_t>(2 + 3 * li);
+        const auto q = static_cast<std::uint32_t>(2 + kQueriesPerLight * li);
         RasterLightStats& ls = stats.lights[li];
         ls.gpu_ms.add("shadow", ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
-        ls.gpu_ms.add("lookup", ms(q + 1, q + 2), options.lookups ? kLookupDiagnostic : kLookupV);
+        if (t.depth_layer == DepthLayer::midpoint) ls.gpu_ms.add("second_depth", ms(q + 1, q + 2), kSecondDepth);
+        ls.gpu_ms.add("lookup", ms(q + 2, q + 3), options.lookups ? kLookupDiagnostic : kLookupV);
         stats.gpu_ms.add(ls.gpu_ms);
         frame.lights.push_back(read_back(li, options.lookups));
     }
@@ -678,12 +786,17 @@ FamilyEntry depth_map_family_entry() {
         "hw2x2, pcf, poisson, pcss";
     e.parse = [](JsonObject& o, Technique& t) {
         parse_depth_map_keys(o, t);
+        t.depth_layer = pick_enum(o, "depth_layer", DepthLayer::first,
+                                  {DepthLayer::first, DepthLayer::midpoint, DepthLayer::second});
+        // Second-depth shadow mapping is the map of back faces alone: what `cull: front` draws.
+        if (t.depth_layer == DepthLayer::second) t.cull = Cull::front;
         // Written by to_json as 0 (raster.json readers find it there); more is another family's.
         if (o.has("area_samples") && o.integer("area_samples", 0, 256) > 0)
             o.fail("area_samples", "only the averaged_area family draws area samples (\"family\": \"averaged_area\")");
     };
     e.write = [](const Technique& t, nlohmann::json& j) {
         j.update(depth_map_keys_json(t));
+        j["depth_layer"] = to_string(t.depth_layer);
         j["area_samples"] = 0;
     };
     e.hints = [](const Technique& t) {
@@ -693,13 +806,26 @@ FamilyEntry depth_map_family_entry() {
                             std::max(depth_resolution(t.depth_format), std::ldexp(1.0, -22))};
     };
     e.memory = [](const Technique& t) {
-        return RasterMemory{t.resolution, static_cast<int>(depth_texel_bytes(t.depth_format)), 0};
+        // The midpoint keeps two depth layers a texel (the first, and the midpoint the lookup reads)
+        // and the second pass's triangle ids: counted as twice the bytes of a texel.
+        const int layers = t.depth_layer == DepthLayer::midpoint ? 2 : 1;
+        return RasterMemory{t.resolution,
+                            layers * static_cast<int>(depth_texel_bytes(t.depth_format)) + (layers - 1) * 4, 0};
     };
     e.describe_light = [](const Technique& t, const Light& light, const RasterLightStats&) {
+        nlohmann::json j = nlohmann::json::object();
+        // What the map stores, when it is not the nearest surface (docs/raster.md, "Midpoint and second depth").
+        if (t.depth_layer == DepthLayer::midpoint)
+            j["depth_layer"] = {{"stores", "midpoint"},
+                                {"depth_layers", 2},
+                                {"second", "nearest surface more than 2 depth quanta behind the first (peeled)"},
+                                {"no_second", "the clear value 1 (the far plane)"}};
+        else if (t.depth_layer == DepthLayer::second)
+            j["depth_layer"] = {{"stores", "second"}, {"depth_layers", 1}, {"faces", "back faces only (cull front)"}};
         // An area light is drawn from its centre: with PCSS sizing the penumbra by the light's size.
-        if (!is_area_light(light.type)) return nlohmann::json::object();
-        return nlohmann::json{
-            {"area", {{"method", t.filter.type == FilterType::pcss ? "pcss" : "centre_point"}, {"maps", 1}}}};
+        if (is_area_light(light.type))
+            j["area"] = {{"method", t.filter.type == FilterType::pcss ? "pcss" : "centre_point"}, {"maps", 1}};
+        return j;
     };
     e.sweep_keys = {"resolution",
                     "depth_format",
@@ -719,6 +845,7 @@ FamilyEntry depth_map_family_entry() {
                     "filter.radius_texels",
                     "filter.bilinear_taps",
                     "filter.max_radius_texels",
+                    "depth_layer",
                     "precision"};
     e.tune_knobs = {"bias.constant", "bias.slope",         "bias.clamp",
                     "bias.world",    "bias.normal_offset", "bias.receiver_plane"};

@@ -61,6 +61,7 @@ void prepare_scene(SceneOnGpu& s) {
                                      s.height, max_dim));
 
     const Scene& scene = sc.scene;
+    s.camera_view_proj = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
     std::vector<float> pos(scene.positions.size() * 3);
     const bool world_float32 = s.precision == Precision::world_float32;
     for (std::size_t i = 0; i < scene.positions.size(); ++i) {

@@ -27,6 +27,10 @@ const char* to_string(Cull c) {
     static const char* const kNames[] = {"none", "back", "front"};
     return kNames[static_cast<int>(c)];
 }
+const char* to_string(DepthLayer d) {
+    static const char* const kNames[] = {"first", "midpoint", "second"};
+    return kNames[static_cast<int>(d)];
+}
 const char* to_string(Precision p) {
     static const char* const kNames[] = {"camera_relative", "world_float32"};
     return kNames[static_cast<int>(p)];
@@ -115,6 +119,27 @@ const std::vector<Preset>& presets() {
          "seed 001's stencil shadow volumes: silhouettes extruded to infinity, z-fail (Carmack's reverse) with "
          "two-sided stencil, open meshes skipped (Everitt & Kilgard 2002)",
          json{{"family", "shadow_volume"}, {"shadow_volume", {{"open_meshes", "skip"}, {"method", "zfail"}}}}},
+        {"rtr-midpoint",
+         "seed 001's midpoint row (Woo, Graphics Gems III, 1992): the map stores the midpoint between the nearest "
+         "surface and the next one behind it (a second, peeled depth pass), both faces drawn, no bias of any kind, "
+         "a single tap",
+         json{{"family", "depth_map"},
+              {"depth_layer", "midpoint"},
+              {"cull", "none"},
+              {"bias",
+               {{"constant", 0},
+                {"slope", 0},
+                {"clamp", 0},
+                {"world", 0},
+                {"normal_offset", 0},
+                {"shader_depth", 0},
+                {"receiver_plane", false}}},
+              {"filter", {{"type", "none"}}}}},
+        {"rtr-planar",
+         "seed 001's planar-projection row (Blinn, \"Me and My (Fake) Shadow\", 1988): casters flattened onto the "
+         "scene's largest upward plane by the light's projection matrix, drawn once per pixel through a stencil; "
+         "only that plane receives shadow",
+         json{{"family", "planar_projection"}}},
     };
     return kPresets;
 }

@@ -20,6 +20,10 @@ enum class Fit { scene_sphere, scene_bounds, camera_frustum };
 enum class DepthFormat { d16, d24, d32 };
 enum class Cull { none, back, front };
 enum class FilterType { none, hw2x2, pcf, poisson, pcss };
+// Which depth the map stores (docs/raster.md, "Midpoint and second depth"): the nearest surface
+// (first), Woo's midpoint between the nearest and the next surface behind it (Graphics Gems III,
+// 1992), or the back faces alone (second: Wang & Molnar's second-depth shadow mapping, 1994).
+enum class DepthLayer { first, midpoint, second };
 // How the raster path spends float precision (docs/raster.md, "precision"): camera_relative
 // subtracts the camera in double before anything is float; world_float32 keeps vertex and light
 // positions and the light matrices in world-space float32, as most engines do, so that a scene
@@ -85,6 +89,9 @@ struct Technique {
     // preset keeps the bias-free setup.
     Bias bias{.constant = 0.5, .slope = 2.0};
     Filter filter;
+    // The depth_map family's `depth_layer` (first in every other family). `second` draws with
+    // cull front: parse sets `cull` so.
+    DepthLayer depth_layer = DepthLayer::first;
     // Area lights: 0 renders one map from the light's centre (filtered by `filter`, e.g. pcss);
     // N > 0 renders N maps from points spread over the light and averages their (filtered)
     // verdicts: "averaged hard shadows" (reference 001), the raster path's own slow reference.
@@ -154,6 +161,7 @@ const char* to_string(Fit f);
 const char* to_string(DepthFormat f);
 const char* to_string(Cull c);
 const char* to_string(FilterType f);
+const char* to_string(DepthLayer d);
 const char* to_string(Precision p);
 
 }  // namespace penumbra::raster

@@ -11,7 +11,7 @@ namespace {
 std::deque<FamilyEntry>& registry() {
     // A deque: entries keep their addresses as families are registered.
     static std::deque<FamilyEntry> families = {depth_map_family_entry(), averaged_area_family_entry(),
-                                               cascaded_family_entry()};
+                                               cascaded_family_entry(), planar_projection_family_entry()};
     [[maybe_unused]] static const bool filterable = (add_filterable_families(families), true);
     [[maybe_unused]] static const bool volumes = (families.push_back(shadow_volume_family_entry()), true);
     return families;

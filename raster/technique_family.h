@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -59,8 +60,9 @@ struct ScoringHints {
     double filter_reach_texels = 1;  // aliasing band: texel footprints around a true boundary
     double depth_quantum = 0;        // acne: depth differences below this are rounding (depth units)
     bool light_bleeding = false;     // a moment family: a lit true umbra is light_bleeding (docs/metrics.md)
-    // No texels and no bias (shadow volumes): V-only scoring is given a footprint and a bias
-    // reach of 0, so no wrong pixel is excused as aliasing or peter-panning (docs/metrics.md).
+    // No texels and no bias (shadow volumes, planar projection): V-only scoring is given a
+    // footprint and a bias reach of 0, so no wrong pixel is excused as aliasing or peter-panning
+    // (docs/metrics.md).
     bool exact = false;
 };
 
@@ -103,7 +105,8 @@ void register_technique_family(FamilyEntry entry);
 // The built-in families (each in its own file), and their drawing alone.
 FamilyEntry depth_map_family_entry();
 FamilyEntry averaged_area_family_entry();
-FamilyEntry cascaded_family_entry();  // raster/cascades.cpp: draws with make_depth_map_family
+FamilyEntry cascaded_family_entry();           // raster/cascades.cpp: draws with make_depth_map_family
+FamilyEntry planar_projection_family_entry();  // raster/planar_projection.cpp
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene);
 std::unique_ptr<TechniqueFamily> make_averaged_area_family(const SceneOnGpu& scene);
 void add_filterable_families(std::deque<FamilyEntry>& families);  // vsm, esm, evsm2, evsm4, msm (raster/filterable.cpp)

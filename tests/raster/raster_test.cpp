@@ -365,10 +365,11 @@ TEST_F(Raster, PresetsRunAndRecordWhichBilinearCompareRan) {
         // Only the presets of references 000/002 use bilinear compare taps.
         bool bilinear = p.name == "d3d12-textbook" || p.name == "diligent-tutorial13";
         EXPECT_EQ(r.stats.hw2x2 == "unused", !bilinear) << p.name;
-        // Shadow volumes draw no map.
-        if (r.stats.family != "shadow_volume") {
+        // Shadow volumes and planar projection draw no map: planar's one pass is the stencil.
+        if (p.name == "rtr-planar")
+            EXPECT_GT(r.stats.lights[0].gpu_ms["stencil"], 0.0);
+        else if (r.stats.family != "shadow_volume")
             EXPECT_GT(r.stats.lights[0].layers_rendered, 0) << p.name;
-        }
     }
 }
 
@@ -505,6 +506,10 @@ TEST_F(Raster, AWarmSessionRendersEveryTechniqueAsAColdRunDoes) {
          {"cascades", {{"split", "uniform"}, {"max_distance", 15}, {"overlap", 0.3}, {"fit", "bounds"}}}},
         {{"family", "shadow_volume"}},
         {{"family", "shadow_volume"}, {"shadow_volume", {{"open_meshes", "include"}, {"method", "zpass"}}}},
+        {{"preset", "rtr-midpoint"}, {"resolution", 512}},
+        {{"depth_layer", "midpoint"}, {"bias", {{"slope", 1.5}}}},
+        {{"depth_layer", "second"}},
+        {{"preset", "rtr-planar"}},
         {{"bias", {{"slope", 1.5}}}},
     };
     raster::RasterSession session(sc, *ctx_);

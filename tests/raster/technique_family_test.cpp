@@ -79,6 +79,8 @@ TEST(FamilyKey, ToJsonParsesBackToTheSameTechniqueInEveryFamily) {
         {{"family", "depth_map"},
          {"filter", {{"type", "poisson"}, {"taps", 8}}},
          {"lights", {{{"bias", {{"world", 0.1}}}}}}},
+        {{"depth_layer", "second"}, {"cull", "back"}},
+        {{"family", "planar_projection"}, {"planar", {{"plane", {0, 2, 0, 1}}}}},
     };
     for (const auto& p : raster::presets()) cases.push_back({{"preset", p.name}});
     for (const auto& j : cases) {
@@ -108,6 +110,36 @@ TEST(FamilyKey, TheFamilySuppliesScoringHintsAndMemory) {
     EXPECT_EQ(m.depth_bytes, 2);
     EXPECT_EQ(m.area_samples, 5);
     EXPECT_EQ(raster::family_of(parse_technique({{"area_samples", 0}}, "t")).memory(t).area_samples, 0);
+}
+
+// Woo's midpoint and Wang & Molnar's second depth are the depth map's `depth_layer`; planar
+// projection is a family of its own with a receiver plane and no map (issue #36).
+TEST(FamilyKey, DepthLayerAndPlanarProjectionParseTheirKeysAndRefuseBadOnes) {
+    EXPECT_EQ(parse_technique(nlohmann::json::object(), "t").depth_layer, raster::DepthLayer::first);
+    const raster::Technique mid = parse_technique({{"preset", "rtr-midpoint"}, {"resolution", 256}}, "t");
+    EXPECT_EQ(mid.depth_layer, raster::DepthLayer::midpoint);
+    EXPECT_EQ(mid.cull, raster::Cull::none);
+    // Two depth layers and the second pass's ids: the memory estimate counts both.
+    EXPECT_EQ(raster::family_of(mid).memory(mid).depth_bytes, 4 + 4 + 4);
+    // Second depth is the back faces alone, whatever `cull` said.
+    EXPECT_EQ(parse_technique({{"depth_layer", "second"}, {"cull", "back"}}, "t").cull, raster::Cull::front);
+    EXPECT_THAT(
+        error_of({{"depth_layer", "third"}}),
+        HasSubstr("s.json: technique.depth_layer: \"third\" is not one of \"first\", \"midpoint\", \"second\""));
+    EXPECT_THAT(error_of({{"family", "cascaded"}, {"depth_layer", "midpoint"}}), HasSubstr("technique.depth_layer"));
+
+    const raster::Technique planar = parse_technique({{"preset", "rtr-planar"}}, "t");
+    EXPECT_EQ(planar.family, "planar_projection");
+    EXPECT_EQ(planar.to_json().at("planar"), nlohmann::json::object());  // the plane is found in the scene
+    EXPECT_TRUE(raster::family_of(planar).hints(planar).exact);
+    EXPECT_EQ(raster::family_of(planar).memory(planar).resolution, 0);
+    EXPECT_THAT(error_of({{"family", "planar_projection"}, {"planar", {{"plane", {0, 0, 0, 1}}}}}),
+                HasSubstr("s.json: technique.planar.plane: the normal [nx, ny, nz] is zero"));
+    EXPECT_THAT(error_of({{"family", "planar_projection"}, {"planar", {{"plane", {0, 1, 0}}}}}),
+                HasSubstr("technique.planar.plane: expected [nx, ny, nz, d]"));
+    EXPECT_THAT(error_of({{"family", "planar_projection"}, {"planar", {{"height", 1}}}}),
+                HasSubstr("technique.planar.height"));
+    EXPECT_THAT(error_of({{"family", "planar_projection"}, {"resolution", 1024}}), HasSubstr("technique.resolution"));
 }
 
 // The memory estimate counts the layers the family gives each kind of light (a cascaded sun:
