@@ -54,7 +54,7 @@ void prepare_scene(SceneOnGpu& s) {
     s.width = static_cast<std::uint32_t>(sc.width);
     s.height = static_cast<std::uint32_t>(sc.height);
     s.pixels = static_cast<std::size_t>(s.width) * s.height;
-    s.origin = sc.camera.eye;
+    s.origin = s.camera.eye;
     const std::uint32_t max_dim = ctx.limits().maxImageDimension2D;
     if (s.width > max_dim || s.height > max_dim)
         throw InputError(fmt::format("{}: image {}x{} exceeds the device's maxImageDimension2D {}", sc.label, s.width,
@@ -128,7 +128,7 @@ void prepare_scene(SceneOnGpu& s) {
                       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
         begin_rendering(cmd, s.gbuffer_prim.view.get(), depth.view.get(), s.width, s.height, 0.0f);
         if (s.index_count > 0) {
-            glm::mat4 vp = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
+            glm::mat4 vp = camera_matrix(s.camera, sc.width, sc.height, scene.bounds);
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.get());
             VkDescriptorSet set = sets[0];
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.get(), 0, 1, &set, 0, nullptr);
@@ -212,7 +212,7 @@ double PassTimes::total() const {
 
 struct RasterSession::Impl {
     Impl(const Scenario& scenario, const VulkanContext& ctx)
-        : scene(std::make_unique<SceneOnGpu>(SceneOnGpu{scenario, ctx})) {}
+        : scene(std::make_unique<SceneOnGpu>(SceneOnGpu{scenario, ctx, scenario.camera})) {}
     // Families refer to the scene: they are dropped before it whenever it is replaced.
     using Families = std::map<std::string, std::unique_ptr<TechniqueFamily>>;
     std::unique_ptr<SceneOnGpu> scene;
@@ -229,6 +229,15 @@ RasterSession::RasterSession(const Scenario& scenario, const VulkanContext& ctx)
 }
 
 RasterSession::~RasterSession() = default;
+
+void RasterSession::set_camera(const Camera& camera) {
+    // The scene is uploaded relative to the eye, so a new eye is a new upload; the families keep
+    // their pipelines and maps (a map is drawn again when its matrices, relative to the eye, change).
+    auto t0 = SteadyClock::now();
+    impl_->scene->camera = camera;
+    prepare_scene(*impl_->scene);
+    impl_->setup_s = seconds_since(t0);
+}
 
 const Scenario& RasterSession::scenario() const {
     return impl_->scene->scenario;
@@ -256,7 +265,7 @@ RasterResult RasterSession::render(const Technique& technique, const RenderOptio
         // The vertex buffer holds the positions as the technique rounds them: upload them again
         // and redo the camera pass.
         auto t0 = SteadyClock::now();
-        fresh_scene = std::make_unique<SceneOnGpu>(SceneOnGpu{sc, impl_->scene->ctx});
+        fresh_scene = std::make_unique<SceneOnGpu>(SceneOnGpu{sc, impl_->scene->ctx, impl_->scene->camera});
         fresh_scene->precision = technique.precision;
         prepare_scene(*fresh_scene);
         stats.setup_s += seconds_since(t0);
