@@ -11,6 +11,8 @@
 #include "common/stopwatch.h"
 #include "metrics/gate.h"
 #include "metrics/metric_table.h"
+#include "pipeline/camera_path.h"
+#include "pipeline/camera_path_files.h"
 #include "pipeline/validate.h"
 #include "pipeline/validate_files.h"
 
@@ -55,10 +57,20 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     options.keep_oracle_frame = v.frames;
     options.device = t.device;
     OutputTransaction out(c.out);
-    const ValidateResult r = validate(scenario, technique, gate, options);
+    // A camera path is judged frame by frame (pipeline/camera_path.h); its report is the last frame's.
+    std::optional<CameraPathResult> path;
+    std::optional<ValidateResult> single;
+    if (scenario.camera_path)
+        path = validate_camera_path(scenario, technique, gate, options);
+    else
+        single = validate(scenario, technique, gate, options);
+    const ValidateResult& r = path ? path->last : *single;
 
     auto t0 = SteadyClock::now();
-    write_validate_outputs(out, scenario, r, v.frames);
+    if (path)
+        write_camera_path_outputs(out, scenario, *path, v.frames);
+    else
+        write_validate_outputs(out, scenario, r, v.frames);
     out.commit();
     const double write_s = seconds_since(t0);
     if (!v.junit_file.empty()) {
@@ -79,9 +91,16 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
             fmt::print("  light {} ({}): {}\n", li, to_string(scenario.lights[li].type),
                        metrics::summary_line(r.score.lights[li]));
             if (auto hint = metrics::reading_line(r.score.lights[li])) fmt::print("    hint: {}\n", *hint);
+            if (path && li < r.report["lights"].size()) {
+                const nlohmann::json& temporal = r.report["lights"][li]["temporal"];
+                fmt::print("    flicker over {} frames: {:.5f} ({} of {} points seen in consecutive frames)\n",
+                           path->frames, temporal["flicker_rate"].get<double>(),
+                           temporal["flicker_pixels"].get<std::uint64_t>(), temporal["points"].get<std::uint64_t>());
+            }
         }
         if (auto line = cache_line(r.oracle->info)) fmt::print("{}\n", *line);
-        fmt::print("results: {}/report.html, report.json, errors.exr\n", c.out.string());
+        fmt::print("results: {}/report.html, report.json, errors.exr{}\n", c.out.string(),
+                   path ? fmt::format(" (the last of {} frames), flicker.exr", path->frames) : "");
     }
     return gate_exit_code(r.gate, c.quiet);
 }

@@ -27,7 +27,9 @@ glm::dvec3 position(JsonObject& o, const std::string& key) {
     return p;
 }
 
-Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_label) {
+// `target`, when given, receives the look-at target (a glTF camera's: one metre ahead).
+Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_label,
+                   glm::dvec3* target_out = nullptr) {
     Camera c;
     if (cam.has("gltf_camera")) {
         long long index = cam.integer("gltf_camera", 0, 1 << 30);
@@ -39,6 +41,7 @@ Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_
         c = scene.cameras[index];
         validate_camera(
             c, fmt::format("{}: cameras[{}] (the scenario's {})", scene_label, index, cam.path_of("gltf_camera")));
+        if (target_out) *target_out = c.eye + c.forward;
         return c;
     }
     std::string type = cam.string("type");
@@ -70,7 +73,40 @@ Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_
     if (!(c.zfar > c.znear)) cam.fail("zfar", fmt::format("must exceed znear ({} <= {})", c.zfar, c.znear));
     if (auto p = camera_problem(c)) cam.fail(p->key, p->what);  // the checks glTF cameras get
     cam.finish();
+    if (target_out) *target_out = target;
     return c;
+}
+
+// "camera_path": every key read as a camera, and every frame between them checked, so that a
+// path that turns degenerate half-way is refused before any work starts.
+CameraPath read_camera_path(JsonObject o, const Scene& scene, const std::string& scene_label) {
+    o.only_keys({"frames", "keys"});
+    CameraPath path;
+    path.frames = static_cast<int>(o.integer("frames", 2, kMaxPathFrames));
+    const nlohmann::json& keys = o.get("keys");
+    if (!keys.is_array() || keys.empty()) o.fail("keys", "expected an array of at least one camera");
+    if (keys.size() > static_cast<std::size_t>(path.frames))
+        o.fail("keys", fmt::format("{} keys for {} frames: every key must be a frame", keys.size(), path.frames));
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+        JsonObject key(keys[i], o.file_label(), o.path_of(fmt::format("keys[{}]", i)));
+        CameraKey k;
+        k.camera = read_camera(key, scene, scene_label, &k.target);
+        if (i > 0 && k.camera.type != path.keys[0].camera.type)
+            key.fail("type", "differs from keys[0]'s: a path interpolates one kind of camera");
+        if (i > 0 && std::isinf(k.camera.zfar) != std::isinf(path.keys[0].camera.zfar))
+            key.fail("zfar", "infinite in one key and finite in another: frames between them would have no zfar");
+        path.keys.push_back(k);
+    }
+    for (int f = 0; f < path.frames; ++f) {
+        const std::optional<Camera> c = path_camera(path, f);
+        std::optional<RangeProblem> p = c ? camera_problem(*c) : std::nullopt;
+        if (!c || p)
+            o.fail("keys", fmt::format("frame {} between the keys: {}", f,
+                                       c ? p->key + ": " + p->what
+                                         : "the view direction is undefined (the target meets the eye, or up turns "
+                                           "parallel to the view)"));
+    }
+    return path;
 }
 
 Light read_light(JsonObject o) {
@@ -168,7 +204,34 @@ Receiver read_receiver(JsonObject o) {
     return r;
 }
 
+double lerp(double a, double b, double t) {
+    return a == b ? a : a + (b - a) * t;
+}
+
 }  // namespace
+
+std::optional<Camera> path_camera(const CameraPath& path, int frame) {
+    const std::size_t last = path.keys.size() - 1;
+    if (last == 0 || path.frames < 2) return path.keys.at(0).camera;
+    // Integers in double: the last frame lands exactly on the last key.
+    const double s = static_cast<double>(frame) * static_cast<double>(last) / static_cast<double>(path.frames - 1);
+    const std::size_t i = std::min(static_cast<std::size_t>(std::max(s, 0.0)), last - 1);
+    const double t = s - static_cast<double>(i);
+    const CameraKey &a = path.keys[i], &b = path.keys[i + 1];
+    if (t <= 0) return a.camera;  // a key is its own camera, bit for bit
+    if (t >= 1) return b.camera;
+    Camera c = a.camera;
+    const glm::dvec3 eye = a.camera.eye + (b.camera.eye - a.camera.eye) * t;
+    const glm::dvec3 target = a.target + (b.target - a.target) * t;
+    const glm::dvec3 up = a.camera.up + (b.camera.up - a.camera.up) * t;
+    if (!look_at_basis(eye, target, up, c)) return std::nullopt;
+    c.yfov_rad = lerp(a.camera.yfov_rad, b.camera.yfov_rad, t);
+    c.xmag = lerp(a.camera.xmag, b.camera.xmag, t);
+    c.ymag = lerp(a.camera.ymag, b.camera.ymag, t);
+    c.znear = lerp(a.camera.znear, b.camera.znear, t);
+    c.zfar = std::isinf(a.camera.zfar) ? a.camera.zfar : lerp(a.camera.zfar, b.camera.zfar, t);
+    return c;
+}
 
 void scale_scene(Scene& scene, double scale) {
     if (scale == 1.0) return;
@@ -191,7 +254,7 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     s.label = file.filename().string();
     nlohmann::json root = read_json_file(file);
     JsonObject top(root, s.label, "");
-    top.only_keys({"scene", "scale", "image", "camera", "lights", "receivers", "technique", "gate"});
+    top.only_keys({"scene", "scale", "image", "camera", "camera_path", "lights", "receivers", "technique", "gate"});
 
     std::string scene_rel = top.string("scene");
     if (scene_rel.empty()) top.fail("scene", "empty path");
@@ -238,7 +301,9 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
         for (std::size_t i = 0; i < receivers.size(); ++i)
             s.receivers.push_back(read_receiver(JsonObject(receivers[i], s.label, fmt::format("receivers[{}]", i))));
     }
-    top.get("camera");  // presence is checked before the scene is loaded
+    // Presence is checked before the scene is loaded; a path's first frame may stand for the camera.
+    if (top.has("camera") || !top.has("camera_path")) top.get("camera");
+    if (top.has("camera_path") && !top.get("camera_path").is_object()) top.fail("camera_path", "expected an object");
     top.finish();
 
     GltfLoadOptions gltf_options;
@@ -255,7 +320,9 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     for (const Receiver& r : s.receivers) add_receiver(s.scene, r);
 
     const std::string scene_label = s.scene_file.filename().string();
-    s.camera = read_camera(top.object("camera"), s.scene, scene_label);
+    if (top.has("camera_path")) s.camera_path = read_camera_path(top.object("camera_path"), s.scene, scene_label);
+    s.camera =
+        top.has("camera") ? read_camera(top.object("camera"), s.scene, scene_label) : s.camera_path->keys[0].camera;
     if (lights.is_array()) {
         s.lights = std::move(listed);
     } else {

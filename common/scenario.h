@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,12 +23,36 @@ struct ScenarioOptions {
     std::uint64_t max_memory_bytes = UINT64_MAX;  // for the scene's triangles (GltfLoadOptions)
 };
 
+// Most frames a camera path may ask for (each is a trace and a render).
+inline constexpr int kMaxPathFrames = 10000;
+
+// One key of a camera path: the camera, with the look-at target it was given (a glTF camera's is
+// one metre ahead), so that frames between keys interpolate what the user wrote.
+struct CameraKey {
+    Camera camera;
+    glm::dvec3 target{0.0};
+};
+
+// "camera_path" (docs/scenario.md): `frames` cameras, linear between the keys. Frame 0 is keys[0],
+// the last frame the last key, the others spread evenly along the keys' parameter.
+struct CameraPath {
+    int frames = 0;
+    std::vector<CameraKey> keys;
+};
+
+// The camera of frame `frame` (0 ... path.frames - 1): eye, target, up and the scalars (field of
+// view, half-extents, znear, zfar) each linear between the two keys around it; the basis is then
+// made again by look_at_basis. Returns std::nullopt where that basis is degenerate (the target
+// meets the eye, or up turns parallel to the view direction).
+std::optional<Camera> path_camera(const CameraPath& path, int frame);
+
 struct Scenario {
     std::filesystem::path file;        // the scenario JSON
     std::filesystem::path scene_file;  // the glTF it names, resolved
     std::string label;                 // file name for messages
     int width = 0, height = 0;
-    Camera camera;
+    Camera camera;                                        // the path's first frame when only "camera_path" is given
+    std::optional<CameraPath> camera_path;                // validate judges every frame of it (pipeline/camera_path.h)
     std::vector<Light> lights;                            // from the scenario, or the glTF's when "lights": "gltf"
     nlohmann::json technique = nlohmann::json::object();  // raw: validated by the raster path
     nlohmann::json gate = nlohmann::json::object();       // raw: validated by metrics

@@ -77,11 +77,20 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     t0 = SteadyClock::now();
     frame_task.wait();
     stats.frame_s = seconds_since(t0);
+    trace_frame(tracer, settings, result);
+    return result;
+}
+
+namespace oracle_detail {
+
+void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleResult& result) {
+    OracleFrame& frame = result.frame;
+    OracleStats& stats = result.stats;
     frame.frame_origin = tracer.frame_origin();
+    auto t0 = SteadyClock::now();
 
     // ---- primary and shadow rays, tile by tile; each pixel's answer is independent of the
     // tiling and of the thread that computes it, so the output is deterministic ----
-    t0 = SteadyClock::now();
     const int tiles_x = (frame.width + kTile - 1) / kTile, tiles_y = (frame.height + kTile - 1) / kTile;
     const int tile_count = tiles_x * tiles_y;
     std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0}, culled{0};
@@ -187,6 +196,53 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
         ls.shadowed = counts.shadowed;
         ls.uncertain = counts.uncertain;
     }
+}
+
+}  // namespace oracle_detail
+
+struct OracleSession::Impl {
+    Impl(const Scenario& scenario, const OracleSettings& s)
+        : settings(s),
+          threads(s.threads > 0 ? s.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))),
+          limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads)),
+          tracer(scenario, s.embree_isa) {}
+    OracleSettings settings;
+    int threads;
+    tbb::global_control limit;  // held for the session: every trace runs under it
+    oracle_detail::Tracer tracer;
+    int builds = 0;
+    double build_s = 0;
+};
+
+OracleSession::OracleSession(const Scenario& scenario, const OracleSettings& settings)
+    : impl_(std::make_unique<Impl>(scenario, settings)) {
+    auto t0 = SteadyClock::now();
+    impl_->tracer.build();
+    impl_->build_s = seconds_since(t0);
+    ++impl_->builds;
+}
+
+OracleSession::~OracleSession() = default;
+
+int OracleSession::bvh_builds() const {
+    return impl_->builds;
+}
+
+double OracleSession::build_s() const {
+    return impl_->build_s;
+}
+
+OracleResult OracleSession::trace(const Camera& camera) {
+    using namespace oracle_detail;
+    OracleResult result;
+    result.settings = impl_->settings;
+    result.stats.threads = impl_->threads;
+    result.stats.embree_version = impl_->tracer.device().version();
+    auto t0 = SteadyClock::now();
+    allocate_frame(result.frame, impl_->tracer.scenario());
+    result.stats.frame_s = seconds_since(t0);
+    impl_->tracer.set_camera(camera);
+    trace_frame(impl_->tracer, impl_->settings, result);
     return result;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -80,5 +81,25 @@ struct OracleResult {
 
 // Throws EnvironmentError for Embree failures.
 OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings = {});
+
+// The oracle of a camera path (docs/oracle.md, "Camera paths"): the BVH is built once, in the
+// local frame of the scenario's camera, and each frame costs its trace alone. A trace from the
+// scenario's camera gives run_oracle's frame; its stats' build_s is 0 (the session's is build_s()).
+// The scenario must outlive the session. Throws EnvironmentError for Embree failures.
+class OracleSession {
+  public:
+    explicit OracleSession(const Scenario& scenario, const OracleSettings& settings = {});
+    ~OracleSession();
+    OracleSession(const OracleSession&) = delete;
+    OracleSession& operator=(const OracleSession&) = delete;
+
+    OracleResult trace(const Camera& camera);
+    int bvh_builds() const;  // BVHs built: 1, whatever the number of traces
+    double build_s() const;
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace penumbra

@@ -132,6 +132,13 @@ nlohmann::json scenario_fingerprint(const Scenario& s) {
     KeyBytes scene, camera, lights;
     add_scene(scene, s.scene);
     add_camera(camera, s.camera);
+    if (s.camera_path) {  // a path is part of what was judged (absent: the fingerprint of before paths)
+        camera.add(s.camera_path->frames);
+        for (const CameraKey& k : s.camera_path->keys) {
+            add_camera(camera, k.camera);
+            camera.add(k.target);
+        }
+    }
     add_lights(lights, s.lights);
     return {{"scene", content_fingerprint(scene.bytes())},
             {"camera", content_fingerprint(camera.bytes())},

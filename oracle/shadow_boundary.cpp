@@ -720,7 +720,8 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
 
     // ---- 2. the nearest boundary point of every lightable pixel; 3. its distance ----
     // Step 3 at pixel i: the distance, and ambiguity within float error of a boundary.
-    const Camera& cam = tr.scenario().camera;
+    const Camera& cam = tr.camera();
+    const glm::dvec3& eye = tr.camera_eye();  // zero but on a camera path's later frames
     // The ambiguity distance below is at most k (|P| + |B|) with k = 64 eps x 64 (cos_view >=
     // 1/64), so a squared distance above 2 k^2 (|P|^2 + max |B|^2), with a margin for rounding,
     // is not ambiguous: most pixels are decided without the square roots and the division.
@@ -738,7 +739,7 @@ std::uint64_t locate_shadow_boundaries(const Tracer& tr, OracleFrame& frame, std
         glm::dvec3 p(frame.P[i]);
         if (f.d2 > kFar2 * (glm::dot(p, p) + seed_norm2)) return;
         glm::dvec3 n(frame.N[i]);
-        glm::dvec3 view = cam.type == ProjectionType::perspective ? glm::normalize(p) : cam.forward;
+        glm::dvec3 view = cam.type == ProjectionType::perspective ? glm::normalize(p - eye) : cam.forward;
         double cos_view = std::max(std::abs(glm::dot(n, view)), 1.0 / 64);
         double ambiguity = 64 * robust::kFloatEps * (glm::length(p) + glm::length(seeds[f.seed])) / cos_view;
         if (dist <= ambiguity) img.U[i] = 1.0f;

@@ -167,8 +167,14 @@ Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
       tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided) {}
 
+void Tracer::set_camera(const Camera& camera) {
+    camera_ = camera;
+    camera_eye_ = camera.eye - frame_origin_;
+}
+
 void Tracer::build() {
     frame_origin_ = scenario_.camera.eye;
+    set_camera(scenario_.camera);
     const auto& world = scenario_.scene.positions;
     // Written in parallel, without a serial zero-fill first (a maximum is exact whatever the
     // order): 4.5M vertices took 0.1 s serially.
@@ -401,7 +407,8 @@ void Tracer::trace_tiles(OracleFrame& frame, int first, int last, int tiles_x, i
 
 void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCounters& counters,
                         std::vector<SurfacePoint>* surfaces) const {
-    const Camera& cam = scenario_.camera;
+    const Camera& cam = camera_;
+    const bool moved = camera_eye_ != glm::dvec3(0.0);  // a camera path's later frame
     const int W = frame.width, H = frame.height;
     const float znear = static_cast<float>(cam.znear);
     const float zfar = static_cast<float>(std::min(cam.zfar, 3.0e38));
@@ -428,6 +435,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 valid[k] = (x < W && y < H) ? -1 : 0;
                 pixel[k] = valid[k] ? y * W + x : -1;
                 PrimaryRay r = rays.at(x + 0.5, y + 0.5);
+                if (moved) r.origin += camera_eye_;
                 ray_dir[k] = r.direction;
                 ray_org[k] = r.origin;
                 set_lane(rh.ray, k, glm::vec3(r.origin), glm::vec3(r.direction), znear, zfar);

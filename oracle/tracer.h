@@ -139,7 +139,12 @@ class Tracer {
   public:
     // embree_isa: OracleSettings::embree_isa.
     explicit Tracer(const Scenario& scenario, const std::string& embree_isa = "");
-    void build();  // BVH over the scene in the local frame
+    void build();  // BVH over the scene in the local frame, centred on the scenario's camera
+    // The camera the next traces see from (a camera path's frame): the BVH and the local frame
+    // stay; primary rays start at its eye, relative to frame_origin().
+    void set_camera(const Camera& camera);
+    const Camera& camera() const { return camera_; }
+    const glm::dvec3& camera_eye() const { return camera_eye_; }  // local frame
 
     const Scenario& scenario() const { return scenario_; }
     const EmbreeDevice& device() const { return device_; }
@@ -192,6 +197,8 @@ class Tracer {
     bool as_halves_ = false;  // packets go to Embree as two halves (intersect_active_lanes)
     EmbreeScene scene_;
     glm::dvec3 frame_origin_{0.0};
+    Camera camera_;
+    glm::dvec3 camera_eye_{0.0};              // camera_.eye - frame_origin_: zero but on a camera path
     std::unique_ptr<glm::dvec3[]> vertices_;  // local frame, double
     std::size_t vertex_count_ = 0;
     double max_vertex_norm_ = 0;  // largest |v| in the local frame
@@ -199,6 +206,10 @@ class Tracer {
     const std::vector<glm::u32vec3>& tris_;
     const std::vector<std::uint8_t>& double_sided_;
 };
+
+// Primary and shadow rays from the tracer's camera, area-light sampling, shadow boundaries and
+// the pixel counts: everything of a frame after the BVH build. `result.frame` is allocated.
+void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleResult& result);
 
 // Sizes every channel of `frame` for the scenario's image and lights and fills each with its
 // default (no surface, unlit, no distance), the channels side by side.

@@ -446,7 +446,7 @@ void DepthMapFamily::ensure_queries(std::uint32_t count) {
 gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& light,
                                                const LightProjection& projection) const {
     const Scenario& sc = s_.scenario;
-    const Camera& cam = sc.camera;
+    const Camera& cam = s_.camera;
     const bool persp = cam.type == ProjectionType::perspective;
     const glm::dvec2 plane = ndc_to_image_plane(cam, sc.width, sc.height);
     gpu::LookupParams p{};
@@ -687,10 +687,10 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         const bool world = t.precision == Precision::world_float32;
         const glm::dvec3 fit_origin = world ? glm::dvec3(0.0) : s_.origin;
         if (cascaded(t, light))
-            ls.projection = fit_cascades(light, sc.scene, sc.camera, sc.width, sc.height, *cascades_of(t), t.resolution,
+            ls.projection = fit_cascades(light, sc.scene, s_.camera, sc.width, sc.height, *cascades_of(t), t.resolution,
                                          fit_origin);
         else
-            ls.projection = fit_light(light, sc.scene, sc.camera, sc.width, sc.height, t.fit, t.resolution, fit_origin,
+            ls.projection = fit_light(light, sc.scene, s_.camera, sc.width, sc.height, t.fit, t.resolution, fit_origin,
                                       t.shadow_distance);
         if (world) round_to_world_float32(ls.projection, s_.origin);
         ls.views = shadow_views(ls.projection);

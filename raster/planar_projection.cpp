@@ -151,7 +151,7 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
                                                       const std::uint32_t* coverage) const {
     const Scenario& sc = s_.scenario;
     const Scene& scene = sc.scene;
-    const PrimaryRays rays(sc.camera, sc.width, sc.height);
+    const PrimaryRays rays(s_.camera, sc.width, sc.height);
     const glm::dvec3 plane_n(plane);
     const double cos_outer = std::cos(light.outer_cone_rad);
     std::vector<float> V(s_.pixels, 0.0f);
@@ -165,8 +165,8 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
             glm::dvec3 n = glm::normalize(glm::cross(scene.positions[tri.y] - a, scene.positions[tri.z] - a));
             // The receiver point as the oracle defines it: the pixel centre's ray on the triangle's plane.
             const PrimaryRay ray = rays.at(x + 0.5, y + 0.5);
-            const double t = glm::dot(n, a - sc.camera.eye - ray.origin) / glm::dot(n, ray.direction);
-            const glm::dvec3 p = sc.camera.eye + ray.origin + t * ray.direction;
+            const double t = glm::dot(n, a - s_.camera.eye - ray.origin) / glm::dot(n, ray.direction);
+            const glm::dvec3 p = s_.camera.eye + ray.origin + t * ray.direction;
             if (glm::dot(n, ray.direction) > 0) n = -n;  // facing the camera
             // The light reaches the point at all (the oracle's `lightable`; V = 0 otherwise, not scored).
             const glm::dvec3 to_light =

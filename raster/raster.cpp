@@ -54,14 +54,14 @@ void prepare_scene(SceneOnGpu& s) {
     s.width = static_cast<std::uint32_t>(sc.width);
     s.height = static_cast<std::uint32_t>(sc.height);
     s.pixels = static_cast<std::size_t>(s.width) * s.height;
-    s.origin = sc.camera.eye;
+    s.origin = s.camera.eye;
     const std::uint32_t max_dim = ctx.limits().maxImageDimension2D;
     if (s.width > max_dim || s.height > max_dim)
         throw InputError(fmt::format("{}: image {}x{} exceeds the device's maxImageDimension2D {}", sc.label, s.width,
                                      s.height, max_dim));
 
     const Scene& scene = sc.scene;
-    s.camera_view_proj = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
+    s.camera_view_proj = camera_matrix(s.camera, sc.width, sc.height, scene.bounds);
     std::vector<float> pos(scene.positions.size() * 3);
     const bool world_float32 = s.precision == Precision::world_float32;
     for (std::size_t i = 0; i < scene.positions.size(); ++i) {
@@ -82,7 +82,6 @@ void prepare_scene(SceneOnGpu& s) {
         if (scene.double_sided[t]) bits[t / 32] |= 1u << (t % 32);
     }
     s.index_count = static_cast<std::uint32_t>(idx.size());
-    s.camera_view_proj = camera_matrix(sc.camera, sc.width, sc.height, scene.bounds);
     s.positions = upload(ctx, pos.data(), pos.size() * sizeof(float),
                          VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     s.indices = upload(ctx, idx.data(), idx.size() * sizeof(std::uint32_t),
@@ -214,7 +213,7 @@ double PassTimes::total() const {
 
 struct RasterSession::Impl {
     Impl(const Scenario& scenario, const VulkanContext& ctx)
-        : scene(std::make_unique<SceneOnGpu>(SceneOnGpu{scenario, ctx})) {}
+        : scene(std::make_unique<SceneOnGpu>(SceneOnGpu{scenario, ctx, scenario.camera})) {}
     // Families refer to the scene: they are dropped before it whenever it is replaced.
     using Families = std::map<std::string, std::unique_ptr<TechniqueFamily>>;
     std::unique_ptr<SceneOnGpu> scene;
@@ -231,6 +230,15 @@ RasterSession::RasterSession(const Scenario& scenario, const VulkanContext& ctx)
 }
 
 RasterSession::~RasterSession() = default;
+
+void RasterSession::set_camera(const Camera& camera) {
+    // The scene is uploaded relative to the eye, so a new eye is a new upload; the families keep
+    // their pipelines and maps (a map is drawn again when its matrices, relative to the eye, change).
+    auto t0 = SteadyClock::now();
+    impl_->scene->camera = camera;
+    prepare_scene(*impl_->scene);
+    impl_->setup_s = seconds_since(t0);
+}
 
 const Scenario& RasterSession::scenario() const {
     return impl_->scene->scenario;
@@ -258,7 +266,7 @@ RasterResult RasterSession::render(const Technique& technique, const RenderOptio
         // The vertex buffer holds the positions as the technique rounds them: upload them again
         // and redo the camera pass.
         auto t0 = SteadyClock::now();
-        fresh_scene = std::make_unique<SceneOnGpu>(SceneOnGpu{sc, impl_->scene->ctx});
+        fresh_scene = std::make_unique<SceneOnGpu>(SceneOnGpu{sc, impl_->scene->ctx, impl_->scene->camera});
         fresh_scene->precision = technique.precision;
         prepare_scene(*fresh_scene);
         stats.setup_s += seconds_since(t0);

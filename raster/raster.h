@@ -93,8 +93,12 @@ class RasterSession {
     // device allows, a depth format it cannot sample) and EnvironmentError for Vulkan failures.
     RasterResult render(const Technique& technique, const RenderOptions& options = {});
 
+    // Draws the camera pass again from `camera` (a camera path's frame, pipeline/camera_path.h):
+    // the next render is the frame a cold session would give for the scenario with this camera.
+    void set_camera(const Camera& camera);
+
     const Scenario& scenario() const;
-    double setup_s() const;  // wall clock of the construction: uploads and the camera pass
+    double setup_s() const;  // wall clock of the construction (or of the last set_camera): uploads and the camera pass
 
   private:
     struct Impl;

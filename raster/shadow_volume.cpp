@@ -376,13 +376,19 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     explicit ShadowVolumeFamily(const SceneOnGpu& s)
         : s_(s),
           topology_(scene_topology(s.scenario.scene)),
-          depth_sets_(s.ctx, kDepthBindings, VK_SHADER_STAGE_FRAGMENT_BIT) {
-        positions_ = drawn_positions(s.scenario.scene, s.origin, s.precision);
-    }
+          depth_sets_(s.ctx, kDepthBindings, VK_SHADER_STAGE_FRAGMENT_BIT) {}
 
     void render(const Technique& technique, std::span<const Light> lights, const RenderOptions&, RasterFrame& frame,
                 RasterStats& stats) override {
         const ShadowVolumeParameters& p = parameters_of(technique);
+        // The volumes are camera-relative: a session moved to another eye (a camera path) or
+        // drawing at another precision builds them again.
+        if (positions_.empty() || drawn_origin_ != s_.origin || drawn_precision_ != s_.precision) {
+            positions_ = drawn_positions(s_.scenario.scene, s_.origin, s_.precision);
+            drawn_origin_ = s_.origin;
+            drawn_precision_ = s_.precision;
+            for (LightVolume& v : volumes_) v.valid = false;
+        }
         prepare(lights.size());
         const Scene& scene = s_.scenario.scene;
         for (std::size_t li = 0; li < lights.size(); ++li) {
@@ -632,7 +638,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     // caps lie there) or outside a spot's cone; background 0.
     void unlit_outside_light(const Light& l, std::vector<float>& V) const {
         const Scenario& sc = s_.scenario;
-        const PrimaryRays rays(sc.camera, sc.width, sc.height);
+        const PrimaryRays rays(s_.camera, sc.width, sc.height);
         const bool directional = l.type == LightType::directional;
         const glm::dvec3 light_rel = drawn_light_position(l, s_.origin, s_.precision);
         const double cos_outer = l.type == LightType::spot ? std::cos(l.outer_cone_rad) : -2.0;
@@ -666,6 +672,8 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     const SceneOnGpu& s_;
     SceneTopology topology_;
     std::vector<glm::vec3> positions_;
+    glm::dvec3 drawn_origin_{0.0};  // the frame origin and precision positions_ were made for
+    Precision drawn_precision_ = Precision::camera_relative;
     DescriptorSets depth_sets_;
     VkFormat format_ = VK_FORMAT_UNDEFINED;
     GpuImage depth_, visibility_;

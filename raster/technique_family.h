@@ -31,6 +31,7 @@ namespace penumbra::raster {
 struct SceneOnGpu {
     const Scenario& scenario;
     const VulkanContext& ctx;
+    Camera camera;                                     // what the camera pass drew: the scenario's, or a path's frame
     glm::dvec3 origin{0.0};                            // world position of the frame (the camera eye)
     Precision precision = Precision::camera_relative;  // of the uploaded positions (Technique::precision)
     std::uint32_t width = 0, height = 0;

@@ -273,5 +273,103 @@ TEST_F(ScenarioTest, RefusesScalesOutOfRange) {
               "scenario.json: scale: the scaled scene reaches 1e+16 m, beyond the 1e+15 m coordinate limit");
 }
 
+// "camera_path" (issue #34, shimmer): keys in the camera format, frames linear between them.
+nlohmann::json path_key(glm::dvec3 eye, glm::dvec3 target, double yfov_deg) {
+    return {{"type", "perspective"},
+            {"eye", {eye.x, eye.y, eye.z}},
+            {"target", {target.x, target.y, target.z}},
+            {"yfov_deg", yfov_deg},
+            {"znear", 0.5},
+            {"zfar", 100}};
+}
+
+TEST_F(ScenarioTest, CameraPathFramesAreLinearBetweenKeys) {
+    auto doc = valid();
+    doc.erase("camera");  // the path's first frame stands for it
+    doc["camera_path"] = {{"frames", 5},
+                          {"keys", {path_key({0, 2, 4}, {0, 0, 0}, 40), path_key({4, 2, 4}, {4, 0, 0}, 60)}}};
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    const Scenario s = load_scenario(dir_ / "scenario.json");
+    ASSERT_TRUE(s.camera_path);
+    const CameraPath& path = *s.camera_path;
+    EXPECT_EQ(path.frames, 5);
+    ASSERT_EQ(path.keys.size(), 2u);
+    EXPECT_EQ(s.camera.eye, glm::dvec3(0, 2, 4));
+    for (int f = 0; f < 5; ++f) {
+        const std::optional<Camera> c = path_camera(path, f);
+        ASSERT_TRUE(c);
+        const double t = f / 4.0;
+        EXPECT_NEAR(c->eye.x, 4 * t, 1e-12) << f;
+        EXPECT_NEAR(c->eye.y, 2, 1e-12);
+        EXPECT_NEAR(c->yfov_rad, (40 + 20 * t) * M_PI / 180, 1e-12) << f;
+        // A pan: the same view direction all along, up stays up.
+        EXPECT_NEAR(glm::dot(c->forward, glm::normalize(glm::dvec3(0, -2, -4))), 1, 1e-12) << f;
+        EXPECT_NEAR(c->up.y, std::sqrt(0.8), 1e-12) << f;
+        EXPECT_DOUBLE_EQ(c->znear, 0.5);
+        EXPECT_DOUBLE_EQ(c->zfar, 100);
+    }
+    // The end frames are the keys themselves, bit for bit.
+    EXPECT_EQ(path_camera(path, 0)->forward, path.keys[0].camera.forward);
+    EXPECT_EQ(path_camera(path, 4)->eye, path.keys[1].camera.eye);
+    EXPECT_EQ(path_camera(path, 4)->yfov_rad, path.keys[1].camera.yfov_rad);
+
+    // Three keys over 5 frames: frame 2 is the middle key, frame 1 half-way to it.
+    doc["camera_path"] = {
+        {"frames", 5},
+        {"keys",
+         {path_key({0, 2, 4}, {0, 0, 0}, 40), path_key({2, 2, 4}, {2, 0, 0}, 40), path_key({2, 2, 8}, {2, 0, 4}, 40)}}};
+    doc["camera"] = valid()["camera"];  // an explicit camera stays the scenario's camera
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    const Scenario three = load_scenario(dir_ / "scenario.json");
+    EXPECT_EQ(three.camera.eye, glm::dvec3(0, 2, 3));
+    EXPECT_EQ(path_camera(*three.camera_path, 2)->eye, glm::dvec3(2, 2, 4));
+    EXPECT_NEAR(path_camera(*three.camera_path, 1)->eye.x, 1, 1e-12);
+    EXPECT_NEAR(path_camera(*three.camera_path, 3)->eye.z, 6, 1e-12);
+    // Without a path the scenario has none.
+    test::write_text(dir_ / "scenario.json", valid().dump());
+    EXPECT_FALSE(load_scenario(dir_ / "scenario.json").camera_path);
+}
+
+TEST_F(ScenarioTest, CameraPathErrorsNameTheKeyPath) {
+    auto with_path = [&](nlohmann::json path) {
+        auto doc = valid();
+        doc["camera_path"] = std::move(path);
+        return error_of(doc);
+    };
+    const nlohmann::json a = path_key({0, 2, 4}, {0, 0, 0}, 40), b = path_key({4, 2, 4}, {4, 0, 0}, 40);
+    EXPECT_EQ(with_path({{"frames", 1}, {"keys", {a, b}}}),
+              "scenario.json: camera_path.frames: expected an integer in [2, 10000] (got 1)");
+    EXPECT_EQ(with_path({{"keys", {a, b}}}), "scenario.json: camera_path.frames: missing required key");
+    EXPECT_EQ(with_path({{"frames", 3}, {"keys", nlohmann::json::array()}}),
+              "scenario.json: camera_path.keys: expected an array of at least one camera");
+    nlohmann::json bad = b;
+    bad["yfov_deg"] = 0;
+    EXPECT_EQ(with_path({{"frames", 3}, {"keys", {a, bad}}}).rfind("scenario.json: camera_path.keys[1].yfov_deg: ", 0),
+              0u);
+    bad = b;
+    bad["fov_deg"] = 40;
+    EXPECT_EQ(with_path({{"frames", 3}, {"keys", {a, bad}}})
+                  .rfind("scenario.json: camera_path.keys[1].fov_deg: unknown key", 0),
+              0u);
+    bad = {{"type", "orthographic"}, {"eye", {0, 2, 4}}, {"target", {0, 0, 0}}, {"xmag", 1}, {"ymag", 1}};
+    EXPECT_EQ(
+        with_path({{"frames", 3}, {"keys", {a, bad}}}),
+        "scenario.json: camera_path.keys[1].type: differs from keys[0]'s: a path interpolates one kind of camera");
+    EXPECT_EQ(with_path({{"frames", 3}, {"keys", {a, b}}, {"loop", true}}),
+              "scenario.json: camera_path.loop: unknown key");
+    EXPECT_EQ(with_path({{"frames", 2}, {"keys", {a, b, a}}}),
+              "scenario.json: camera_path.keys: 3 keys for 2 frames: every key must be a frame");
+    EXPECT_EQ(with_path(nlohmann::json::array()), "scenario.json: camera_path: expected an object");
+    // Keys fine on their own whose in-between frame looks nowhere: the eye passes through the
+    // target half-way (frame 1 of 3).
+    const nlohmann::json from = path_key({0, 0, 2}, {0, 0, 0}, 40), to = path_key({0, 0, -2}, {0, 0, 0}, 40);
+    EXPECT_EQ(with_path({{"frames", 3}, {"keys", {from, to}}}).rfind("scenario.json: camera_path.keys: frame 1 ", 0),
+              0u);
+    // Neither camera nor camera_path: the camera is required, as before.
+    auto doc = valid();
+    doc.erase("camera");
+    EXPECT_EQ(error_of(doc), "scenario.json: camera: missing required key");
+}
+
 }  // namespace
 }  // namespace penumbra

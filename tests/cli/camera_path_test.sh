@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# validate over a scenario's camera_path (issue #34): a bad path is exit 2 naming the key and
+# writes nothing; a good one writes flicker.exr, oracle.json says the BVH was built once, and
+# report.json has each light's temporal verdict. Usage: camera_path_test.sh PENUMBRA SOURCE_DIR
+source "$(dirname "$0")/harness.sh"
+fail_detail() { echo "(rc $rc: $err)"; }
+
+cp "$src/data/default/scene.glb" "$tmp/"
+key() {  # key EYE_X YFOV_DEG
+    echo "{\"type\": \"perspective\", \"eye\": [$1, 2, 5], \"target\": [$1, 0, 0], \"yfov_deg\": $2, \"znear\": 0.1, \"zfar\": 100}"
+}
+scenario() {  # scenario FRAMES KEY... -> stdout
+    local frames=$1
+    shift
+    local keys
+    keys=$(IFS=,; echo "$*")
+    cat <<JSON
+{"scene": "scene.glb", "image": {"width": 64, "height": 48},
+ "camera_path": {"frames": $frames, "keys": [$keys]},
+ "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}]}
+JSON
+}
+
+# A bad key: exit 2 naming its JSON path, before any work; nothing written, an existing folder untouched.
+scenario 4 "$(key 0 45)" "$(key 1 0)" >"$tmp/bad.json"
+PENUMBRA_CACHE_DIR="$tmp/cache" run validate "$tmp/bad.json" --out "$tmp/v1"
+check "a bad camera_path key exits 2" test "$rc" -eq 2
+check "the message names the key path" grep -q -F 'bad.json: camera_path.keys[1].yfov_deg: expected a field of view' <<<"$err"
+check "a bad camera_path writes nothing" test ! -e "$tmp/v1"
+check "a bad camera_path traces nothing" test ! -e "$tmp/cache"
+mkdir -p "$tmp/v2" && echo keep >"$tmp/v2/keep.txt"
+run validate "$tmp/bad.json" --out "$tmp/v2"
+check "a bad camera_path leaves an existing folder as it was" test "$(ls -A "$tmp/v2")" = "keep.txt"
+scenario 1 "$(key 0 45)" >"$tmp/one.json"
+run validate "$tmp/one.json" --out "$tmp/v3"
+check "one frame exits 2" test "$rc" -eq 2
+check "one frame names camera_path.frames" grep -q -F 'one.json: camera_path.frames: expected an integer in [2, 10000]' <<<"$err"
+check "one frame writes nothing" test ! -e "$tmp/v3"
+
+# A good path: every frame judged, one BVH.
+scenario 3 "$(key 0 45)" "$(key 0.5 45)" >"$tmp/path.json"
+run validate "$tmp/path.json" --out "$tmp/ok" --set resolution=512
+check "a camera path validates" test "$rc" -eq 0
+check "flicker.exr is written" test -s "$tmp/ok/flicker.exr"
+check "oracle.json: one BVH for every frame" test "$(jq '[.bvh_builds, .frames, .camera_path.bvh_builds, (.camera_path.frame_s | length)]' -c "$tmp/ok/oracle.json")" = "[1,3,1,3]"
+check "report.json: the temporal verdict per light" test "$(jq -c '.lights[0].temporal | [.frames, .pairs, (.per_frame | length), (.flicker_rate >= 0)]' "$tmp/ok/report.json")" = "[3,2,3,true]"
+check "report.json: the pairs saw common points" test "$(jq '.lights[0].temporal.points > 0' "$tmp/ok/report.json")" = "true"
+check "stdout tells the flicker" grep -q "flicker over 3 frames" "$tmp/stdout"
+
+finish
