@@ -5,7 +5,8 @@
 
 namespace penumbra {
 
-void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames,
+                            bool tint_cascades) {
     nlohmann::json oracle_info = r.oracle->info;
     if (frames) {
         oracle_info["seconds"]["write"] = report::write_oracle_images(out, r.oracle->frame);
@@ -14,8 +15,9 @@ void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, co
         out.write_json(r.engine.is_null() ? "raster.json" : "engine.json", r.raster_info);
     }
     out.write_json("oracle.json", oracle_info);
-    report::write_report(out, report_inputs(scenario, r, oracle_info), r.oracle->frame, r.raster.frame, r.score,
-                         r.report);
+    report::ReportInputs in = report_inputs(scenario, r, oracle_info);
+    in.tint_cascades = tint_cascades;
+    report::write_report(out, in, r.oracle->frame, r.raster.frame, r.score, r.report);
 }
 
 }  // namespace penumbra
