@@ -74,6 +74,14 @@ std::vector<double> sdsm_far_bounds(const Cascades& c, double near, double far, 
     return cascade_far_bounds(scaled, lo, hi);
 }
 
+const char* cascade_bias_scaling(const Technique& t, std::string_view key) {
+    const Cascades* c = cascades_of(t);
+    if (!c) return "";
+    if (key == "bias.slope" || key == "bias.normal_offset") return "texel_scaled";
+    if (key == "bias.world" || key == "bias.constant") return c->texel_scaled_bias ? "texel_scaled" : "same";
+    return "same";
+}
+
 const Cascades* cascades_of(const Technique& t) {
     return t.family == "cascaded" ? dynamic_cast<const Cascades*>(t.family_parameters.get()) : nullptr;
 }
@@ -111,6 +119,7 @@ Cascades parse_cascades(JsonObject& o) {
     c.fit = pick_enum(o, "fit", CascadeFit::sphere, {CascadeFit::sphere, CascadeFit::bounds});
     c.stabilize = o.boolean("stabilize", true);
     c.sdsm = o.boolean("sdsm", false);
+    c.texel_scaled_bias = o.boolean("texel_scaled_bias", false);
     if (c.split == CascadeSplit::fractions) {
         if (c.fractions.empty() && c.count > 1)
             o.fail("split", "\"fractions\" needs the fractions key, e.g. \"fractions\": [0.1, 0.2, 0.5]");
@@ -134,9 +143,10 @@ Cascades parse_cascades(JsonObject& o) {
 }
 
 nlohmann::json cascades_json(const Cascades& c) {
-    nlohmann::json j = {{"count", c.count},     {"split", to_string(c.split)}, {"lambda", c.lambda},
-                        {"overlap", c.overlap}, {"fit", to_string(c.fit)},     {"stabilize", c.stabilize},
-                        {"sdsm", c.sdsm}};
+    nlohmann::json j = {{"count", c.count},        {"split", to_string(c.split)},
+                        {"lambda", c.lambda},      {"overlap", c.overlap},
+                        {"fit", to_string(c.fit)}, {"stabilize", c.stabilize},
+                        {"sdsm", c.sdsm},          {"texel_scaled_bias", c.texel_scaled_bias}};
     if (c.first_far) j["first_far"] = *c.first_far;
     if (!c.fractions.empty()) j["fractions"] = c.fractions;
     if (c.max_distance) j["max_distance"] = *c.max_distance;
@@ -183,7 +193,7 @@ FamilyEntry cascaded_family_entry() {
     };
     for (const char* key :
          {"cascades.count", "cascades.split", "cascades.lambda", "cascades.first_far", "cascades.max_distance",
-          "cascades.overlap", "cascades.fit", "cascades.stabilize", "cascades.sdsm"})
+          "cascades.overlap", "cascades.fit", "cascades.stabilize", "cascades.sdsm", "cascades.texel_scaled_bias"})
         e.sweep_keys.push_back(key);
     return e;
 }

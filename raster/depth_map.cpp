@@ -154,6 +154,7 @@ struct MapContent {
     DepthFormat format = DepthFormat::d32;
     Cull cull = Cull::back;
     double constant = 0, slope = 0, clamp = 0;
+    bool texel_scaled_bias = false;  // each cascade's constant scaled by its texel
     bool operator==(const MapContent&) const = default;
 };
 
@@ -496,9 +497,14 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.footprint = glm::vec4(projection.metres_per_texel, projection.metres_per_texel_per_metre, 0.0f, 0.0f);
     p.cascade = glm::vec4(static_cast<float>(projection.cascade_texel.size()),
                           static_cast<float>(projection.cascade_overlap), 0.0f, 0.0f);
+    const Cascades* cascades = cascades_of(t);
+    const bool texel_scaled = cascades && cascades->texel_scaled_bias;
     for (std::size_t k = 0; k < projection.cascade_texel.size(); ++k) {
         p.cascade_far[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_far[k]);
         p.cascade_texel[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_texel[k]);
+        const glm::dvec2 scale = cascade_bias_scale(projection, k, texel_scaled);
+        p.cascade_world_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.x);
+        p.cascade_constant_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.y);
     }
     // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
     p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
@@ -542,8 +548,10 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     const auto q = static_cast<std::uint32_t>(2 + 3 * li);
     const auto res = static_cast<std::uint32_t>(t.resolution);
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
+    const Cascades* cascades = cascaded(t, light) ? cascades_of(t) : nullptr;
+    const bool texel_scaled = cascades && cascades->texel_scaled_bias;
     MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
-                       t.bias.constant,         t.bias.slope,      t.bias.clamp};
+                       t.bias.constant,         t.bias.slope,      t.bias.clamp, texel_scaled};
     LightMap& map = map_of(li);
     // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
     // ids serves it too, but a depth-only map must be drawn again for the lookups.
@@ -572,7 +580,9 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
             begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE,
                             map.depth_layers[layer].get(), res, res, 1.0f);
-            vkCmdSetDepthBias(cmd, static_cast<float>(t.bias.constant), static_cast<float>(t.bias.clamp),
+            // texel_scaled_bias: each cascade's constant scaled as its texel (cascade_bias_scale).
+            const double constant = t.bias.constant * cascade_bias_scale(ls.projection, layer, texel_scaled).y;
+            vkCmdSetDepthBias(cmd, static_cast<float>(constant), static_cast<float>(t.bias.clamp),
                               static_cast<float>(t.bias.slope));
             glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
             vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);

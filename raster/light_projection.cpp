@@ -339,11 +339,18 @@ LightProjection fit_cascades(const Light& light, const Scene& scene, const Camer
         lp.cascade_far.push_back(zf);
         lp.cascade_origin.emplace_back(lo.x, lo.y);
         lp.cascade_half_extent.push_back(glm::dvec2(hi.x - lo.x, hi.y - lo.y) * 0.5);
+        lp.cascade_depth_range.push_back(hi.z - lo.z);
         lp.far = std::max(lp.far, hi.z - lo.z);
     }
     lp.metres_per_texel = lp.cascade_texel.front();
     lp.half_extent = lp.cascade_half_extent.front();
     return lp;
+}
+
+glm::dvec2 cascade_bias_scale(const LightProjection& lp, std::size_t k, bool texel_scaled) {
+    if (!texel_scaled || k >= lp.cascade_texel.size() || k >= lp.cascade_depth_range.size()) return {1.0, 1.0};
+    const double texel = lp.cascade_texel[k] / lp.cascade_texel[0];
+    return {texel, texel * lp.cascade_depth_range[0] / lp.cascade_depth_range[k]};
 }
 
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis) {

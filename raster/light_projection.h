@@ -34,11 +34,16 @@ struct LightProjection {
     std::vector<double> cascade_texel, cascade_near, cascade_far;
     std::vector<glm::dvec2> cascade_origin;
     std::vector<glm::dvec2> cascade_half_extent;
-    double cascade_overlap = 0;  // fraction of a cascade blended with the next
+    std::vector<double> cascade_depth_range;  // metres of light depth its map's [0, 1] spans
+    double cascade_overlap = 0;               // fraction of a cascade blended with the next
     // SDSM (cascades.sdsm): the view depths, metres, the splits were placed between (the visible
     // samples' range, padded and clamped to the camera's); unset without SDSM.
     std::optional<glm::dvec2> sdsm_range;
 };
+
+// Cascades with texel_scaled_bias (raster/cascades.h): the factors cascade k's world bias (x) and
+// hardware constant bias (y) are multiplied by; (1, 1) for the first cascade and without it.
+glm::dvec2 cascade_bias_scale(const LightProjection& lp, std::size_t k, bool texel_scaled);
 
 // How a shadow view projects (docs/raster.md, "Adding a technique family").
 enum class ViewKind { ortho, perspective, cube_face, cascade };

@@ -100,6 +100,11 @@ struct LookupParams {
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
     vec4 moments;  // min variance, light-bleed reduction, exponent, negative exponent
+    // kLightCascade: per cascade (4 a vec4) the factor its world bias (metres) and hardware
+    // constant bias are multiplied by: 1, or with cascades.texel_scaled_bias its texel over the
+    // first cascade's (the constant also by the first's depth range over its own).
+    vec4 cascade_world_scale[kMaxLayers / 4];
+    vec4 cascade_constant_scale[kMaxLayers / 4];
 };
 
 // SDSM's reduction: the camera as LookupParams gives it (push constants).

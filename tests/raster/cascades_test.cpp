@@ -403,5 +403,64 @@ TEST(CascadeRender, SdsmSplitsLieWithinTheDepthsTheCameraSees) {
     EXPECT_LT(ls.views[0].metres_per_texel, pl.views[0].metres_per_texel);
 }
 
+// cascades.texel_scaled_bias (engines' per-cascade bias): the world and constant biases are the
+// first cascade's, scaled by each cascade's texel; without it every cascade gets the same.
+// bias_m, the lookups' bias as metres along the light ray, shows which each pixel got.
+TEST(CascadeRender, TexelScaledBiasGrowsWithEachCascadesTexel) {
+    raster::ContextOptions o;
+    o.validation = true;
+    raster::VulkanContext ctx(o);
+    const Scenario sc = long_view_scenario();
+    raster::RasterSession session(sc, ctx);
+    const auto median_bias_per_layer = [&](const nlohmann::json& bias, bool scaled) {
+        const raster::RasterResult r = session.render(
+            raster::parse_technique({{"family", "cascaded"},
+                                     {"resolution", 512},
+                                     {"depth_format", "d16"},
+                                     {"bias", bias},
+                                     {"cascades", {{"max_distance", 200}, {"texel_scaled_bias", scaled}}}},
+                                    "t"));
+        EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().front();
+        const DepthMapLookups& lk = *r.frame.lights[0].lookups;
+        std::array<std::vector<float>, 4> per_layer;
+        for (std::size_t i = 0; i < r.frame.pixel_count(); ++i)
+            if (r.frame.A[i] != 0 && !(lk.flags[i] & (kRasterBackFacing | kRasterOutsideMap)) && lk.layer[i] < 4)
+                per_layer[lk.layer[i]].push_back(lk.bias_m[i]);
+        std::array<double, 4> median{};
+        for (std::size_t k = 0; k < 4; ++k) {
+            EXPECT_GT(per_layer[k].size(), 100u) << k;
+            std::nth_element(per_layer[k].begin(), per_layer[k].begin() + per_layer[k].size() / 2, per_layer[k].end());
+            median[k] = per_layer[k][per_layer[k].size() / 2];
+        }
+        return std::make_pair(median, r.stats.lights[0].projection);
+    };
+    const nlohmann::json world = {{"constant", 0}, {"slope", 0}, {"world", 0.05}};
+    const auto [scaled, lp] = median_bias_per_layer(world, true);
+    const auto [same, unused] = median_bias_per_layer(world, false);
+    for (std::size_t k = 0; k < 4; ++k) {
+        const double ratio = lp.cascade_texel[k] / lp.cascade_texel[0];
+        EXPECT_NEAR(scaled[k], 0.05 * ratio, 1e-4 * ratio) << k;
+        EXPECT_NEAR(same[k], 0.05, 1e-4) << k;
+    }
+    EXPECT_GT(lp.cascade_texel[3], 2 * lp.cascade_texel[0]);
+    // The hardware constant (d16: r = 2^-16 everywhere) in metres, per texel: the same in every
+    // cascade when scaled; without, it follows each cascade's depth range instead.
+    const nlohmann::json constant = {{"constant", 8}, {"slope", 0}};
+    const auto [c_scaled, c_lp] = median_bias_per_layer(constant, true);
+    const double per_texel = c_scaled[0] / c_lp.cascade_texel[0];
+    const auto [c_same, c_same_lp] = median_bias_per_layer(constant, false);
+    for (std::size_t k = 1; k < 4; ++k) {
+        EXPECT_NEAR(c_scaled[k] / c_lp.cascade_texel[k], per_texel, 0.02 * per_texel) << k;
+        const double range = c_same_lp.cascade_depth_range[k] / c_same_lp.cascade_depth_range[0];
+        EXPECT_NEAR(c_same[k], c_same[0] * range, 0.02 * c_same[k]) << k;
+    }
+    EXPECT_STREQ(raster::cascade_bias_scaling(raster::parse_technique({{"family", "cascaded"}}, "t"), "bias.world"),
+                 "same");
+    EXPECT_STREQ(raster::cascade_bias_scaling(raster::parse_technique({{"family", "cascaded"}}, "t"), "bias.slope"),
+                 "texel_scaled");
+    EXPECT_STREQ(raster::cascade_bias_scaling(raster::parse_technique(nlohmann::json::object(), "t"), "bias.world"),
+                 "");
+}
+
 }  // namespace
 }  // namespace penumbra
