@@ -23,6 +23,7 @@ struct ValidateArgs {
     std::filesystem::path gate_file;
     std::filesystem::path junit_file;
     bool frames = false;
+    std::string class_map_tint = "none";
     VerdictArgs verdict;
 };
 
@@ -67,10 +68,11 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     const ValidateResult& r = path ? path->last : *single;
 
     auto t0 = SteadyClock::now();
+    const bool tint_cascades = v.class_map_tint == "cascade";
     if (path)
-        write_camera_path_outputs(out, scenario, *path, v.frames);
+        write_camera_path_outputs(out, scenario, *path, v.frames, tint_cascades);
     else
-        write_validate_outputs(out, scenario, r, v.frames);
+        write_validate_outputs(out, scenario, r, v.frames, tint_cascades);
     out.commit();
     const double write_s = seconds_since(t0);
     if (!v.junit_file.empty()) {
@@ -124,6 +126,9 @@ Subcommand add_validate_command(CLI::App& parent) {
     cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")")->check(kUserPath);
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);
     cmd->add_flag("--frames", v.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
+    cmd->add_option("--class-map-tint", v.class_map_tint,
+                    "none (default) or cascade: a cascaded light's class map tinted by the cascade each pixel used")
+        ->check(CLI::IsMember({"none", "cascade"}));
     add_verdict_options(cmd, v.verdict);
     describe_outputs(
         cmd,

@@ -10,6 +10,6 @@ namespace penumbra {
 // write_validate_outputs of the last frame, and flicker.exr: per light a channel
 // light<i>.flicker, the number of frame pairs in which the point seen at the pixel flickered.
 void write_camera_path_outputs(OutputTransaction& out, const Scenario& scenario, const CameraPathResult& result,
-                               bool frames);
+                               bool frames, bool tint_cascades = false);
 
 }  // namespace penumbra

@@ -189,6 +189,8 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
         const RasterLightImage& image = r.raster.frame.lights[li];
         if (ls.views.empty() || ls.views[0].kind != raster::ViewKind::cascade || !image.lookups) continue;
         r.report["lights"][li]["cascades"] = cascade_metrics(ls, image, r.score.images[li], r.raster.frame.A);
+        if (const auto& sdsm = ls.projection.sdsm_range)  // SDSM: the range the splits were placed in
+            r.report["lights"][li]["sdsm"] = {{"near_m", sdsm->x}, {"far_m", sdsm->y}};
     }
     return r;
 }

@@ -7,7 +7,8 @@
 
 namespace penumbra {
 
-void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames) {
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames,
+                            bool tint_cascades) {
     nlohmann::json oracle_info = r.oracle->info;
     // The frames (--frames: oracle.exr and raster.exr, the largest files) are written beside the
     // report's images; oracle.json, which times their writing, follows both.
@@ -21,8 +22,9 @@ void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, co
         out.write_json(r.engine.is_null() ? "raster.json" : "engine.json", r.raster_info);
     }
     // The report reads nothing of the oracle's write time: its inputs are the run's own.
-    report::write_report(out, report_inputs(scenario, r, r.oracle->info), r.oracle->frame, r.raster.frame, r.score,
-                         r.report);
+    report::ReportInputs in = report_inputs(scenario, r, r.oracle->info);
+    in.tint_cascades = tint_cascades;
+    report::write_report(out, in, r.oracle->frame, r.raster.frame, r.score, r.report);
     frame_files.wait();
     out.write_json("oracle.json", oracle_info);
 }

@@ -9,8 +9,8 @@ namespace penumbra {
 
 // report.html, report.json, errors.exr, the PNG maps, raster.json and oracle.json into `out`;
 // with `frames`, oracle.exr/png and raster.exr/png too (the oracle frame must then hold P, N,
-// depth: ValidateOptions::keep_oracle_frame).
-void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& result,
-                            bool frames);
+// depth: ValidateOptions::keep_oracle_frame). `tint_cascades`: validate --class-map-tint cascade.
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& result, bool frames,
+                            bool tint_cascades = false);
 
 }  // namespace penumbra

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/json_reader.h"
@@ -56,6 +57,31 @@ std::vector<double> cascade_far_bounds(const Cascades& c, double near, double fa
     return bounds;
 }
 
+std::vector<double> sdsm_far_bounds(const Cascades& c, double near, double far, double lo, double hi) {
+    lo = std::clamp(lo, near, far);
+    hi = std::clamp(hi, lo, far);
+    if (!(hi > lo)) hi = std::min(far, lo + std::max(1e-6, 1e-6 * std::abs(lo)));  // one depth seen
+    if (c.split == CascadeSplit::fractions) {
+        std::vector<double> bounds;
+        for (int i = 1; i <= c.count; ++i)
+            bounds.push_back(
+                i < c.count && i - 1 < static_cast<int>(c.fractions.size()) ? lo + c.fractions[i - 1] * (hi - lo) : hi);
+        return bounds;
+    }
+    Cascades scaled = c;
+    if (c.split == CascadeSplit::geometric && c.first_far)
+        scaled.first_far = lo + (*c.first_far - near) / (far - near) * (hi - lo);
+    return cascade_far_bounds(scaled, lo, hi);
+}
+
+const char* cascade_bias_scaling(const Technique& t, std::string_view key) {
+    const Cascades* c = cascades_of(t);
+    if (!c) return "";
+    if (key == "bias.slope" || key == "bias.normal_offset") return "texel_scaled";
+    if (key == "bias.world" || key == "bias.constant") return c->texel_scaled_bias ? "texel_scaled" : "same";
+    return "same";
+}
+
 const Cascades* cascades_of(const Technique& t) {
     return t.family == "cascaded" ? dynamic_cast<const Cascades*>(t.family_parameters.get()) : nullptr;
 }
@@ -93,7 +119,7 @@ Cascades parse_cascades(JsonObject& o) {
     c.fit = pick_enum(o, "fit", CascadeFit::sphere, {CascadeFit::sphere, CascadeFit::bounds});
     c.stabilize = o.boolean("stabilize", true);
     c.sdsm = o.boolean("sdsm", false);
-    if (c.sdsm) o.fail("sdsm", "sample distribution shadow maps are not implemented yet (set false or leave it out)");
+    c.texel_scaled_bias = o.boolean("texel_scaled_bias", false);
     if (c.split == CascadeSplit::fractions) {
         if (c.fractions.empty() && c.count > 1)
             o.fail("split", "\"fractions\" needs the fractions key, e.g. \"fractions\": [0.1, 0.2, 0.5]");
@@ -117,9 +143,10 @@ Cascades parse_cascades(JsonObject& o) {
 }
 
 nlohmann::json cascades_json(const Cascades& c) {
-    nlohmann::json j = {{"count", c.count},     {"split", to_string(c.split)}, {"lambda", c.lambda},
-                        {"overlap", c.overlap}, {"fit", to_string(c.fit)},     {"stabilize", c.stabilize},
-                        {"sdsm", c.sdsm}};
+    nlohmann::json j = {{"count", c.count},        {"split", to_string(c.split)},
+                        {"lambda", c.lambda},      {"overlap", c.overlap},
+                        {"fit", to_string(c.fit)}, {"stabilize", c.stabilize},
+                        {"sdsm", c.sdsm},          {"texel_scaled_bias", c.texel_scaled_bias}};
     if (c.first_far) j["first_far"] = *c.first_far;
     if (!c.fractions.empty()) j["fractions"] = c.fractions;
     if (c.max_distance) j["max_distance"] = *c.max_distance;
@@ -158,8 +185,15 @@ FamilyEntry cascaded_family_entry() {
         m.directional_layers = c ? c->count : Cascades{}.count;
         return m;
     };
-    for (const char* key : {"cascades.count", "cascades.split", "cascades.lambda", "cascades.first_far",
-                            "cascades.max_distance", "cascades.overlap", "cascades.fit", "cascades.stabilize"})
+    // raster.json: with SDSM, the view depths the splits were placed between.
+    e.describe_light = [](const Technique& t, const Light& light, const RasterLightStats& stats) {
+        nlohmann::json j = depth_map_family_entry().describe_light(t, light, stats);
+        if (const auto& r = stats.projection.sdsm_range) j["sdsm"] = {{"near_m", r->x}, {"far_m", r->y}};
+        return j;
+    };
+    for (const char* key :
+         {"cascades.count", "cascades.split", "cascades.lambda", "cascades.first_far", "cascades.max_distance",
+          "cascades.overlap", "cascades.fit", "cascades.stabilize", "cascades.sdsm", "cascades.texel_scaled_bias"})
         e.sweep_keys.push_back(key);
     return e;
 }

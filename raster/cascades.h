@@ -4,6 +4,7 @@
 #pragma once
 
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include "raster/technique.h"
@@ -28,7 +29,12 @@ struct Cascades final : FamilyParameters {
     double overlap = 0;                   // fraction of a cascade blended with the next
     CascadeFit fit = CascadeFit::sphere;  // per-slice bounding sphere, or tight light-space bounds
     bool stabilize = true;                // snap the light-space origin to whole texels
-    bool sdsm = false;                    // sample distribution shadow maps: not yet (refused)
+    bool sdsm = false;                    // splits between the visible samples' least and greatest depth
+    // Engines' per-cascade bias: bias.world and bias.constant are the first cascade's, and each
+    // other cascade's is scaled by its texel over the first's (the constant also by the first's
+    // depth range over its own, so that its metres grow with the texel). slope and
+    // normal_offset scale with each cascade's texel either way.
+    bool texel_scaled_bias = false;
 };
 
 // Far bound of cascade i of `count` between view depths `near` and `far` (i = 1 … count).
@@ -43,6 +49,18 @@ double geometric_split(double first_far, double far, int i, int count);
 // The far bounds (view depth, metres) of every cascade, increasing, the last the range's end.
 // `near`: the camera's znear; `far`: max_distance or the camera's zfar.
 std::vector<double> cascade_far_bounds(const Cascades& c, double near, double far);
+
+// SDSM (Lauritzen, Salvi and Lefohn, "Sample Distribution Shadow Maps", I3D 2011): the far
+// bounds of the split scheme applied to the visible samples' view depths [lo, hi] instead of
+// [near, far]. [lo, hi] is first clamped to [near, far]. uniform, log and practical are their
+// closed forms on [lo, hi]; fractions are fractions of that range (lo + f (hi - lo)); geometric's
+// first_far keeps its place as a fraction of [near, far], carried to [lo, hi].
+std::vector<double> sdsm_far_bounds(const Cascades& c, double near, double far, double lo, double hi);
+
+// How technique `t`'s bias key `key` ("bias.world", …) applies across the cascades of a sun: "" when
+// `t` is not cascaded; "texel_scaled" (scaled by each cascade's texel: slope and normal_offset
+// always, world and constant with texel_scaled_bias), or "same" in every cascade.
+const char* cascade_bias_scaling(const Technique& t, std::string_view key);
 
 // The cascades of technique `t`, or null when its family is not "cascaded".
 const Cascades* cascades_of(const Technique& t);

@@ -29,6 +29,7 @@
 // SPIR-V compiled from shaders/ at build time.
 #include "lookup_comp.h"
 #include "peel_frag.h"
+#include "sdsm_comp.h"
 #include "shadow_frag.h"
 #include "shadow_vert.h"
 
@@ -135,6 +136,17 @@ constexpr std::array<BindingDecl, 10> kLookupBindings = {{
     {gpu::kBindingVisibilityOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
 }};
 
+// SDSM's reduction (shaders/sdsm.comp): the camera pass's triangles and the scene, and the range.
+constexpr std::array<BindingDecl, 4> kSdsmBindings = {{
+    {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+    {gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingIndices, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingSdsmRange, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+}};
+constexpr const char* kSdsmReduce =
+    "SDSM's compute pass (Lauritzen et al. 2011): the least and greatest view depth of the visible samples, "
+    "reduced on the GPU for the cascades' splits, once per render";
+
 // Everything a shadow pass's map depends on: equal keys draw equal maps.
 struct MapContent {
     std::vector<glm::dmat4> view_proj;
@@ -144,6 +156,7 @@ struct MapContent {
     Cull cull = Cull::back;
     double constant = 0, slope = 0, clamp = 0;
     DepthLayer depth_layer = DepthLayer::first;
+    bool texel_scaled_bias = false;  // each cascade's constant scaled by its texel
     bool operator==(const MapContent&) const = default;
 };
 
@@ -208,6 +221,7 @@ class DepthMapFamily final : public TechniqueFamily {
     };
 
     void check_supported(const Technique& t, RasterStats& stats);
+    std::optional<glm::dvec2> reduce_view_depth(RasterStats& stats);
     VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
     VkPipeline peel_pipeline(const Technique& t);
     VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
@@ -249,6 +263,13 @@ class DepthMapFamily final : public TechniqueFamily {
     bool slots_hold_lookups_ = false;
     UniqueQueryPool queries_;
     std::uint32_t query_capacity_ = 0;
+
+    // SDSM's reduction, made on first use.
+    DescriptorSets sdsm_sets_;
+    UniquePipelineLayout sdsm_layout_;
+    UniquePipeline sdsm_pipeline_;
+    GpuBuffer sdsm_range_;
+    UniqueQueryPool sdsm_queries_;
 };
 
 DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
@@ -256,7 +277,8 @@ DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
       ctx_(scene.ctx),
       direct_readback_(scene.ctx.info().type == "cpu" || scene.ctx.info().type == "integrated-gpu"),
       sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT),
-      peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT) {
+      peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT),
+      sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
     peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
@@ -277,6 +299,79 @@ void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
         (t.filter.bilinear_taps && (t.filter.type == FilterType::pcf || t.filter.type == FilterType::poisson));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
+}
+
+// SDSM (Lauritzen, Salvi and Lefohn, I3D 2011): one compute pass over the camera pass's pixels
+// reduces the view depth of every visible sample to its least and greatest, timed as
+// "sdsm_reduce"; the cascades' splits are then placed between them. Unset when no pixel sees a
+// surface (the camera's range is used).
+std::optional<glm::dvec2> DepthMapFamily::reduce_view_depth(RasterStats& stats) {
+    if (!sdsm_pipeline_) {
+        sdsm_sets_.reserve(1);
+        sdsm_range_ = create_buffer(ctx_, 2 * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+        std::array<DescriptorResource, kSdsmBindings.size()> r{};
+        r[0].image = {VK_NULL_HANDLE, s_.gbuffer_prim.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+        r[1].buffer = {s_.positions.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[2].buffer = {s_.indices.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[3].buffer = {sdsm_range_.buffer.get(), 0, VK_WHOLE_SIZE};
+        sdsm_sets_.write(0, r);
+        sdsm_layout_ =
+            make_pipeline_layout(ctx_, sdsm_sets_.layout(), sizeof(gpu::SdsmParams), VK_SHADER_STAGE_COMPUTE_BIT);
+        UniqueShaderModule cs = make_module(ctx_, kSdsmComp, sizeof(kSdsmComp));
+        VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+        ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+        ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+        ci.stage.module = cs.get();
+        ci.stage.pName = "main";
+        ci.layout = sdsm_layout_.get();
+        VkPipeline p;
+        VK_CHECK(vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
+        sdsm_pipeline_ = UniquePipeline(ctx_.device(), p);
+        VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+        qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+        qi.queryCount = 2;
+        VkQueryPool qp;
+        VK_CHECK(vkCreateQueryPool(ctx_.device(), &qi, nullptr, &qp));
+        sdsm_queries_ = UniqueQueryPool(ctx_.device(), qp);
+    }
+    const Scenario& sc = s_.scenario;
+    const Camera& cam = sc.camera;
+    const glm::dvec2 plane = ndc_to_image_plane(cam, sc.width, sc.height);
+    gpu::SdsmParams params{};
+    params.cam_forward = glm::vec4(glm::vec3(cam.forward), cam.type == ProjectionType::perspective ? 1.0f : 0.0f);
+    params.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
+    params.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
+    params.image = glm::vec4(sc.width, sc.height, 1.0f / sc.width, 1.0f / sc.height);
+    const std::uint32_t empty[2] = {0xFFFFFFFFu, 0u};
+    std::memcpy(sdsm_range_.mapped, empty, sizeof(empty));
+    ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
+        vkCmdResetQueryPool(cmd, sdsm_queries_.get(), 0, 2);
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, sdsm_queries_.get(), 0);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sdsm_pipeline_.get());
+        VkDescriptorSet set = sdsm_sets_[0];
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sdsm_layout_.get(), 0, 1, &set, 0, nullptr);
+        vkCmdPushConstants(cmd, sdsm_layout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(params), &params);
+        vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
+        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, sdsm_queries_.get(), 1);
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+    });
+    std::uint64_t ts[2] = {0, 0};
+    VK_CHECK(vkGetQueryPoolResults(ctx_.device(), sdsm_queries_.get(), 0, 2, sizeof(ts), ts, sizeof(std::uint64_t),
+                                   VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    stats.gpu_ms.add("sdsm_reduce",
+                     ts[1] >= ts[0] ? static_cast<double>(ts[1] - ts[0]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0,
+                     kSdsmReduce);
+    std::uint32_t range[2];
+    std::memcpy(range, sdsm_range_.mapped, sizeof(range));
+    if (range[0] > range[1]) return std::nullopt;
+    const auto unordered = [](std::uint32_t u) {
+        const std::uint32_t bits = (u & 0x80000000u) != 0 ? u & 0x7FFFFFFFu : ~u;
+        float f;
+        std::memcpy(&f, &bits, sizeof(f));
+        return static_cast<double>(f);
+    };
+    return glm::dvec2(unordered(range[0]), unordered(range[1]));
 }
 
 // With triangle ids: a fragment shader writes each texel's triangle into the R32_UINT target.
@@ -465,9 +560,14 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.footprint = glm::vec4(projection.metres_per_texel, projection.metres_per_texel_per_metre, 0.0f, 0.0f);
     p.cascade = glm::vec4(static_cast<float>(projection.cascade_texel.size()),
                           static_cast<float>(projection.cascade_overlap), 0.0f, 0.0f);
+    const Cascades* cascades = cascades_of(t);
+    const bool texel_scaled = cascades && cascades->texel_scaled_bias;
     for (std::size_t k = 0; k < projection.cascade_texel.size(); ++k) {
         p.cascade_far[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_far[k]);
         p.cascade_texel[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_texel[k]);
+        const glm::dvec2 scale = cascade_bias_scale(projection, k, texel_scaled);
+        p.cascade_world_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.x);
+        p.cascade_constant_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.y);
     }
     // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
     p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
@@ -511,8 +611,11 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     const auto res = static_cast<std::uint32_t>(t.resolution);
     const bool midpoint = t.depth_layer == DepthLayer::midpoint;
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
+    const Cascades* cascades = cascaded(t, light) ? cascades_of(t) : nullptr;
+    const bool texel_scaled = cascades && cascades->texel_scaled_bias;
     MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
-                       t.bias.constant,         t.bias.slope,      t.bias.clamp, t.depth_layer};
+                       t.bias.constant,         t.bias.slope,      t.bias.clamp, t.depth_layer,
+                       texel_scaled};
     LightMap& map = map_of(li);
     // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
     // ids serves it too, but a depth-only map must be drawn again for the lookups.
@@ -549,7 +652,9 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
             begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE, first_views[layer].get(),
                             res, res, 1.0f);
-            vkCmdSetDepthBias(cmd, static_cast<float>(t.bias.constant), static_cast<float>(t.bias.clamp),
+            // texel_scaled_bias: each cascade's constant scaled as its texel (cascade_bias_scale).
+            const double constant = t.bias.constant * cascade_bias_scale(ls.projection, layer, texel_scaled).y;
+            vkCmdSetDepthBias(cmd, static_cast<float>(constant), static_cast<float>(t.bias.clamp),
                               static_cast<float>(t.bias.slope));
             glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
             vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
@@ -678,6 +783,11 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
 
     const Scenario& sc = s_.scenario;
+    std::optional<glm::dvec2> samples;
+    const Cascades* cascades = cascades_of(t);
+    if (cascades && cascades->sdsm &&
+        std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return cascaded(t, l); }))
+        samples = reduce_view_depth(stats);
     stats.lights.resize(n);
     for (std::size_t li = 0; li < n; ++li) {
         const Light& light = lights[li];
@@ -687,8 +797,8 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         const bool world = t.precision == Precision::world_float32;
         const glm::dvec3 fit_origin = world ? glm::dvec3(0.0) : s_.origin;
         if (cascaded(t, light))
-            ls.projection = fit_cascades(light, sc.scene, s_.camera, sc.width, sc.height, *cascades_of(t), t.resolution,
-                                         fit_origin);
+            ls.projection = fit_cascades(light, sc.scene, s_.camera, sc.width, sc.height, *cascades, t.resolution,
+                                         fit_origin, samples);
         else
             ls.projection = fit_light(light, sc.scene, s_.camera, sc.width, sc.height, t.fit, t.resolution, fit_origin,
                                       t.shadow_distance);

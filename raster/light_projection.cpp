@@ -243,7 +243,7 @@ std::vector<ShadowView> shadow_views(const LightProjection& lp) {
 }
 
 LightProjection fit_cascades(const Light& light, const Scene& scene, const Camera& cam, int w, int h, const Cascades& c,
-                             int res, const glm::dvec3& origin) {
+                             int res, const glm::dvec3& origin, const std::optional<glm::dvec2>& samples) {
     const bool infinite = !std::isfinite(cam.zfar) || cam.zfar >= 1e30;
     if (!c.max_distance && infinite)
         throw InputError(
@@ -261,8 +261,19 @@ LightProjection fit_cascades(const Light& light, const Scene& scene, const Camer
     if ((c.split == CascadeSplit::log || c.split == CascadeSplit::practical) && !(near > 0))
         throw InputError(fmt::format("technique.cascades.split: \"{}\" needs a camera znear > 0 (it is {})",
                                      to_string(c.split), near));
-    const std::vector<double> bounds = cascade_far_bounds(c, near, far);
     LightProjection lp;
+    double first_near = near;
+    std::vector<double> bounds;
+    if (samples) {
+        // SDSM: the visible range, a hundredth wider each way, within the camera's.
+        const double pad = 0.01 * std::max(0.0, samples->y - samples->x) + 1e-4 * std::abs(samples->y);
+        const double lo = std::clamp(samples->x - pad, near, far), hi = std::clamp(samples->y + pad, lo, far);
+        bounds = sdsm_far_bounds(c, near, far, lo, hi);
+        first_near = lo;
+        lp.sdsm_range = glm::dvec2(lo, bounds.back());
+    } else {
+        bounds = cascade_far_bounds(c, near, far);
+    }
     lp.cascade_overlap = c.overlap;
     Basis b = light_basis(light.direction);
     auto to_light_space = [&](const glm::dvec3& p) {
@@ -275,7 +286,7 @@ LightProjection fit_cascades(const Light& light, const Scene& scene, const Camer
     const bool persp = cam.type == ProjectionType::perspective;
     for (int i = 0; i < c.count; ++i) {
         // bevy's overlap: a cascade starts that fraction before the previous one ends.
-        const double zn = i == 0 ? near : (1 - c.overlap) * bounds[i - 1], zf = bounds[i];
+        const double zn = i == 0 ? first_near : (1 - c.overlap) * bounds[i - 1], zf = bounds[i];
         std::array<glm::dvec3, 8> corners;
         for (int k = 0; k < 8; ++k) {
             const double z = k & 4 ? zf : zn;
@@ -328,11 +339,18 @@ LightProjection fit_cascades(const Light& light, const Scene& scene, const Camer
         lp.cascade_far.push_back(zf);
         lp.cascade_origin.emplace_back(lo.x, lo.y);
         lp.cascade_half_extent.push_back(glm::dvec2(hi.x - lo.x, hi.y - lo.y) * 0.5);
+        lp.cascade_depth_range.push_back(hi.z - lo.z);
         lp.far = std::max(lp.far, hi.z - lo.z);
     }
     lp.metres_per_texel = lp.cascade_texel.front();
     lp.half_extent = lp.cascade_half_extent.front();
     return lp;
+}
+
+glm::dvec2 cascade_bias_scale(const LightProjection& lp, std::size_t k, bool texel_scaled) {
+    if (!texel_scaled || k >= lp.cascade_texel.size() || k >= lp.cascade_depth_range.size()) return {1.0, 1.0};
+    const double texel = lp.cascade_texel[k] / lp.cascade_texel[0];
+    return {texel, texel * lp.cascade_depth_range[0] / lp.cascade_depth_range[k]};
 }
 
 double farthest_along(const Bounds& box, const glm::dvec3& eye, const glm::dvec3& axis) {

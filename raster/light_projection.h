@@ -4,7 +4,9 @@
 #pragma once
 
 #include <glm/mat4x4.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,8 +34,16 @@ struct LightProjection {
     std::vector<double> cascade_texel, cascade_near, cascade_far;
     std::vector<glm::dvec2> cascade_origin;
     std::vector<glm::dvec2> cascade_half_extent;
-    double cascade_overlap = 0;  // fraction of a cascade blended with the next
+    std::vector<double> cascade_depth_range;  // metres of light depth its map's [0, 1] spans
+    double cascade_overlap = 0;               // fraction of a cascade blended with the next
+    // SDSM (cascades.sdsm): the view depths, metres, the splits were placed between (the visible
+    // samples' range, padded and clamped to the camera's); unset without SDSM.
+    std::optional<glm::dvec2> sdsm_range;
 };
+
+// Cascades with texel_scaled_bias (raster/cascades.h): the factors cascade k's world bias (x) and
+// hardware constant bias (y) are multiplied by; (1, 1) for the first cascade and without it.
+glm::dvec2 cascade_bias_scale(const LightProjection& lp, std::size_t k, bool texel_scaled);
 
 // How a shadow view projects (docs/raster.md, "Adding a technique family").
 enum class ViewKind { ortho, perspective, cube_face, cascade };
@@ -73,8 +83,12 @@ LightProjection fit_light(const Light& light, const Scene& scene, const Camera& 
 // camera's view depth, fitted by `cascades.fit`, the near plane pulled back to the scene so that
 // casters between a slice and the light stay in its map. Throws InputError (exit 2) for a range
 // the camera cannot give: an infinite zfar without max_distance, a first_far beyond the range.
+// With `samples` (SDSM: the least and greatest view depth of the visible samples, from the GPU
+// reduction), the splits lie between them (sdsm_far_bounds), padded by a hundredth of the range
+// so that a receiver bias does not push the farthest samples past the last cascade.
 LightProjection fit_cascades(const Light& light, const Scene& scene, const Camera& camera, int image_width,
-                             int image_height, const Cascades& cascades, int resolution, const glm::dvec3& origin);
+                             int image_height, const Cascades& cascades, int resolution, const glm::dvec3& origin,
+                             const std::optional<glm::dvec2>& samples = std::nullopt);
 
 // Technique precision world_float32 (docs/raster.md, "precision"): `lp` was fitted with origin 0,
 // so its matrices map world positions; each is rounded to float32, as an engine keeps it, and

@@ -30,6 +30,9 @@ struct ReportInputs {
     nlohmann::json timing;                         // report.json's "timing"
     const metrics::GateResult* gate = nullptr;     // null: no gate given
     nlohmann::json fingerprint;                    // report.json's "fingerprint" (scene, camera, lights); null: none
+    // validate --class-map-tint cascade: a cascaded light's class map tinted by the cascade each
+    // pixel's lookup used (the raster lookups' layer), with the tints in its legend.
+    bool tint_cascades = false;
 };
 
 // report.json (docs/design.md's keys, and more): each light's object is metrics::to_json, built from

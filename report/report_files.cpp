@@ -4,6 +4,7 @@
 #include <tbb/task_group.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "image_io/image_io.h"
@@ -405,8 +406,14 @@ window.addEventListener("load", function () {
 )";
 }
 
+// A hue per cascade, mixed a third into the class map (validate --class-map-tint cascade).
+constexpr std::array<glm::vec3, 4> kCascadeTints = {
+    {{1.0f, 0.85f, 0.1f}, {0.1f, 0.9f, 0.9f}, {0.9f, 0.2f, 0.9f}, {0.3f, 0.95f, 0.3f}}};
+constexpr float kCascadeTintWeight = 0.35f;
+
 void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
-                     const metrics::LightErrorImage& e, const metrics::LightScore& l) {
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l,
+                     const std::vector<std::uint32_t>* cascade_layer) {
     std::vector<LegendEntry> legend;
     for (auto c : metrics::kErrorClasses)
         legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
@@ -416,9 +423,24 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
     legend.push_back({kCorrectShadow, "correct, in shadow"});
     for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
         legend.push_back({class_colour(c), std::string(to_string(c))});
+    std::vector<float> rgb = class_image(oracle.lights[li], e, oracle.pixel_count());
+    if (cascade_layer && cascade_layer->size() == oracle.pixel_count()) {
+        std::uint32_t most = 0;
+        for (std::size_t i = 0; i < oracle.pixel_count(); ++i) {
+            if (static_cast<PixelClass>(e.cls[i]) == PixelClass::background) continue;
+            const std::uint32_t layer = (*cascade_layer)[i];
+            most = std::max(most, layer + 1);
+            const glm::vec3& tint = kCascadeTints[layer % kCascadeTints.size()];
+            for (int k = 0; k < 3; ++k)
+                rgb[3 * i + k] = (1 - kCascadeTintWeight) * rgb[3 * i + k] + kCascadeTintWeight * tint[k];
+        }
+        for (std::uint32_t c = 0; c < most && c < kCascadeTints.size(); ++c)
+            legend.push_back({(1 - kCascadeTintWeight) * glm::vec3(0.5f) + kCascadeTintWeight * kCascadeTints[c],
+                              most > kCascadeTints.size() ? fmt::format("tint: cascades {} and {}", c, c + 4)
+                                                          : fmt::format("tint: cascade {}", c)});
+    }
     int h = 0;
-    auto classes =
-        with_legend(class_image(oracle.lights[li], e, oracle.pixel_count()), oracle.width, oracle.height, legend, h);
+    auto classes = with_legend(rgb, oracle.width, oracle.height, legend, h);
     write_png(out, name, oracle.width, h, classes);
 }
 
@@ -440,7 +462,14 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
     files.run([&] { write_exr(out, "errors.exr", W, H, channels); });
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
-        files.run([&, li] { write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li]); });
+        // A cascaded light (report.json has its cascades) is tinted by cascade when asked.
+        const bool tint = in.tint_cascades && li < raster.lights.size() && raster.lights[li].lookups &&
+                          report.contains("lights") && li < report["lights"].size() &&
+                          report["lights"][li].contains("cascades");
+        files.run([&, li, tint] {
+            write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li],
+                            tint ? &raster.lights[li].lookups->layer : nullptr);
+        });
         files.run([&, li] {
             const std::vector<LegendEntry> error_legend = {{kDarker, "raster darker than truth"},
                                                            {kBrighter, "raster brighter than truth"},

@@ -20,8 +20,11 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
 // data-images attribute says "ok" or "broken", so a headless browser test notices it.
 const char* image_check_script();
 
-// The class map of light `li` with its legend (each class's rate), as a PNG named `name`.
+// The class map of light `li` with its legend (each class's rate), as a PNG named `name`. With
+// `cascade_layer` (a cascaded light's lookups' layer per pixel) each surface pixel is tinted by
+// its cascade and the legend names the tints.
 void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
-                     const metrics::LightErrorImage& e, const metrics::LightScore& l);
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l,
+                     const std::vector<std::uint32_t>* cascade_layer = nullptr);
 
 }  // namespace penumbra::report

@@ -45,6 +45,17 @@ const bool kDirectional = kLightKind == kLightDirectional || kLightKind == kLigh
 float cascade_far(uint i) { return p.cascade_far[i >> 2][i & 3u]; }
 float cascade_texel(uint i) { return p.cascade_texel[i >> 2][i & 3u]; }
 uint cascade_count() { return uint(p.cascade.x); }
+// The world and hardware constant biases of a layer (cascades.texel_scaled_bias scales them).
+float world_bias(uint layer) {
+    if (kLightKind != kLightCascade) return p.bias.x;
+    uint i = min(layer, cascade_count() - 1u);
+    return p.bias.x * p.cascade_world_scale[i >> 2][i & 3u];
+}
+float constant_bias(uint layer) {
+    if (kLightKind != kLightCascade) return p.bias.w;
+    uint i = min(layer, cascade_count() - 1u);
+    return p.bias.w * p.cascade_constant_scale[i >> 2][i & 3u];
+}
 // View depth of a camera-relative point (the eye is the origin for both projections).
 float camera_depth(vec3 P) { return dot(P, p.cam_forward.xyz); }
 
@@ -436,7 +447,8 @@ void main() {
     uint layer = select_layer(P);
     float footprint = layer_footprint(P, layer);
     // Receiver biases: towards the light by metres, along the normal by texel footprints.
-    vec3 Pb = P + to_light * p.bias.x + n * (p.bias.y * footprint);
+    float world = world_bias(layer);
+    vec3 Pb = P + to_light * world + n * (p.bias.y * footprint);
     layer = select_layer(Pb);
     if (kMode == kModeFaceMask) {
         atomicOr(face_mask, 1u << layer);
@@ -474,10 +486,10 @@ void main() {
     float metres_per_depth = abs(m.z - z_toward) > 0.0 ? h / abs(m.z - z_toward) : 0.0;
     float max_slope = max(abs(dz.x), abs(dz.y));
     float r = p.bias2.z > 0.0 ? p.bias2.z : exp2(float(int(floor(log2(max(m.z, 1e-30)))) - 23));
-    float hw = p.bias.w * r + p.bias2.x * max_slope;
+    float hw = constant_bias(layer) * r + p.bias2.x * max_slope;
     if (p.bias2.y > 0.0) hw = min(hw, p.bias2.y);
     if (p.bias2.y < 0.0) hw = max(hw, p.bias2.y);
-    o.bias_m = p.bias.x + p.bias.y * footprint + (hw + p.bias.z) * metres_per_depth;
+    o.bias_m = world + p.bias.y * footprint + (hw + p.bias.z) * metres_per_depth;
 
     ivec2 centre = ivec2(floor(m.xy));
     int res = int(p.map.x);

@@ -34,6 +34,8 @@ PENUMBRA_CONST uint kBindingLookupParams = 6;   // uniform LookupParams
 PENUMBRA_CONST uint kBindingLookupOut = 7;      // LookupTexel[pixels]
 PENUMBRA_CONST uint kBindingFaceMask = 8;       // uint: bit f = cube face f is sampled
 PENUMBRA_CONST uint kBindingVisibilityOut = 9;  // float[pixels]: V alone (kModeVisibility)
+// SDSM's reduction (sdsm.comp) binds the first three above and this.
+PENUMBRA_CONST uint kBindingSdsmRange = 3;  // uint[2]: least, greatest view depth (order-preserving bits)
 
 // Specialization constants of the lookup shader.
 PENUMBRA_CONST uint kSpecLightKind = 0;        // kLight*
@@ -99,6 +101,19 @@ struct LookupParams {
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
     vec4 moments;  // min variance, light-bleed reduction, exponent, negative exponent (msm: kFilterMsm)
+    // kLightCascade: per cascade (4 a vec4) the factor its world bias (metres) and hardware
+    // constant bias are multiplied by: 1, or with cascades.texel_scaled_bias its texel over the
+    // first cascade's (the constant also by the first's depth range over its own).
+    vec4 cascade_world_scale[kMaxLayers / 4];
+    vec4 cascade_constant_scale[kMaxLayers / 4];
+};
+
+// SDSM's reduction: the camera as LookupParams gives it (push constants).
+struct SdsmParams {
+    vec4 cam_forward;  // xyz; w = 1 perspective, 0 orthographic
+    vec4 cam_right;    // xyz; w = tan(yfov/2) * aspect (perspective) or xmag
+    vec4 cam_up;       // xyz; w = tan(yfov/2) (perspective) or ymag
+    vec4 image;        // width, height, 1/width, 1/height
 };
 
 // Per pixel and light, what the technique decided and the lookups behind it.

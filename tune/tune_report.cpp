@@ -7,6 +7,7 @@
 
 #include "common/version.h"
 #include "metrics/metric_table.h"
+#include "raster/cascades.h"
 
 namespace penumbra::tune {
 namespace {
@@ -196,13 +197,17 @@ nlohmann::json tune_json(const TuneReport& r) {
     const auto knobs = std::span<const Knob>(r.options.knobs);
     nlohmann::json knob_info = nlohmann::json::array();
     for (Knob k : knobs) {
+        nlohmann::json info = {{"name", to_string(k)}};
         if (k == Knob::receiver_plane) {
-            knob_info.push_back({{"name", to_string(k)}, {"values", {false, true}}});
-            continue;
+            info["values"] = {false, true};
+        } else {
+            const KnobRange range = knob_range(k);
+            info.update({{"unit", range.unit}, {"range", {range.lo, range.hi}}, {"scale", "log"}});
         }
-        const KnobRange range = knob_range(k);
-        knob_info.push_back(
-            {{"name", to_string(k)}, {"unit", range.unit}, {"range", {range.lo, range.hi}}, {"scale", "log"}});
+        // A cascaded technique: whether the knob's value is scaled by each cascade's texel (docs/tune.md).
+        const std::string key = fmt::format("bias.{}", to_string(k));
+        if (const char* scaling = raster::cascade_bias_scaling(r.start, key); *scaling) info["cascades"] = scaling;
+        knob_info.push_back(info);
     }
     nlohmann::json evaluations = nlohmann::json::array();
     for (const auto& e : res.evaluations) evaluations.push_back(evaluation_json(e, knobs));

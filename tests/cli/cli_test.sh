@@ -90,9 +90,14 @@ run raster "$src/data/default/scenario.json" --out "$tmp/r7c" --set family=momen
 check "unknown technique family exits 2" test "$rc" -eq 2
 check "unknown technique family is named with the known ones" \
     grep -q 'technique.family: "moments" is not a technique family (have "depth_map", "averaged_area", "cascaded"' <<<"$err"
-run raster "$src/data/default/scenario.json" --out "$tmp/r7d" --set family=cascaded --set cascades.sdsm=true
-check "cascades.sdsm true is not yet, exit 2 writing nothing" test "$rc" -eq 2 -a ! -e "$tmp/r7d"
-check "cascades.sdsm names its key path" grep -q 'technique.cascades.sdsm: sample distribution' <<<"$err"
+run raster "$src/data/default/scenario.json" --out "$tmp/r7d" -q --set family=cascaded --set cascades.sdsm=true
+check "cascades.sdsm true draws" test "$rc" -eq 0
+check "SDSM's reduction is a timed pass and its range is in raster.json" python3 -c "
+import json; r = json.load(open('$tmp/r7d/raster.json'))
+assert 'sdsm_reduce' in r['gpu_ms'] and 'sdsm_reduce' in r['gpu_passes']
+s = r['lights'][0]['sdsm']; assert 0.1 <= s['near_m'] < s['far_m'] <= 100, s"
+run raster "$src/data/default/scenario.json" --out "$tmp/r7e" --set family=cascaded --set cascades.sdsm=yes
+check "cascades.sdsm not a boolean is exit 2 naming its key path" grep -q 'technique.cascades.sdsm' <<<"$err"
 check "unknown technique family writes nothing" test ! -e "$tmp/r7c"
 check "raster.json's technique names its family" python3 -c "
 import json; assert json.load(open('$tmp/r7/raster.json'))['technique']['family'] == 'depth_map'"
@@ -132,6 +137,8 @@ check "--no-cache traces" grep -q '"oracle_cached": false' "$tmp/v5/report.json"
 run validate "$tmp/small.json" --out "$tmp/v7" -q --frames
 for f in oracle.exr oracle.png raster.exr raster.png; do check "validate --frames writes $f" test -s "$tmp/v7/$f"; done
 check "--frames traces the oracle (the cache lacks its G-buffer)" grep -q '"oracle_cached": false' "$tmp/v7/report.json"
+run validate "$tmp/small.json" --out "$tmp/v7t" -q --class-map-tint cascades
+check "--class-map-tint takes none or cascade: another is exit 2 writing nothing" test "$rc" -eq 2 -a ! -e "$tmp/v7t"
 echo "garbage" >"$(ls "$tmp/cache"/oracle-*.bin | head -1)"
 run validate "$tmp/small.json" --out "$tmp/v6" -q
 check "a damaged cache entry is traced again, not an error" test "$rc" -eq 0

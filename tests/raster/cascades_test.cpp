@@ -5,11 +5,14 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "common/errors.h"
 #include "raster/light_projection.h"
 #include "raster/raster.h"
+#include "raster/raster_output.h"
 #include "raster/technique_family.h"
 #include "tests/test_support.h"
 
@@ -69,6 +72,38 @@ TEST(CascadeSplits, GeometricStartsAtFirstFarAndFractionsScaleMaxDistance) {
     EXPECT_THAT(raster::cascade_far_bounds(with(CascadeSplit::log, 1), 0.1, 80), ::testing::ElementsAre(80));
 }
 
+// SDSM: the scheme applied to the visible samples' depths [lo, hi] rather than [near, far].
+TEST(CascadeSplits, SdsmAppliesTheSchemeBetweenTheVisibleDepths) {
+    const double n = 0.1, f = 300, lo = 20, hi = 30;
+    Cascades practical = with(CascadeSplit::practical, 4);
+    practical.lambda = 0.6;
+    const std::vector<double> p = raster::sdsm_far_bounds(practical, n, f, lo, hi);
+    ASSERT_EQ(p.size(), 4u);
+    for (int i = 1; i <= 4; ++i) {
+        const double u = lo + (hi - lo) * i / 4, l = lo * std::pow(hi / lo, i / 4.0);
+        EXPECT_NEAR(p[i - 1], 0.6 * l + 0.4 * u, 1e-9) << i;
+    }
+    EXPECT_THAT(raster::sdsm_far_bounds(with(CascadeSplit::uniform, 4), n, f, lo, hi),
+                ::testing::ElementsAre(22.5, 25, 27.5, 30));
+    // Fractions of the visible range; geometric's first_far keeps its place as a fraction of [n, f].
+    Cascades fr = with(CascadeSplit::fractions, 3);
+    fr.fractions = {0.1, 0.5};
+    EXPECT_THAT(raster::sdsm_far_bounds(fr, n, f, lo, hi), ::testing::ElementsAre(21, 25, 30));
+    Cascades g = with(CascadeSplit::geometric, 3);
+    g.first_far = n + 0.1 * (f - n);
+    const std::vector<double> gb = raster::sdsm_far_bounds(g, n, f, lo, hi);
+    EXPECT_NEAR(gb[0], 21, 1e-9);
+    EXPECT_NEAR(gb[1], std::sqrt(21.0 * 30), 1e-9);
+    EXPECT_DOUBLE_EQ(gb[2], 30);
+    // A range beyond the camera's is clamped to it; a single depth still gives increasing bounds.
+    EXPECT_THAT(raster::sdsm_far_bounds(with(CascadeSplit::uniform, 2), n, f, 0.01, 500),
+                ::testing::ElementsAre(n + (f - n) / 2, f));
+    const std::vector<double> one = raster::sdsm_far_bounds(with(CascadeSplit::log, 2), n, f, 25, 25);
+    EXPECT_GT(one[0], 25);
+    EXPECT_GT(one[1], one[0]);
+    EXPECT_LT(one[1], 25.001);
+}
+
 std::string error_of(const nlohmann::json& cascades) {
     try {
         raster::parse_technique({{"family", "cascaded"}, {"cascades", cascades}}, "s.json: technique");
@@ -111,6 +146,11 @@ TEST(CascadeKeys, ParseWithDefaultsAndWriteBack) {
                   raster::parse_technique({{"family", "cascaded"}, {"cascades", {{"fractions", {0.3, 1}}}}}, "t"))
                   ->count,
               2);
+    // SDSM is a key like any other: read and written back.
+    const raster::Technique sdsm =
+        raster::parse_technique({{"family", "cascaded"}, {"cascades", {{"sdsm", true}}}}, "t");
+    EXPECT_TRUE(raster::cascades_of(sdsm)->sdsm);
+    EXPECT_EQ(sdsm.to_json().at("cascades").at("sdsm"), true);
     // [1] alone: one cascade to max_distance.
     const raster::Technique one =
         raster::parse_technique({{"family", "cascaded"}, {"cascades", {{"fractions", {1}}}}}, "t");
@@ -141,7 +181,7 @@ TEST(CascadeKeys, BadValuesNameTheirKeyPath) {
     EXPECT_THAT(error_of({{"max_distance", -1}}), HasSubstr("technique.cascades.max_distance"));
     EXPECT_THAT(error_of({{"overlap", 0.9}}), HasSubstr("technique.cascades.overlap"));
     EXPECT_THAT(error_of({{"fit", "box"}}), HasSubstr("technique.cascades.fit"));
-    EXPECT_THAT(error_of({{"sdsm", true}}), HasSubstr("technique.cascades.sdsm: sample distribution"));
+    EXPECT_THAT(error_of({{"sdsm", 1}}), HasSubstr("technique.cascades.sdsm"));
     EXPECT_THAT(error_of({{"cascade", 4}}), HasSubstr("technique.cascades.cascade"));
     EXPECT_THAT(error_of(4), HasSubstr("technique.cascades"));
 }
@@ -288,6 +328,138 @@ TEST(CascadeRender, TheLayerChannelNamesTheCascadeByViewDepth) {
         same += wl.layer[i] == lk.layer[i];
     }
     EXPECT_GE(same, surface * 995 / 1000);
+}
+
+// A wall tilted away from a camera whose range is [0.1, 300] m: the camera sees depths of about
+// 21 to 29 m alone. Boxes stand out of it towards the camera, under a sun from behind the camera.
+Scenario wall_scenario() {
+    test::SceneBuilder b;
+    // The plane z = -20 - (y + 15) 10/33: its bottom edge 20 m away, its top 30 m.
+    const auto wall_z = [](double y) { return -20 - (y + 15) * 10.0 / 33; };
+    b.quad({-30, -15, wall_z(-15)}, {30, -15, wall_z(-15)}, {30, 18, wall_z(18)}, {-30, 18, wall_z(18)});
+    for (double y : {-8.0, -3.0, 2.0, 7.0})
+        for (double x : {-6.0, 0.0, 6.0}) b.box({x - 0.5, y - 0.5, wall_z(y)}, {x + 0.5, y + 0.5, wall_z(y) + 1.5});
+    Camera cam = test::look_at({0, 0, 0}, {0, 0, -25}, 50);
+    cam.znear = 0.1;
+    cam.zfar = 300;
+    return test::make_scenario(b.build(), cam, {test::directional({0.4, -0.3, -0.87})}, 320, 200);
+}
+
+// SDSM on the device: the reduction finds the wall's depths, the splits lie between them (not
+// between the camera's 0.1 and 300 m), raster.json says so, and the reduction pass is timed.
+TEST(CascadeRender, SdsmSplitsLieWithinTheDepthsTheCameraSees) {
+    raster::ContextOptions o;
+    o.validation = true;
+    raster::VulkanContext ctx(o);
+    const Scenario sc = wall_scenario();
+    raster::RasterSession session(sc, ctx);
+    const auto technique = [](bool sdsm) {
+        return raster::parse_technique(
+            {{"family", "cascaded"}, {"resolution", 512}, {"cascades", {{"split", "practical"}, {"sdsm", sdsm}}}}, "t");
+    };
+    const raster::RasterResult r = session.render(technique(true));
+    EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().front();
+    const raster::RasterLightStats& ls = r.stats.lights[0];
+    ASSERT_TRUE(ls.projection.sdsm_range.has_value());
+    const glm::dvec2 range = *ls.projection.sdsm_range;
+    // The visible depths, on the CPU: every surface pixel's view depth lies in the range.
+    EXPECT_GT(range.x, 20.0);
+    EXPECT_LT(range.x, 23.0);
+    EXPECT_GT(range.y, 27.0);
+    EXPECT_LT(range.y, 30.0);
+    ASSERT_EQ(ls.views.size(), 4u);
+    EXPECT_DOUBLE_EQ(ls.views[0].split_near, range.x);
+    EXPECT_DOUBLE_EQ(ls.views[3].split_far, range.y);
+    for (const raster::ShadowView& v : ls.views) {
+        EXPECT_GE(v.split_near, 20.0);
+        EXPECT_LE(v.split_far, 30.0);
+    }
+    // Every surface pixel is judged by one of the cascades (none fell beyond the last).
+    const DepthMapLookups& lk = *r.frame.lights[0].lookups;
+    std::array<std::size_t, 5> per_layer{};
+    for (std::size_t i = 0; i < r.frame.pixel_count(); ++i)
+        if (r.frame.A[i] != 0 && !(lk.flags[i] & kRasterBackFacing)) ++per_layer[std::min(lk.layer[i], 4u)];
+    for (std::size_t k = 0; k < 4; ++k) EXPECT_GT(per_layer[k], 500u) << k;
+    EXPECT_EQ(per_layer[4], 0u);
+    // The reduction is a timed pass of its own, in raster.json with what it includes.
+    EXPECT_TRUE(std::any_of(r.stats.gpu_ms.entries.begin(), r.stats.gpu_ms.entries.end(),
+                            [](const auto& e) { return e.first == "sdsm_reduce"; }));
+    EXPECT_THAT(std::string(r.stats.gpu_ms.what("sdsm_reduce")), HasSubstr("Lauritzen"));
+    const nlohmann::json j = raster::raster_json(sc, technique(true), r, {});
+    EXPECT_TRUE(j.at("gpu_ms").contains("sdsm_reduce"));
+    EXPECT_DOUBLE_EQ(j.at("lights")[0].at("sdsm").at("near_m").get<double>(), range.x);
+    EXPECT_DOUBLE_EQ(j.at("lights")[0].at("sdsm").at("far_m").get<double>(), range.y);
+
+    // Without SDSM: the camera's range, no reduction pass, no sdsm key.
+    const raster::RasterResult plain = session.render(technique(false));
+    const raster::RasterLightStats& pl = plain.stats.lights[0];
+    EXPECT_FALSE(pl.projection.sdsm_range.has_value());
+    EXPECT_DOUBLE_EQ(pl.views[0].split_near, 0.1);
+    EXPECT_DOUBLE_EQ(pl.views[3].split_far, 300);
+    EXPECT_TRUE(std::none_of(plain.stats.gpu_ms.entries.begin(), plain.stats.gpu_ms.entries.end(),
+                             [](const auto& e) { return e.first == "sdsm_reduce"; }));
+    EXPECT_FALSE(raster::raster_json(sc, technique(false), plain, {}).at("lights")[0].contains("sdsm"));
+    // The texel of the cascade nearest the camera is finer with SDSM.
+    EXPECT_LT(ls.views[0].metres_per_texel, pl.views[0].metres_per_texel);
+}
+
+// cascades.texel_scaled_bias (engines' per-cascade bias): the world and constant biases are the
+// first cascade's, scaled by each cascade's texel; without it every cascade gets the same.
+// bias_m, the lookups' bias as metres along the light ray, shows which each pixel got.
+TEST(CascadeRender, TexelScaledBiasGrowsWithEachCascadesTexel) {
+    raster::ContextOptions o;
+    o.validation = true;
+    raster::VulkanContext ctx(o);
+    const Scenario sc = long_view_scenario();
+    raster::RasterSession session(sc, ctx);
+    const auto median_bias_per_layer = [&](const nlohmann::json& bias, bool scaled) {
+        const raster::RasterResult r = session.render(
+            raster::parse_technique({{"family", "cascaded"},
+                                     {"resolution", 512},
+                                     {"depth_format", "d16"},
+                                     {"bias", bias},
+                                     {"cascades", {{"max_distance", 200}, {"texel_scaled_bias", scaled}}}},
+                                    "t"));
+        EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().front();
+        const DepthMapLookups& lk = *r.frame.lights[0].lookups;
+        std::array<std::vector<float>, 4> per_layer;
+        for (std::size_t i = 0; i < r.frame.pixel_count(); ++i)
+            if (r.frame.A[i] != 0 && !(lk.flags[i] & (kRasterBackFacing | kRasterOutsideMap)) && lk.layer[i] < 4)
+                per_layer[lk.layer[i]].push_back(lk.bias_m[i]);
+        std::array<double, 4> median{};
+        for (std::size_t k = 0; k < 4; ++k) {
+            EXPECT_GT(per_layer[k].size(), 100u) << k;
+            std::nth_element(per_layer[k].begin(), per_layer[k].begin() + per_layer[k].size() / 2, per_layer[k].end());
+            median[k] = per_layer[k][per_layer[k].size() / 2];
+        }
+        return std::make_pair(median, r.stats.lights[0].projection);
+    };
+    const nlohmann::json world = {{"constant", 0}, {"slope", 0}, {"world", 0.05}};
+    const auto [scaled, lp] = median_bias_per_layer(world, true);
+    const auto [same, unused] = median_bias_per_layer(world, false);
+    for (std::size_t k = 0; k < 4; ++k) {
+        const double ratio = lp.cascade_texel[k] / lp.cascade_texel[0];
+        EXPECT_NEAR(scaled[k], 0.05 * ratio, 1e-4 * ratio) << k;
+        EXPECT_NEAR(same[k], 0.05, 1e-4) << k;
+    }
+    EXPECT_GT(lp.cascade_texel[3], 2 * lp.cascade_texel[0]);
+    // The hardware constant (d16: r = 2^-16 everywhere) in metres, per texel: the same in every
+    // cascade when scaled; without, it follows each cascade's depth range instead.
+    const nlohmann::json constant = {{"constant", 8}, {"slope", 0}};
+    const auto [c_scaled, c_lp] = median_bias_per_layer(constant, true);
+    const double per_texel = c_scaled[0] / c_lp.cascade_texel[0];
+    const auto [c_same, c_same_lp] = median_bias_per_layer(constant, false);
+    for (std::size_t k = 1; k < 4; ++k) {
+        EXPECT_NEAR(c_scaled[k] / c_lp.cascade_texel[k], per_texel, 0.02 * per_texel) << k;
+        const double range = c_same_lp.cascade_depth_range[k] / c_same_lp.cascade_depth_range[0];
+        EXPECT_NEAR(c_same[k], c_same[0] * range, 0.02 * c_same[k]) << k;
+    }
+    EXPECT_STREQ(raster::cascade_bias_scaling(raster::parse_technique({{"family", "cascaded"}}, "t"), "bias.world"),
+                 "same");
+    EXPECT_STREQ(raster::cascade_bias_scaling(raster::parse_technique({{"family", "cascaded"}}, "t"), "bias.slope"),
+                 "texel_scaled");
+    EXPECT_STREQ(raster::cascade_bias_scaling(raster::parse_technique(nlohmann::json::object(), "t"), "bias.world"),
+                 "");
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <tuple>
 
 #include "common/preview.h"
 #include "report/bitmap_font.h"
@@ -174,6 +175,48 @@ TEST(BitmapFont, DrawsInsideTheImageOnly) {
     std::vector<float> blank(3 * 20 * 10, 0.0f);
     draw_text(blank, 20, 10, 2, 2, " ", {1, 1, 1});
     for (float v : blank) EXPECT_EQ(v, 0.0f);
+}
+
+// validate --class-map-tint cascade: a cascaded light's class map (report.json has its cascades)
+// tinted by the layer each pixel's lookup used, the tints in the legend; otherwise untinted.
+TEST(Report, TheClassMapCanBeTintedByCascade) {
+    const auto class_map = [](bool tint, bool cascaded) {
+        Fixture f(nullptr);
+        f.frames.lk().layer.assign(64 * 40, 0u);
+        for (std::size_t i = 0; i < 64 * 40; ++i)
+            if (i % 64 >= 32) f.frames.lk().layer[i] = 1;  // the right half in cascade 1
+        f.in.tint_cascades = tint;
+        nlohmann::json r = report_json(f.in, f.score);
+        if (cascaded) r["lights"][0]["cascades"] = nlohmann::json::array({{{"index", 0}}, {{"index", 1}}});
+        test::TempDir dir;
+        {
+            OutputTransaction out(dir.path());
+            write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
+            out.commit();
+        }
+        auto png = OIIO::ImageInput::open((dir / "light0.classes.png").string());
+        EXPECT_TRUE(png);
+        const int w = png->spec().width, h = png->spec().height;
+        std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
+        EXPECT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data()));
+        return std::make_tuple(pixels, w, h);
+    };
+    // Two correct, lit pixels of one row: left in cascade 0, right in cascade 1.
+    const std::size_t left = 3 * (20 * 64 + 10), right = 3 * (20 * 64 + 50);
+    const auto same = [&](const std::vector<unsigned char>& p) {
+        return p[left] == p[right] && p[left + 1] == p[right + 1] && p[left + 2] == p[right + 2];
+    };
+    const auto [tinted, w, h] = class_map(true, true);
+    EXPECT_EQ(w, 64);
+    EXPECT_FALSE(same(tinted));
+    const auto [plain, w2, plain_h] = class_map(false, true);
+    EXPECT_TRUE(same(plain));
+    EXPECT_GT(h, plain_h) << "the tints' legend entries";
+    // A light without cascades is never tinted.
+    const auto [single, w3, single_h] = class_map(true, false);
+    EXPECT_EQ(single_h, plain_h);
+    EXPECT_TRUE(same(single));
+    EXPECT_EQ(std::get<0>(class_map(false, false)), single);
 }
 
 }  // namespace

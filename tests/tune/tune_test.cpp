@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "common/errors.h"
+#include "raster/cascades.h"
 #include "raster/filterable.h"
 #include "raster/raster.h"
 #include "raster/technique_family.h"
@@ -544,6 +545,55 @@ TEST(TuneLights, EachLightGetsItsOwnBiasAndNoneEndsWorseThanTheStart) {
     EXPECT_FALSE(why.empty());
     EXPECT_TRUE(shared.kept_start);
     EXPECT_TRUE(shared.recommended.lights.empty());
+}
+
+// A cascaded sun with texel_scaled_bias: each knob's value is the first cascade's, scaled by each
+// cascade's texel (tune.json says so per knob); the recommendation keeps the scaling and is never
+// worse than the start.
+TEST(TuneCascades, TexelScaledKnobsApplyPerCascadeAndNeverEndWorse) {
+    test::SceneBuilder b;
+    b.grid({-40, 0, 0}, {80, 0, 0}, {0, 0, -200}, 4, 20);
+    for (int k = 0; k < 12; ++k) {
+        const double z = -4.0 - 15.0 * k, x = (k % 2 ? -1.0 : 1.0) * (2 + k % 5);
+        b.box({x - 1, 0, z - 1}, {x + 1, 1.5 + 0.1 * k, z + 1});
+    }
+    Camera cam = test::look_at({0, 1.7, 2}, {0, 1.2, -60}, 50);
+    cam.znear = 0.1;
+    cam.zfar = 200;
+    const std::vector<Scenario> sc = {
+        test::make_scenario(b.build(), cam, {test::directional({0.5, -0.6, -0.3})}, 240, 150)};
+    const raster::Technique start = raster::parse_technique({{"family", "cascaded"},
+                                                             {"resolution", 512},
+                                                             {"bias", {{"constant", 0}, {"slope", 0}}},
+                                                             {"cascades", {{"count", 3}, {"texel_scaled_bias", true}}}},
+                                                            "test");
+    TuneOptions o;
+    o.budget = 16;
+    o.validate.use_cache = false;
+    o.validate.oracle.progress = false;
+    raster::VulkanContext ctx;
+    Evaluator ev(sc, start, o, ctx);
+    TuneResult r = tune(ev, o);
+    const std::vector<std::string> names = {"long_view"};
+    TuneReport report;
+    report.scenario_files = names;
+    report.start = start;
+    report.options = o;
+    report.result = r;
+    report.tuned = revalidate_never_worse(ev, start, report.result, o, names);
+    ASSERT_EQ(report.tuned.size(), 1u);
+    EXPECT_TRUE(worse_lights(report.tuned, names).empty());
+    const ValidateResult &before = report.tuned[0].before, &after = report.tuned[0].after;
+    const VisibleBiasError vb = visible_bias_error(before.score.lights[0]);
+    const VisibleBiasError va = visible_bias_error(after.score.lights[0]);
+    std::printf("visible acne + peter-panning %.5f -> %.5f\n", vb.sum(), va.sum());
+    EXPECT_LE(va.sum(), vb.sum());
+    EXPECT_GT(vb.acne, 0.0) << "no acne to cure: the test shows nothing";
+    const raster::Cascades* c = raster::cascades_of(report.result.recommended);
+    ASSERT_NE(c, nullptr);
+    EXPECT_TRUE(c->texel_scaled_bias);
+    const nlohmann::json j = tune_json(report);
+    for (const nlohmann::json& k : j.at("knobs")) EXPECT_EQ(k.at("cascades"), "texel_scaled") << k.dump();
 }
 
 }  // namespace

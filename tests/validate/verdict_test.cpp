@@ -352,5 +352,44 @@ TEST_F(Verdict, FourCascadesOf1024AliasLessThanOne2048MapOnALongView) {
                  one.report.at("lights")[0].at("cascades").size() != 1u);
 }
 
+// SDSM (Lauritzen et al. 2011) on a view that sees only 21-29 m of a camera range of 0.1-300 m
+// (a wall tilted away, boxes standing out of it): the splits placed between the visible depths
+// spend the texels where the samples are, so it aliases no more than the same cascades placed
+// over the camera's range; report.json gives the range.
+TEST_F(Verdict, SdsmCascadesAliasNoMoreThanTheCamerasRangeOnAWallView) {
+    test::SceneBuilder b;
+    const auto wall_z = [](double y) { return -20 - (y + 15) * 10.0 / 33; };
+    b.quad({-30, -15, wall_z(-15)}, {30, -15, wall_z(-15)}, {30, 18, wall_z(18)}, {-30, 18, wall_z(18)});
+    for (double y : {-8.0, -3.0, 2.0, 7.0})
+        for (double x : {-6.0, 0.0, 6.0}) b.box({x - 0.5, y - 0.5, wall_z(y)}, {x + 0.5, y + 0.5, wall_z(y) + 1.5});
+    Camera cam = test::look_at({0, 0, 0}, {0, 0, -25}, 50);
+    cam.znear = 0.1;
+    cam.zfar = 300;
+    const Scenario sc = test::make_scenario(b.build(), cam, {test::directional({0.4, -0.3, -0.87})}, 480, 300);
+    const auto technique = [](bool sdsm) {
+        return nlohmann::json{
+            {"family", "cascaded"}, {"resolution", 512}, {"cascades", {{"split", "practical"}, {"sdsm", sdsm}}}};
+    };
+    const ValidateResult plain = run(sc, technique(false));
+    const ValidateResult sdsm = run(sc, technique(true));
+    const metrics::LightScore &a = plain.score.lights[0], &c = sdsm.score.lights[0];
+    EXPECT_GT(c.pixels.scored, 50000u);
+    EXPECT_GT(a.count(PixelClass::aliasing), 0u);
+    EXPECT_LE(c.count(PixelClass::aliasing), a.count(PixelClass::aliasing));
+    EXPECT_LE(c.wrong, a.wrong);
+    const nlohmann::json& light = sdsm.report.at("lights")[0];
+    ASSERT_TRUE(light.contains("sdsm"));
+    const double near = light.at("sdsm").at("near_m"), far = light.at("sdsm").at("far_m");
+    EXPECT_GT(near, 20.0);
+    EXPECT_LT(far, 30.0);
+    for (const nlohmann::json& e : light.at("cascades")) {
+        EXPECT_GE(e.at("near_m").get<double>(), near);
+        EXPECT_LE(e.at("far_m").get<double>(), far);
+    }
+    EXPECT_FALSE(plain.report.at("lights")[0].contains("sdsm"));
+    EXPECT_GT(sdsm.raster.stats.gpu_ms["sdsm_reduce"], 0.0);
+    std::printf("  sdsm range %.3f..%.3f m, sdsm_reduce %.4f ms\n", near, far, sdsm.raster.stats.gpu_ms["sdsm_reduce"]);
+}
+
 }  // namespace
 }  // namespace penumbra

@@ -1,0 +1,58 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// SDSM's reduction (Lauritzen, Salvi and Lefohn, "Sample Distribution Shadow Maps", I3D 2011):
+// the least and greatest view depth of the samples the camera sees, for the cascades' splits.
+// The camera pass stores the triangle per pixel rather than a depth; each pixel's depth is that
+// of the surface point the lookups rebuild (the pixel-centre ray against the triangle's plane),
+// so the reduced range holds exactly the depths the lookups select cascades by. Depths are
+// reduced as order-preserving uints: a workgroup in shared memory, then one atomic each.
+#include "penumbra_shared.h"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(binding = kBindingGBufferPrim, r32ui) uniform readonly uimage2D gbuffer_prim;
+layout(std430, binding = kBindingPositions) readonly buffer Positions { float positions[]; };
+layout(std430, binding = kBindingIndices) readonly buffer Indices { uint indices[]; };
+layout(std430, binding = kBindingSdsmRange) buffer Range { uint depth_min, depth_max; };
+layout(push_constant) uniform Push { SdsmParams p; };
+
+shared uint group_min, group_max;
+
+vec3 vertex(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+
+// Float bits in an order uints keep: negatives flipped, positives above them.
+uint ordered(float f) {
+    uint u = floatBitsToUint(f);
+    return (u & 0x80000000u) != 0u ? ~u : u | 0x80000000u;
+}
+
+void main() {
+    if (gl_LocalInvocationIndex == 0u) {
+        group_min = 0xFFFFFFFFu;
+        group_max = 0u;
+    }
+    barrier();
+    uvec2 pix = gl_GlobalInvocationID.xy;
+    uint W = uint(p.image.x), H = uint(p.image.y);
+    uint id = pix.x < W && pix.y < H ? imageLoad(gbuffer_prim, ivec2(pix)).r : kNoPrim;
+    if (id != kNoPrim) {
+        // As lookup.comp's main(): the same float operations give the same point.
+        vec3 v0 = vertex(indices[3 * id]), v1 = vertex(indices[3 * id + 1]), v2 = vertex(indices[3 * id + 2]);
+        vec3 n = normalize(cross(v1 - v0, v2 - v0));
+        vec2 ndc = vec2((float(pix.x) + 0.5) * 2.0 * p.image.z - 1.0, 1.0 - (float(pix.y) + 0.5) * 2.0 * p.image.w);
+        vec3 lateral = ndc.x * p.cam_right.w * p.cam_right.xyz + ndc.y * p.cam_up.w * p.cam_up.xyz;
+        bool perspective = p.cam_forward.w > 0.5;
+        vec3 ray_o = perspective ? vec3(0.0) : lateral;
+        vec3 ray_d = perspective ? p.cam_forward.xyz + lateral : p.cam_forward.xyz;
+        float denom = dot(ray_d, n);
+        vec3 P = abs(denom) > 1e-30 ? ray_o + ray_d * (dot(v0 - ray_o, n) / denom) : (v0 + v1 + v2) / 3.0;
+        uint d = ordered(dot(P, p.cam_forward.xyz));
+        atomicMin(group_min, d);
+        atomicMax(group_max, d);
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u && group_min <= group_max) {
+        atomicMin(depth_min, group_min);
+        atomicMax(depth_max, group_max);
+    }
+}
