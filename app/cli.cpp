@@ -72,6 +72,10 @@ void add_sampling(CLI::App* cmd, SamplingArgs& a) {
         ->check(CLI::Range(16, 1 << 20));
 }
 
+ThreadLimit::ThreadLimit(int threads) {
+    if (threads > 0) limit_.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+}
+
 OracleSettings oracle_settings(const Common& c, const SamplingArgs& a) {
     OracleSettings settings;
     settings.threads = c.threads;

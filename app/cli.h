@@ -3,6 +3,8 @@
 // subcommand (app/*_command.cpp) keeps each one readable on its own.
 #pragma once
 
+#include <tbb/global_control.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <filesystem>
@@ -45,6 +47,17 @@ struct Common {
     std::string max_memory;  // empty: the default budget (common/memory_estimate.h)
 };
 void add_common(CLI::App* cmd, Common& c);
+
+// --threads N (N > 0) bounds the whole command while this lives: the scene's load, the oracle,
+// the raster's and the metrics' parallel loops, not only the oracle's phases.
+class ThreadLimit {
+  public:
+    explicit ThreadLimit(int threads);
+    explicit ThreadLimit(const Common& c) : ThreadLimit(c.threads) {}
+
+  private:
+    std::optional<tbb::global_control> limit_;
+};
 
 // How the oracle samples area lights (docs/oracle.md, "Area lights").
 struct SamplingArgs {

@@ -36,6 +36,7 @@ struct CompareArgs {
 };
 
 int run_compare_command(const std::filesystem::path& scenario_file, const Common& c, const CompareArgs& a) {
+    const ThreadLimit limit(c);
     if (!a.junit_file.empty()) check_output_file(a.junit_file, c.out, "--junit");
     if (!a.depth.empty() && !a.depth_space_given)
         throw InputError(

@@ -1,9 +1,7 @@
 // `penumbra oracle`: trace the exact visibility of every light and write the oracle's frame.
 #include <fmt/format.h>
-#include <tbb/global_control.h>
 
 #include <memory>
-#include <optional>
 
 #include "app/cli.h"
 #include "common/errors.h"
@@ -16,9 +14,7 @@ namespace penumbra::cli {
 namespace {
 
 int run_oracle_command(const std::filesystem::path& scenario_file, const Common& c, const SamplingArgs& a) {
-    // --threads bounds the whole command: the scene's loading is parallel too.
-    std::optional<tbb::global_control> limit;
-    if (c.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(c.threads));
+    const ThreadLimit limit(c);
     auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     check_run_memory(scenario, c, true, nullptr, false);

@@ -15,11 +15,13 @@ namespace penumbra::cli {
 namespace {
 
 int run_raster_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t) {
+    const ThreadLimit limit(c);
     auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     raster::Technique technique = resolve_technique(scenario, t);
     check_run_memory(scenario, c, false, &technique, false);
     raster::RasterTimings timings;
+    timings.threads = static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
     timings.load_s = seconds_since(t0);
 
     auto t1 = SteadyClock::now();

@@ -29,6 +29,7 @@ struct StressArgs {
 };
 
 int run_stress_command(const StressArgs& a, const TechniqueArgs& t) {
+    const ThreadLimit limit(a.threads);
     if (!a.junit_file.empty()) check_output_file(a.junit_file, a.out, "--junit");
     // Everything the user wrote is checked before any work starts.
     stress::CaseOptions co;

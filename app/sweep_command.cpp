@@ -30,6 +30,7 @@ struct SweepArgs {
 
 int run_sweep_command(const SweepArgs& a) {
     const Common& c = a.common;
+    const ThreadLimit limit(c);
     // Everything the user wrote is checked before any work starts: the limits on the work, then
     // every configuration is parsed.
     if (a.vary.empty() == a.configs.empty())

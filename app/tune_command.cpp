@@ -39,6 +39,7 @@ struct TuneArgs {
 int run_tune_command(const TuneArgs& a) {
     const auto t0 = SteadyClock::now();
     const Common& c = a.common;
+    const ThreadLimit limit(c);
     // Everything the user wrote is checked before any work starts.
     tune::TuneOptions options;
     if (!a.knobs.empty()) options.knobs = tune::parse_knobs(a.knobs, "--knobs");

@@ -43,6 +43,7 @@ std::optional<std::string> cache_line(const nlohmann::json& oracle_info) {
 
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
                          const ValidateArgs& v) {
+    const ThreadLimit limit(c);
     if (!v.junit_file.empty()) check_output_file(v.junit_file, c.out, "--junit");
     Scenario scenario = load_for_command(scenario_file, c);
     // Everything the user wrote is checked before any work starts.

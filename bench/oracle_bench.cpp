@@ -25,9 +25,10 @@
 // or the --threads list), one table of the phases per scene (issue #39), each run's oracle.exr
 // compared byte for byte with the first; --baseline PATH times another binary in the same
 // rounds (and compares its oracle.exr too); --embree-builds low,medium,high times bare Embree's
-// build and trace at each build quality at the largest thread count. The scenes field32 and
-// field64 are the issue's: 32 x 32 or 64 x 64 spheres (48 x 25 segments: 2.36M or 9.44M
-// triangles) over a 200 m plane.
+// build and trace at each build quality (with +compact or +dynamic: those scene flags too) at the
+// largest thread count. The scenes field32 and field64 are the issue's: 32 x 32 or 64 x 64
+// spheres (48 x 25 segments: 2.36M or 9.44M triangles) over a 200 m plane. --unwelded 1 writes
+// every triangle with its own three vertices, as the issue's 453 MB .glb of field64 was.
 #include <embree3/rtcore.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -142,6 +143,21 @@ Mesh sphere_field_mesh(int count, int segments, int rings, bool inside_out, doub
     return m;
 }
 
+// Every triangle with its own three vertices, indexed 0, 1, 2, ...: how exporters that do not weld
+// write a mesh (the issue's 453 MB .glb of the 9.4M-triangle field: 340 MB of positions, 113 MB
+// of indices; the welded one is 170 MB).
+Mesh unwelded(const Mesh& m) {
+    Mesh u;
+    u.positions.resize(m.indices.size() * 3);
+    u.indices.resize(m.indices.size());
+    for (std::size_t k = 0; k < m.indices.size(); ++k) {
+        std::copy_n(m.positions.begin() + static_cast<std::ptrdiff_t>(3 * std::size_t(m.indices[k])), 3,
+                    u.positions.begin() + static_cast<std::ptrdiff_t>(3 * k));
+        u.indices[k] = static_cast<std::uint32_t>(k);
+    }
+    return u;
+}
+
 // A one-mesh, one-primitive .glb (glTF 2.0 binary container: 12-byte header, JSON chunk, BIN chunk).
 void write_glb(const fs::path& file, const Mesh& m) {
     const std::size_t pos_bytes = m.positions.size() * 4, idx_bytes = m.indices.size() * 4;
@@ -185,7 +201,7 @@ void write_glb(const fs::path& file, const Mesh& m) {
     if (!f) throw std::runtime_error("cannot write " + file.string());
 }
 
-BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bool inside_out) {
+BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bool inside_out, bool unweld) {
     BenchScene s;
     s.name = name;
     s.size = size;
@@ -193,7 +209,8 @@ BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bo
     json cam;
     glm::dvec3 eye, target, up;
     if (name == "terrain") {
-        write_glb(dir / name / "scene.glb", terrain_mesh(1086));
+        const Mesh m = terrain_mesh(1086);
+        write_glb(dir / name / "scene.glb", unweld ? unwelded(m) : m);
         eye = {0, 22, 55}, target = {0, 0, 0}, up = {0, 1, 0};
         s.light_direction = glm::normalize(glm::dvec3(0.6, -0.35, -0.3));
         s.camera.type = ProjectionType::perspective;
@@ -202,8 +219,8 @@ BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bo
         cam = {{"type", "perspective"}, {"yfov_deg", 50}, {"znear", 0.1}};
     } else if (name == "spheres" || name == "field32" || name == "field64") {
         const int count = name == "field64" ? 64 : 32;
-        write_glb(dir / name / "scene.glb",
-                  sphere_field_mesh(count, 48, 25, inside_out, name == "spheres" ? 0.0 : 100.0));
+        const Mesh m = sphere_field_mesh(count, 48, 25, inside_out, name == "spheres" ? 0.0 : 100.0);
+        write_glb(dir / name / "scene.glb", unweld ? unwelded(m) : m);
         eye = {0, 20, 0}, target = {0, 0, 0}, up = {0, 0, -1};
         s.light_direction = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
         s.camera.type = ProjectionType::orthographic;
@@ -412,7 +429,8 @@ Interleaved interleaved_trace(const BenchScene& s, const BareTiles& bare, int pa
 }
 
 BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Interleaved* interleaved,
-                    RTCBuildQuality quality = RTC_BUILD_QUALITY_MEDIUM) {
+                    RTCBuildQuality quality = RTC_BUILD_QUALITY_MEDIUM,
+                    RTCSceneFlags extra_flags = RTC_SCENE_FLAG_NONE) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
     BareRun out;
     // Load: the file's bytes; the .glb written above has positions then indices in its BIN chunk.
@@ -434,7 +452,7 @@ BareRun bare_embree(const BenchScene& s, int threads, int interleaved_pairs, Int
     RTCDevice device = rtcNewDevice(("verbose=0,threads=" + std::to_string(threads)).c_str());
     rtcSetDeviceMemoryMonitorFunction(device, embree_memory_monitor, nullptr);
     RTCScene scene = rtcNewScene(device);
-    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneFlags(scene, static_cast<RTCSceneFlags>(RTC_SCENE_FLAG_ROBUST | extra_flags));
     rtcSetSceneBuildQuality(scene, quality);
     RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     rtcSetGeometryBuildQuality(g, quality);
@@ -596,12 +614,16 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
         if (e > a) qualities.push_back(builds.substr(a, e - a));
     }
     for (const std::string& q : qualities) {
-        const RTCBuildQuality quality = q == "low"    ? RTC_BUILD_QUALITY_LOW
-                                        : q == "high" ? RTC_BUILD_QUALITY_HIGH
-                                                      : RTC_BUILD_QUALITY_MEDIUM;
+        // QUALITY[+compact][+dynamic]: the build quality and scene flags beside the oracle's ROBUST.
+        const RTCBuildQuality quality = q.rfind("low", 0) == 0    ? RTC_BUILD_QUALITY_LOW
+                                        : q.rfind("high", 0) == 0 ? RTC_BUILD_QUALITY_HIGH
+                                                                  : RTC_BUILD_QUALITY_MEDIUM;
+        int flags = RTC_SCENE_FLAG_NONE;
+        if (q.find("+compact") != std::string::npos) flags |= RTC_SCENE_FLAG_COMPACT;
+        if (q.find("+dynamic") != std::string::npos) flags |= RTC_SCENE_FLAG_DYNAMIC;
         Spread commit, build, trace, peak;
         for (int r = 0; r < repeat; ++r) {
-            BareRun b = bare_embree(s, threads.back(), 0, nullptr, quality);
+            BareRun b = bare_embree(s, threads.back(), 0, nullptr, quality, static_cast<RTCSceneFlags>(flags));
             commit.v.push_back(b.commit);
             build.v.push_back(b.build);
             trace.v.push_back(b.trace);
@@ -615,7 +637,7 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
 }  // namespace
 
 int main(int argc, char** argv) {
-    int size = 2048, repeat = 3, bare = 1, inside_out = 0, interleave = 3;
+    int size = 2048, repeat = 3, bare = 1, inside_out = 0, interleave = 3, unweld = 0;
     bool sweep = false, threads_given = false;
     std::string scenes = "terrain,spheres", thread_list = "1,2", keep, baseline, builds;
     std::string penumbra = PENUMBRA_BINARY;
@@ -647,6 +669,8 @@ int main(int argc, char** argv) {
             penumbra = v;
         else if (a == "--inside-out")
             inside_out = std::stoi(v);
+        else if (a == "--unwelded")
+            unweld = std::stoi(v);
         else if (a == "--keep")
             keep = v;
         else if (a == "--interleave")
@@ -654,9 +678,10 @@ int main(int argc, char** argv) {
         else {
             std::fprintf(stderr,
                          "usage: oracle_bench [--scenes terrain,spheres] [--threads 1,2] [--repeat 3] [--size 2048] "
-                         "[--bare 0|1] [--interleave PAIRS] [--inside-out 0|1] [--penumbra PATH] [--keep DIR]\n"
+                         "[--bare 0|1] [--interleave PAIRS] [--inside-out 0|1] [--unwelded 0|1] [--penumbra PATH] "
+                         "[--keep DIR]\n"
                          "       oracle_bench --threads-sweep [--scenes field32,field64] [--threads LIST] [--repeat 3] "
-                         "[--baseline PATH] [--embree-builds low,medium,high]\n");
+                         "[--baseline PATH] [--unwelded 0|1] [--embree-builds low,medium,high,medium+compact,...]\n");
             return 2;
         }
     }
@@ -685,9 +710,9 @@ int main(int argc, char** argv) {
         std::printf("threads sweep on %d hardware threads\n", cores);
     }
     for (const std::string& name : split(scenes)) {
-        BenchScene s = make_scene(dir, name, size, inside_out != 0);
-        std::printf("\n== %s: %.0f MB .glb, %dx%d, 1 directional light ==\n", name.c_str(),
-                    fs::file_size(dir / name / "scene.glb") / 1e6, size, size);
+        BenchScene s = make_scene(dir, name, size, inside_out != 0, unweld != 0);
+        std::printf("\n== %s: %.0f MB %s.glb, %dx%d, 1 directional light ==\n", name.c_str(),
+                    fs::file_size(dir / name / "scene.glb") / 1e6, unweld ? "unwelded " : "", size, size);
         if (sweep) {
             std::vector<std::pair<std::string, std::string>> binaries = {{"this build", penumbra}};
             if (!baseline.empty()) binaries.push_back({"baseline", baseline});

@@ -1,6 +1,7 @@
 #include "pipeline/validate.h"
 
 #include <fmt/format.h>
+#include <tbb/global_control.h>
 
 #include <array>
 #include <cmath>
@@ -162,6 +163,9 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
         own = std::make_unique<raster::RasterSession>(scenario, *ctx);
         session = own.get();
     }
+    // The command's --threads (app/cli.h, ThreadLimit) bounds the oracle, the raster and the metrics alike.
+    r.raster_timings.threads =
+        static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
     auto t2 = SteadyClock::now();
     r.raster = session->render(technique, options.render);
     r.raster_s = seconds_since(t2) + (own ? own->setup_s() : 0.0);

@@ -99,7 +99,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
     for (const auto& [name, what] : s.gpu_ms.includes) gpu_passes[name] = what;
     gpu_passes["camera_raster"] = "the session's camera pass (triangle id per pixel), drawn once per session";
     gpu_passes["camera"] = "camera_raster + lookup";
-    return {
+    nlohmann::json j = {
         {"scenario", scenario.file.string()},
         {"scene", scenario.scene_file.string()},
         {"image", {{"width", f.width}, {"height", f.height}}},
@@ -121,6 +121,8 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
         {"lights", lights},
         {"warnings", s.warnings},
     };
+    if (timings.threads > 0) j["threads"] = timings.threads;
+    return j;
 }
 
 }  // namespace penumbra::raster

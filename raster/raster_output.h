@@ -12,6 +12,7 @@ namespace penumbra::raster {
 struct RasterTimings {
     double load_s = 0;
     double device_s = 0;  // creating the Vulkan context
+    int threads = 0;      // the worker threads the command ran under (--threads; 0: not recorded)
 };
 
 nlohmann::json raster_json(const Scenario& scenario, const Technique& technique, const RasterResult& result,

@@ -64,8 +64,10 @@ check "raster.json records the technique" grep -q '"preset": "d3d12-textbook"' "
 check "raster.json records the override" grep -q '"resolution": 512' "$tmp/r1/raster.json"
 check "raster.json names the device" grep -q '"name": "llvmpipe' "$tmp/r1/raster.json"
 check "raster.json has GPU pass times" grep -q '"shadow":' "$tmp/r1/raster.json"
-run raster "$src/data/default/scenario.json" --out "$tmp/r2" -q --preset d3d12-textbook --set resolution=512
+run raster "$src/data/default/scenario.json" --out "$tmp/r2" -q --preset d3d12-textbook --set resolution=512 --threads 1
 check "raster.exr is bit-identical across runs" cmp -s "$tmp/r1/raster.exr" "$tmp/r2/raster.exr"
+# --threads bounds the whole command (the load, the raster), not only an oracle.
+check "raster --threads 1 runs on one thread" grep -q '"threads": 1,' "$tmp/r2/raster.json"
 
 # raster: bad techniques are bad input, named, with nothing written.
 run raster "$src/data/default/scenario.json" --out "$tmp/r3" --set filter.type=gaussian
@@ -126,7 +128,8 @@ check "the oracle is stored in the cache" test -n "$(ls "$tmp/cache"/oracle-*.bi
 run validate "$tmp/small.json" --out "$tmp/v2" -q
 check "second validate reads the cached oracle" grep -q '"oracle_cached": true' "$tmp/v2/report.json"
 check "a cached oracle gives the same verdict" cmp -s "$tmp/v1/errors.exr" "$tmp/v2/errors.exr"
-run validate "$tmp/small.json" --out "$tmp/v3" -q --set resolution=256
+run validate "$tmp/small.json" --out "$tmp/v3" -q --set resolution=256 --threads 1
+check "validate --threads 1 runs the raster and the metrics on one thread" grep -q '"threads": 1,' "$tmp/v3/raster.json"
 check "another technique reuses the oracle" grep -q '"oracle_cached": true' "$tmp/v3/report.json"
 check "another technique gives another verdict" bash -c "! cmp -s '$tmp/v1/errors.exr' '$tmp/v3/errors.exr'"
 sed 's/"width": 320/"width": 322/' "$tmp/small.json" >"$tmp/small2.json"

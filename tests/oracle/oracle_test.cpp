@@ -453,7 +453,7 @@ INSTANTIATE_TEST_SUITE_P(Oracle, BoundaryAcrossTheImage, ::testing::Values(false
 
 // ---- invariance ---------------------------------------------------------------------------
 
-Scenario invariance_scene() {
+Scenario invariance_scene(int width = 320, int height = 180) {
     SceneBuilder b;
     b.quad({-10, 0, 10}, {10, 0, 10}, {10, 0, -10}, {-10, 0, -10}, false);
     b.box({-2.5, 0, -0.5}, {-1.5, 1, 0.5});                                            // resting on the plane
@@ -463,7 +463,7 @@ Scenario invariance_scene() {
     b.grid({1, 0.3, 1}, {2.5, 0.6, 0}, {0, 0.05, -2}, 8, 8);                           // a tilted, tessellated ramp
     std::vector<Light> lights{test::directional({0.35, -0.7, -0.45}), test::point({1.0, 3.2, 2.5}),
                               test::spot({-3.5, 5.0, 3.5}, {0.55, -1.0, -0.55}, 40)};
-    return test::make_scenario(b.build(), test::look_at({4.5, 4.0, 9.0}, {0, 0.6, 0}, 45), lights, 320, 180);
+    return test::make_scenario(b.build(), test::look_at({4.5, 4.0, 9.0}, {0, 0.6, 0}, 45), lights, width, height);
 }
 
 // Applies x -> s * R x + t to everything positional in the scenario.
@@ -574,6 +574,24 @@ TEST(Oracle, IsBitIdenticalWhateverTheThreadCount) {
             EXPECT_TRUE(same(a.frame.lights[li].occluder_m, b.frame.lights[li].occluder_m));
             EXPECT_TRUE(same(a.frame.lights[li].boundary_m, b.frame.lights[li].boundary_m));
         }
+    }
+}
+
+// The distance transform's sweeps run in bands of rows side by side, one per thread allowed, each
+// band then swept again from the true row above it until a row agrees (shadow_boundary.cpp,
+// nearest_sweeps): with 16 bands (more than this machine's cores) the result must be the serial
+// sweep's, in the directional light's chart and, for the point light's cube of charts, over the
+// image.
+TEST(Oracle, BoundarySweepsInBandsGiveTheSerialAnswer) {
+    Scenario sc = invariance_scene(1280, 720);
+    OracleSettings one, many;
+    one.threads = 1;
+    many.threads = 16;
+    const OracleResult a = run_oracle(sc, one), b = run_oracle(sc, many);
+    for (std::size_t li = 0; li < a.frame.lights.size(); ++li) {
+        SCOPED_TRACE(li);
+        EXPECT_TRUE(same(a.frame.lights[li].boundary_m, b.frame.lights[li].boundary_m));
+        EXPECT_TRUE(same(a.frame.lights[li].U, b.frame.lights[li].U));
     }
 }
 
