@@ -508,7 +508,7 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 2);
     const Slot& slot = slots_[li];
-    if (direct_readback_) {
+    if (direct_readback_ || !options.read_back) {
         memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
         return;
@@ -658,7 +658,12 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         ls.gpu_ms.add("shadow", ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
         ls.gpu_ms.add("lookup", ms(q + 1, q + 2), options.lookups ? kLookupDiagnostic : kLookupV);
         stats.gpu_ms.add(ls.gpu_ms);
-        frame.lights.push_back(read_back(li, options.lookups));
+        if (options.read_back) {
+            frame.lights.push_back(read_back(li, options.lookups));
+        } else {
+            frame.lights.emplace_back();
+            stats.on_device.push_back({slots_[li].output.buffer.get(), slots_[li].output.size, options.lookups});
+        }
     }
     if (any_point)
         stats.gpu_ms.add("layer_mask", ms(0, 1),

@@ -274,6 +274,9 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         features.features.geometryShader = VK_TRUE;
         features.features.depthClamp = VK_TRUE;
         features.features.depthBiasClamp = VK_TRUE;
+        // Optional: the GPU scorer sums errors in double, in the CPU's order (metrics/gpu_classification.h).
+        features.features.shaderFloat64 = supported.shaderFloat64;
+        shader_float64_ = supported.shaderFloat64 == VK_TRUE;
 
         float priority = 1.0f;
         VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

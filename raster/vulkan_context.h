@@ -48,6 +48,8 @@ class VulkanContext {
     const DeviceInfo& info() const { return info_; }
     const VkPhysicalDeviceLimits& limits() const { return limits_; }
     bool validation_enabled() const { return validation_; }
+    // shaderFloat64 is on (the device offers it): the GPU scorer needs it.
+    bool shader_float64() const { return shader_float64_; }
     // Validation messages (errors and warnings) since the context was made.
     const std::vector<std::string>& validation_messages() const { return messages_; }
 
@@ -81,6 +83,7 @@ class VulkanContext {
     VkPhysicalDeviceLimits limits_{};
     VkPhysicalDeviceMemoryProperties memory_{};
     bool validation_ = false;
+    bool shader_float64_ = false;
     std::vector<std::string> messages_;
     UniqueCommandPool command_pool_;
     mutable std::atomic<std::uint64_t> allocations_{0};
