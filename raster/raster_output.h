@@ -14,6 +14,9 @@ struct RasterTimings {
     double device_s = 0;  // creating the Vulkan context
 };
 
+// The clocks behind the GPU times (DeviceInfo): raster.json's and sweep.json's device.timestamps.
+nlohmann::json timestamps_json(const DeviceInfo& device);
+
 nlohmann::json raster_json(const Scenario& scenario, const Technique& technique, const RasterResult& result,
                            const RasterTimings& timings);
 
