@@ -194,6 +194,10 @@ class DepthMapFamily final : public TechniqueFamily {
     LightMap& map_of(std::size_t li) { return maps_[maps_.size() == 1 ? 0 : li]; }
     void record_map_layouts(VkCommandBuffer cmd);
     void ensure_slots(std::size_t n, bool lookups);
+    // What the lookup pass writes per light: every lookup, or V alone.
+    VkDeviceSize output_bytes(bool lookups) const {
+        return s_.pixels * (lookups ? sizeof(gpu::LookupTexel) : sizeof(float));
+    }
     void ensure_queries(std::uint32_t count);
     gpu::LookupParams light_params(const Technique& t, const Light& light, const LightProjection& projection) const;
     void record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t);
@@ -350,9 +354,12 @@ void DepthMapFamily::record_map_layouts(VkCommandBuffer cmd) {
 }
 
 void DepthMapFamily::ensure_slots(std::size_t n, bool lookups) {
-    if (slots_.size() >= n && slots_hold_lookups_ == lookups) return;
-    // All slots in one arena, with only the output this render writes. A GPU writes its
-    // output into its own memory and copies it back once; a CPU device writes it where it is read.
+    // Outputs sized for the lookups stay for V-only renders too: a sweep alternating the two
+    // kinds would otherwise allocate (and, on a GPU, pin host memory for) both every configuration.
+    if (slots_.size() >= n && (slots_hold_lookups_ || !lookups)) return;
+    lookups = lookups || slots_hold_lookups_;
+    // All slots in one arena. A GPU writes its output into its own memory and copies it back
+    // once; a CPU device writes it where it is read.
     slots_.clear();
     slots_arena_ = MemoryArena(ctx_);
     slots_.resize(n);
@@ -515,7 +522,7 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     }
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    VkBufferCopy region{0, 0, slot.output.size};
+    VkBufferCopy region{0, 0, output_bytes(options.lookups)};
     vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.output_host.buffer.get(), 1, &region);
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                    VK_ACCESS_2_HOST_READ_BIT);
@@ -662,7 +669,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
             frame.lights.push_back(read_back(li, options.lookups));
         } else {
             frame.lights.emplace_back();
-            stats.on_device.push_back({slots_[li].output.buffer.get(), slots_[li].output.size, options.lookups});
+            stats.on_device.push_back({slots_[li].output.buffer.get(), output_bytes(options.lookups), options.lookups});
         }
     }
     if (any_point)
