@@ -3,8 +3,10 @@
 // (a diagnostic render with lookups + the metrics) and --repeat timed renders of each kind.
 // Prints the set-up and per-configuration wall clock, resident memory per configuration (a
 // session must not grow per render), then sweep.csv on stdout.
+// --scorer cpu|gpu picks the verdict's scorer (metrics/gpu_classification.h; default: the
+// device's preferred one); the one used is printed with the device's timestamp clocks.
 // Run: build/bench/sweep_bench [--scenario FILE] [--terrain-grid N] [--device D] [--repeat 3]
-//      [--set KEY=V ...] --vary KEY=V1,V2,... [--vary ...]
+//      [--scorer cpu|gpu] [--set KEY=V ...] --vary KEY=V1,V2,... [--vary ...]
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -52,6 +54,8 @@ int main(int argc, char** argv) {
             vary.push_back(v);
         else if (a == "--set")
             sets.push_back(v);
+        else if (a == "--scorer")
+            ::setenv("PENUMBRA_SCORER", v.c_str(), 1);
         else {
             std::fprintf(stderr,
                          "usage: sweep_bench [--scenario F] [--terrain-grid N] [--device D] [--repeat N] [--set K=V] "
@@ -100,6 +104,8 @@ int main(int argc, char** argv) {
         std::printf("# device: %s (%s); %zu triangles, %dx%d px, %zu lights; repeat %d\n", ctx.info().name.c_str(),
                     ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height, sc.lights.size(),
                     repeat);
+        std::printf("# scorer %s; timestamps %s\n", t.device.value("scorer", "?").c_str(),
+                    t.device.value("timestamps", nlohmann::json::object()).dump().c_str());
         std::printf("# set-up %.2f s (oracle %s + session); %zu configurations %.2f s, %.3f s each\n", t.setup_s,
                     "from the cache or traced", t.rows.size(), sum, sum / static_cast<double>(t.rows.size()));
         if (rss_mb.size() >= 20) {

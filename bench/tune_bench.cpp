@@ -18,6 +18,7 @@
 #include "bench/raster_bench_args.h"
 #include "common/scenario.h"
 #include "common/stopwatch.h"
+#include "metrics/gpu_classification.h"
 #include "tune/tune.h"
 
 namespace {
@@ -84,37 +85,66 @@ int main(int argc, char** argv) {
                     ctx.info().name.c_str(), ctx.info().driver.c_str(), sc.scene.triangle_count(), sc.width, sc.height,
                     sc.lights.size(), resolution, raster::to_string(base.depth_format), repeat);
 
-        // 1. One evaluation (with lookups; from V alone) against a bare V-only render.
+        // 1. One evaluation (with lookups; from V alone) against a bare V-only render, and the
+        // evaluation with lookups scored on the CPU against the device's preferred scorer.
+        const char* given = std::getenv("PENUMBRA_SCORER");
+        const std::string asked = given ? given : "";
+        ::setenv("PENUMBRA_SCORER", "cpu", 1);
+        tune::Evaluator ev_cpu(scenarios, base, options, ctx);
+        if (asked.empty())
+            ::unsetenv("PENUMBRA_SCORER");
+        else
+            ::setenv("PENUMBRA_SCORER", asked.c_str(), 1);
+        const metrics::Scorer scorer = metrics::preferred_scorer(ctx);
+        std::printf("scorer: %s (the device's preferred; $PENUMBRA_SCORER overrides)\n",
+                    metrics::to_string(scorer).data());
         tune::Evaluator ev(scenarios, base, options, ctx);
         tune::TuneOptions v_options = options;
         v_options.lookups = false;
         tune::Evaluator ev_v(scenarios, base, v_options, ctx);
         raster::RasterSession bare(sc, ctx);
-        std::vector<double> eval_s, render_s, count_s, v_s, bare_s;
+        std::vector<double> eval_s, render_s, count_s, v_s, bare_s, cpu_s, cpu_count_s;
+        std::vector<double> bare_setup_s, bare_submit_s, bare_gpu_ms;  // where a bare render's wall clock goes
         for (int r = 0; r < repeat + 1; ++r) {
             tune::Setting s;
             s[tune::Knob::constant] = 1000;
             s[tune::Knob::slope] = r % 2 ? 1.5 : 2.5;
             const tune::Evaluation e = ev.evaluate(s);
+            const tune::Evaluation e_cpu = ev_cpu.evaluate(s);
+            if (e_cpu.lights.size() != e.lights.size() || e_cpu.worst_acne != e.worst_acne ||
+                e_cpu.minimized != e.minimized)
+                std::printf("MISMATCH: the CPU and %s scorers disagree\n", metrics::to_string(scorer).data());
             const tune::Evaluation ev_only = ev_v.evaluate(s);
             raster::RenderOptions ro;
             ro.lookups = false;
             ro.reuse_maps = false;
             const auto t0 = SteadyClock::now();
-            bare.render(tune::apply_setting(base, options.knobs, s, 0), ro);
+            const raster::RasterResult br = bare.render(tune::apply_setting(base, options.knobs, s, 0), ro);
             const double b = seconds_since(t0);
+            if (r > 0) {
+                bare_setup_s.push_back(br.stats.setup_s);
+                bare_submit_s.push_back(br.stats.render_s);
+                bare_gpu_ms.push_back(br.stats.gpu_ms.total());
+            }
             if (r == 0) continue;  // the first builds pipelines and maps
             eval_s.push_back(e.seconds);
             render_s.push_back(e.render_s);
             count_s.push_back(e.count_s);
             v_s.push_back(ev_only.seconds);
+            cpu_s.push_back(e_cpu.seconds);
+            cpu_count_s.push_back(e_cpu.count_s);
             bare_s.push_back(b);
         }
         const double m = bench::median(eval_s), mv = bench::median(v_s), mb = bench::median(bare_s);
-        std::printf("bare V-only render          %8.1f ms\n", 1e3 * mb);
+        std::printf("bare V-only render          %8.1f ms (set-up %.1f ms, submit and wait %.1f ms, GPU %.1f ms)\n",
+                    1e3 * mb, 1e3 * bench::median(bare_setup_s), 1e3 * bench::median(bare_submit_s),
+                    bench::median(bare_gpu_ms));
         std::printf("evaluation, lookups         %8.1f ms (render %.1f ms + counts %.1f ms)  ratio %.2f\n", 1e3 * m,
                     1e3 * bench::median(render_s), 1e3 * bench::median(count_s), m / mb);
         std::printf("evaluation, V only          %8.1f ms  ratio %.2f\n", 1e3 * mv, mv / mb);
+        const double mc = bench::median(cpu_s);
+        std::printf("evaluation, lookups, cpu    %8.1f ms (counts %.1f ms)  ratio %.2f; %s/cpu %.3f\n", 1e3 * mc,
+                    1e3 * bench::median(cpu_count_s), mc / mb, metrics::to_string(scorer).data(), m / mc);
 
         // 2. The search against the grid.
         if (grid > 0) {

@@ -56,8 +56,7 @@ constexpr int kMaxBandIterations = 32;
 
 // Sums of one image row; rows are added in order afterwards so the totals do not depend on
 // how the rows were shared between threads.
-// Soft lights' penumbra-width band: V in (kWidthBand, 1 - kWidthBand), wide of the oracle's noise.
-constexpr float kWidthBand = 0.05f;
+constexpr float kWidthBand = kPenumbraWidthBand;
 
 struct RowSums {
     PixelCounts pixels;

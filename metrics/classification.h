@@ -95,6 +95,9 @@ struct MeanMax {
 
 // Soft shadows (docs/metrics.md, "Soft shadows"). Scored pixels fall in the oracle's umbra (V
 // within tau + E of 0), lit region (of 1) or penumbra (between).
+// Soft lights' penumbra-width band: V in (this, 1 - this), wide of the oracle's noise.
+inline constexpr float kPenumbraWidthBand = 0.05f;
+
 struct SoftScore {
     std::uint64_t umbra_pixels = 0, penumbra_pixels = 0, lit_pixels = 0;
     double penumbra_mae = 0;           // mean |error| inside the true penumbra

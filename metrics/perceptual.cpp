@@ -121,18 +121,20 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
         std::vector<float> h(nb), v(nb);
         convolve_x(Y, h, W, 0, Hb, csf);
         convolve_y(h, v, W, Hb, b0, b1, csf);
-        for (int y = b0; y < b1; ++y)
+        tbb::parallel_for(b0, b1, [&](int y) {
             for (int x = 0; x < W; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * W + x;
                 v[i] = lightness(v[i]);
             }
+        });
         return v;
     };
     auto features = [&](const std::vector<float>& Y) {
         std::vector<float> l(nb), h0(nb), h1(nb), h2(nb), a(nb), b(nb);
-        for (int y = 0; y < Hb; ++y)
+        tbb::parallel_for(0, Hb, [&](int y) {
             for (int x = 0; x < W; ++x)
                 l[static_cast<std::size_t>(y) * W + x] = lightness(Y[static_cast<std::size_t>(y) * W + x]);
+        });
         convolve_x(l, h0, W, 0, Hb, g0);
         convolve_x(l, h1, W, 0, Hb, g1);
         convolve_x(l, h2, W, 0, Hb, g2);
@@ -142,8 +144,10 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
             std::vector<float> m(nb);
             convolve_y(hx, a, W, Hb, b0, b1, kx);
             convolve_y(hy, b, W, Hb, b0, b1, ky);
-            for (std::size_t i = static_cast<std::size_t>(b0) * W; i < static_cast<std::size_t>(b1) * W; ++i)
-                m[i] = std::hypot(a[i], b[i]);
+            tbb::parallel_for(b0, b1, [&](int y) {
+                for (std::size_t i = static_cast<std::size_t>(y) * W; i < static_cast<std::size_t>(y + 1) * W; ++i)
+                    m[i] = std::hypot(a[i], b[i]);
+            });
             return m;
         };
         return Features{magnitude(h1, g0, h0, g1), magnitude(h2, g0, h0, g2)};
@@ -152,7 +156,8 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
     const std::vector<float> ref = band(reference), tst = band(test);
     const std::vector<float> lr = lightness_after_csf(ref), lt = lightness_after_csf(tst);
     const Features fr = features(ref), ft = features(tst);
-    for (int y = b0; y < b1; ++y)
+    // Every pixel on its own: the rows in parallel give the same image, bit for bit.
+    tbb::parallel_for(b0, b1, [&](int y) {
         for (int x = 0; x < W; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * W + x;
             const float colour = std::pow(std::abs(lr[i] - lt[i]), 0.7f);
@@ -160,6 +165,7 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
             const float feature = std::pow(std::min(1.0f, df / std::numbers::sqrt2_v<float>), 0.5f);
             err[i + static_cast<std::size_t>(in0) * W] = colour > 0 ? std::pow(colour, 1.0f - feature) : 0.0f;
         }
+    });
     return err;
 }
 

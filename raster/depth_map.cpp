@@ -233,6 +233,10 @@ class DepthMapFamily final : public TechniqueFamily {
                              const RasterLightStats& ls, std::uint32_t res);
     void record_map_layouts(VkCommandBuffer cmd);
     void ensure_slots(std::size_t n, bool lookups);
+    // What the lookup pass writes per light: every lookup, or V alone.
+    VkDeviceSize output_bytes(bool lookups) const {
+        return s_.pixels * (lookups ? sizeof(gpu::LookupTexel) : sizeof(float));
+    }
     void ensure_queries(std::uint32_t count);
     gpu::LookupParams light_params(const Technique& t, const Light& light, const LightProjection& projection) const;
     void record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t);
@@ -508,9 +512,12 @@ void DepthMapFamily::record_map_layouts(VkCommandBuffer cmd) {
 }
 
 void DepthMapFamily::ensure_slots(std::size_t n, bool lookups) {
-    if (slots_.size() >= n && slots_hold_lookups_ == lookups) return;
-    // All slots in one arena, with only the output this render writes. A GPU writes its
-    // output into its own memory and copies it back once; a CPU device writes it where it is read.
+    // Outputs sized for the lookups stay for V-only renders too: a sweep alternating the two
+    // kinds would otherwise allocate (and, on a GPU, pin host memory for) both every configuration.
+    if (slots_.size() >= n && (slots_hold_lookups_ || !lookups)) return;
+    lookups = lookups || slots_hold_lookups_;
+    // All slots in one arena. A GPU writes its output into its own memory and copies it back
+    // once; a CPU device writes it where it is read.
     slots_.clear();
     slots_arena_ = MemoryArena(ctx_);
     slots_.resize(n);
@@ -688,14 +695,14 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 3);
     const Slot& slot = slots_[li];
-    if (direct_readback_) {
+    if (direct_readback_ || !options.read_back) {
         memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                        VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
         return;
     }
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                    VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    VkBufferCopy region{0, 0, slot.output.size};
+    VkBufferCopy region{0, 0, output_bytes(options.lookups)};
     vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.output_host.buffer.get(), 1, &region);
     memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                    VK_ACCESS_2_HOST_READ_BIT);
@@ -875,7 +882,12 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         if (t.depth_layer == DepthLayer::midpoint) ls.gpu_ms.add("second_depth", ms(q + 1, q + 2), kSecondDepth);
         ls.gpu_ms.add("lookup", ms(q + 2, q + 3), options.lookups ? kLookupDiagnostic : kLookupV);
         stats.gpu_ms.add(ls.gpu_ms);
-        frame.lights.push_back(read_back(li, options.lookups));
+        if (options.read_back) {
+            frame.lights.push_back(read_back(li, options.lookups));
+        } else {
+            frame.lights.emplace_back();
+            stats.on_device.push_back({slots_[li].output.buffer.get(), output_bytes(options.lookups), options.lookups});
+        }
     }
     if (any_point)
         stats.gpu_ms.add("layer_mask", ms(0, 1),

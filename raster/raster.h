@@ -49,6 +49,15 @@ struct RasterLightStats {
     nlohmann::json family_keys = nlohmann::json::object();
 };
 
+// A light's output left on the device by a render with RenderOptions::read_back off: the
+// lookup pass's buffer, LookupTexel per pixel (`lookups`) or V alone (float per pixel). Valid
+// until the session's next render; a GPU scorer reads it where it lies (metrics/gpu_classification.h).
+struct DeviceLightOutput {
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceSize size = 0;
+    bool lookups = false;
+};
+
 struct RasterStats {
     DeviceInfo device;
     std::string hw2x2;                 // "hardware", "emulated" or "unused"
@@ -58,6 +67,9 @@ struct RasterStats {
     std::string family;                // the technique family that drew
     std::vector<RasterLightStats> lights;
     std::vector<std::string> warnings;
+    // read_back off: one entry per light whose family left its output on the device (the
+    // frame's light then has no V); empty where the family read back anyway.
+    std::vector<DeviceLightOutput> on_device;
 };
 
 struct RasterResult {
@@ -75,6 +87,10 @@ struct RenderOptions {
     // inputs (same light, fit, resolution, format, culling and depth bias): a lookup-only change
     // (world bias, normal offset, filter) then costs the lookup alone. Off for timing runs.
     bool reuse_maps = true;
+    // Off: a family that can leaves each light's output on the device (RasterStats::on_device)
+    // and the frame's lights empty, for a scorer on the GPU or a timing run that discards it;
+    // a family that cannot reads back as usual.
+    bool read_back = true;
 };
 
 // The raster path for one scenario on one device, kept warm: made once, it uploads the scene

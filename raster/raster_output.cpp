@@ -28,6 +28,14 @@ const char* projection_name(const Light& l) {
 
 }  // namespace
 
+nlohmann::json timestamps_json(const DeviceInfo& device) {
+    nlohmann::json j = {{"period_ns", device.timestamp_period_ns},
+                        {"calibration", device.calibration.empty() ? "none" : device.calibration},
+                        {"time_domains", device.time_domains}};
+    if (device.calibration_deviation_ns >= 0) j["calibration_deviation_ns"] = device.calibration_deviation_ns;
+    return j;
+}
+
 nlohmann::json raster_json(const Scenario& scenario, const Technique& technique, const RasterResult& result,
                            const RasterTimings& timings) {
     const RasterStats& s = result.stats;
@@ -113,7 +121,8 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
          {{"name", s.device.name},
           {"type", s.device.type},
           {"driver", s.device.driver},
-          {"vulkan", s.device.api_version}}},
+          {"vulkan", s.device.api_version},
+          {"timestamps", timestamps_json(s.device)}}},
         {"gpu_ms", gpu_ms},
         {"gpu_passes", gpu_passes},
         {"seconds",

@@ -15,6 +15,9 @@ struct RasterTimings {
     int threads = 0;      // the worker threads the command ran under (--threads; 0: not recorded)
 };
 
+// The clocks behind the GPU times (DeviceInfo): raster.json's and sweep.json's device.timestamps.
+nlohmann::json timestamps_json(const DeviceInfo& device);
+
 nlohmann::json raster_json(const Scenario& scenario, const Technique& technique, const RasterResult& result,
                            const RasterTimings& timings);
 

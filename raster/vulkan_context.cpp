@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdlib>
 #include <cstring>
@@ -141,7 +142,48 @@ std::vector<VkPhysicalDevice> physical_devices(VkInstance instance) {
     return devices;
 }
 
-DeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
+// EXT first: the same entry points as KHR's, and the Khronos validation layer of Debian 12
+// (1.3.239) warns of a device made with the KHR one, which it does not know.
+constexpr const char* kCalibrationExtensions[] = {"VK_EXT_calibrated_timestamps", "VK_KHR_calibrated_timestamps"};
+
+std::string time_domain_name(VkTimeDomainEXT d) {
+    switch (d) {
+        case VK_TIME_DOMAIN_DEVICE_EXT: return "device";
+        case VK_TIME_DOMAIN_CLOCK_MONOTONIC_EXT: return "clock_monotonic";
+        case VK_TIME_DOMAIN_CLOCK_MONOTONIC_RAW_EXT: return "clock_monotonic_raw";
+        case VK_TIME_DOMAIN_QUERY_PERFORMANCE_COUNTER_EXT: return "query_performance_counter";
+        default: return fmt::format("time_domain_{}", static_cast<int>(d));
+    }
+}
+
+// The KHR and EXT calibration entry points share their signatures (the KHR ones are the EXT
+// ones promoted); `suffix` picks the extension's.
+std::string calibration_suffix(const std::string& extension) {
+    return extension.find("_KHR_") != std::string::npos ? "KHR" : "EXT";
+}
+
+// The calibration extension the device offers and its time domains.
+void describe_clocks(VkInstance instance, VkPhysicalDevice pd, DeviceInfo& info) {
+    std::uint32_t n = 0;
+    if (vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, nullptr) != VK_SUCCESS) return;
+    std::vector<VkExtensionProperties> extensions(n);
+    if (vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, extensions.data()) != VK_SUCCESS) return;
+    for (const char* wanted : kCalibrationExtensions)
+        for (const auto& e : extensions)
+            if (info.calibration.empty() && std::string(e.extensionName) == wanted) info.calibration = wanted;
+    if (info.calibration.empty()) return;
+    const std::string fn = "vkGetPhysicalDeviceCalibrateableTimeDomains" + calibration_suffix(info.calibration);
+    auto get = reinterpret_cast<PFN_vkGetPhysicalDeviceCalibrateableTimeDomainsEXT>(
+        vkGetInstanceProcAddr(instance, fn.c_str()));
+    std::uint32_t count = 0;
+    if (!get || get(pd, &count, nullptr) != VK_SUCCESS) return;
+    std::vector<VkTimeDomainEXT> domains(count);
+    if (get(pd, &count, domains.data()) != VK_SUCCESS) return;
+    domains.resize(count);
+    for (VkTimeDomainEXT d : domains) info.time_domains.push_back(time_domain_name(d));
+}
+
+DeviceInfo describe(VkInstance instance, VkPhysicalDevice pd, std::uint32_t index) {
     VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
     VkPhysicalDeviceProperties2 props{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
     props.pNext = &driver;
@@ -153,6 +195,8 @@ DeviceInfo describe(VkPhysicalDevice pd, std::uint32_t index) {
     info.driver = fmt::format("{} {}", driver.driverName, driver.driverInfo);
     info.api_version = version_string(props.properties.apiVersion);
     info.lavapipe = driver.driverID == VK_DRIVER_ID_MESA_LLVMPIPE;
+    info.timestamp_period_ns = props.properties.limits.timestampPeriod;
+    describe_clocks(instance, pd, info);
     return info;
 }
 
@@ -187,7 +231,7 @@ std::vector<DeviceInfo> list_devices() {
     std::vector<DeviceInfo> infos;
     try {
         auto devices = physical_devices(instance);
-        for (std::uint32_t i = 0; i < devices.size(); ++i) infos.push_back(describe(devices[i], i));
+        for (std::uint32_t i = 0; i < devices.size(); ++i) infos.push_back(describe(instance, devices[i], i));
     } catch (...) {
         vkDestroyInstance(instance, nullptr);
         throw;
@@ -228,7 +272,7 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         auto devices = physical_devices(instance_);
         if (devices.empty()) throw EnvironmentError(kNoDevice);
         std::vector<DeviceInfo> infos;
-        for (std::uint32_t i = 0; i < devices.size(); ++i) infos.push_back(describe(devices[i], i));
+        for (std::uint32_t i = 0; i < devices.size(); ++i) infos.push_back(describe(instance_, devices[i], i));
         std::string wanted = options.device;
         if (wanted.empty() && std::getenv("PENUMBRA_VK_DEVICE")) wanted = std::getenv("PENUMBRA_VK_DEVICE");
         std::uint32_t chosen = choose_device(infos, wanted);
@@ -274,6 +318,9 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         features.features.geometryShader = VK_TRUE;
         features.features.depthClamp = VK_TRUE;
         features.features.depthBiasClamp = VK_TRUE;
+        // Optional: the GPU scorer sums errors in double, in the CPU's order (metrics/gpu_classification.h).
+        features.features.shaderFloat64 = supported.shaderFloat64;
+        shader_float64_ = supported.shaderFloat64 == VK_TRUE;
 
         float priority = 1.0f;
         VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -284,8 +331,14 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         di.pNext = &features;
         di.queueCreateInfoCount = 1;
         di.pQueueCreateInfos = &qi;
+        const char* calibration = info_.calibration.c_str();
+        if (!info_.calibration.empty()) {
+            di.enabledExtensionCount = 1;
+            di.ppEnabledExtensionNames = &calibration;
+        }
         VK_CHECK(vkCreateDevice(physical_, &di, nullptr, &device_));
         vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+        calibrate();
 
         VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
         pi.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
@@ -297,6 +350,25 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         release();
         throw;
     }
+}
+
+// One calibration of the device's timestamps against CLOCK_MONOTONIC, where both domains are
+// offered: its deviation says how closely GPU and host times can be lined up.
+void VulkanContext::calibrate() {
+    auto has = [&](const char* d) {
+        return std::find(info_.time_domains.begin(), info_.time_domains.end(), d) != info_.time_domains.end();
+    };
+    if (info_.calibration.empty() || !has("device") || !has("clock_monotonic")) return;
+    const std::string fn = "vkGetCalibratedTimestamps" + calibration_suffix(info_.calibration);
+    auto get = reinterpret_cast<PFN_vkGetCalibratedTimestampsEXT>(vkGetDeviceProcAddr(device_, fn.c_str()));
+    if (!get) return;
+    std::array<VkCalibratedTimestampInfoEXT, 2> which{};
+    which[0] = {VK_STRUCTURE_TYPE_CALIBRATED_TIMESTAMP_INFO_EXT, nullptr, VK_TIME_DOMAIN_DEVICE_EXT};
+    which[1] = {VK_STRUCTURE_TYPE_CALIBRATED_TIMESTAMP_INFO_EXT, nullptr, VK_TIME_DOMAIN_CLOCK_MONOTONIC_EXT};
+    std::array<std::uint64_t, 2> stamps{};
+    std::uint64_t deviation = 0;
+    if (get(device_, 2, which.data(), stamps.data(), &deviation) == VK_SUCCESS)
+        info_.calibration_deviation_ns = static_cast<double>(deviation);
 }
 
 VulkanContext::~VulkanContext() {

@@ -21,6 +21,15 @@ struct DeviceInfo {
     std::string driver;
     std::string api_version;
     bool lavapipe = false;
+    // The clocks behind GPU times (docs/raster.md, "Timings"): nanoseconds per timestamp tick,
+    // and where the device offers VK_EXT_calibrated_timestamps (else the KHR one) its name, the
+    // time domains it calibrates ("device", "clock_monotonic", ...) and, once a context is made,
+    // the deviation of one device/host calibration (ns; negative: none made). No extension:
+    // `calibration` empty, the GPU times rest on timestampPeriod alone.
+    double timestamp_period_ns = 0;
+    std::string calibration;
+    std::vector<std::string> time_domains;
+    double calibration_deviation_ns = -1;
 };
 
 // Every Vulkan device the loader reports. Throws EnvironmentError when there is none.
@@ -48,6 +57,8 @@ class VulkanContext {
     const DeviceInfo& info() const { return info_; }
     const VkPhysicalDeviceLimits& limits() const { return limits_; }
     bool validation_enabled() const { return validation_; }
+    // shaderFloat64 is on (the device offers it): the GPU scorer needs it.
+    bool shader_float64() const { return shader_float64_; }
     // Validation messages (errors and warnings) since the context was made.
     const std::vector<std::string>& validation_messages() const { return messages_; }
 
@@ -66,7 +77,8 @@ class VulkanContext {
     UniqueMemory allocate_memory(VkDeviceSize bytes, std::uint32_t memory_type) const;
 
   private:
-    void release();  // destroys what the constructor made; safe on a half-made context
+    void release();    // destroys what the constructor made; safe on a half-made context
+    void calibrate();  // DeviceInfo::calibration_deviation_ns
     static VKAPI_ATTR VkBool32 VKAPI_CALL on_message(VkDebugUtilsMessageSeverityFlagBitsEXT,
                                                      VkDebugUtilsMessageTypeFlagsEXT,
                                                      const VkDebugUtilsMessengerCallbackDataEXT*, void*);
@@ -81,6 +93,7 @@ class VulkanContext {
     VkPhysicalDeviceLimits limits_{};
     VkPhysicalDeviceMemoryProperties memory_{};
     bool validation_ = false;
+    bool shader_float64_ = false;
     std::vector<std::string> messages_;
     UniqueCommandPool command_pool_;
     mutable std::atomic<std::uint64_t> allocations_{0};

@@ -6,7 +6,9 @@
 
 #include "common/errors.h"
 #include "common/stopwatch.h"
+#include "metrics/gpu_classification.h"
 #include "metrics/metric_table.h"
+#include "raster/raster_output.h"
 
 namespace penumbra::sweep {
 namespace {
@@ -43,7 +45,16 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
     t.columns = verdict_columns(scenario);
     t.total = total;
     t.repeat = options.repeat;
-    t.device = {{"name", ctx.info().name}, {"type", ctx.info().type}, {"driver", ctx.info().driver}};
+    // The verdict's scorer: the GPU's where it wins on this device (docs/sweep.md, "Scoring on
+    // the GPU"); counts identical either way.
+    const metrics::Scorer scorer_kind = metrics::preferred_scorer(ctx);
+    t.device = {{"name", ctx.info().name},
+                {"type", ctx.info().type},
+                {"driver", ctx.info().driver},
+                {"scorer", metrics::to_string(scorer_kind)},
+                {"timestamps", raster::timestamps_json(ctx.info())}};
+    // One calibration's deviation differs from run to run: shards of one device must still merge.
+    t.device["timestamps"].erase("calibration_deviation_ns");
     t.shard = shard;
     const auto t0 = SteadyClock::now();
     auto oracle = std::make_shared<const OracleRun>(oracle_for(scenario, options.validate));
@@ -55,6 +66,10 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
     raster::RenderOptions production;
     production.lookups = false;
     production.reuse_maps = false;
+    production.read_back = false;  // timings only: the output is discarded where it lies
+    raster::RenderOptions timed = diagnostic.render;
+    timed.read_back = false;
+    std::unique_ptr<metrics::GpuScorer> scorer;
     const metrics::Gate no_gate;
     std::vector<const metrics::Metric*> metrics;
     for (const auto& c : t.columns) metrics.push_back(metrics::find_metric(c));
@@ -67,18 +82,26 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
         // Warm-up (kWarmUpRenders of each kind, discarded): the verdict's render also builds
         // (and, on lavapipe, compiles) the pipelines and counts as the first diagnostic one; the
         // production pipelines are built by the first production render.
-        const ValidateResult r = validate(scenario, c.technique, no_gate, diagnostic, &session, oracle);
-        for (int k = 1; k < kWarmUpRenders; ++k) session.render(c.technique, diagnostic.render);
+        std::optional<metrics::FrameScore> score;
+        if (scorer_kind == metrics::Scorer::gpu) {
+            const raster::RasterResult rr = session.render(c.technique, timed);
+            if (!scorer) scorer = std::make_unique<metrics::GpuScorer>(ctx, oracle->frame, rr.frame);
+            score = scorer->score(rr, scoring_options(scenario, c.technique, options.validate.tolerance,
+                                                      options.validate.visible_threshold));
+        }
+        // The CPU's verdict: on a CPU device, or for a family that reads its output back.
+        if (!score) score = validate(scenario, c.technique, no_gate, diagnostic, &session, oracle).score;
+        for (int k = 1; k < kWarmUpRenders; ++k) session.render(c.technique, timed);
         for (int k = 0; k < options.repeat; ++k)
-            row.diagnostic_ms.push_back(shadow_cost_ms(session.render(c.technique, diagnostic.render).stats));
+            row.diagnostic_ms.push_back(shadow_cost_ms(session.render(c.technique, timed).stats));
         for (int k = 0; k < kWarmUpRenders; ++k) session.render(c.technique, production);
         for (int k = 0; k < options.repeat; ++k)
             row.production_ms.push_back(shadow_cost_ms(session.render(c.technique, production).stats));
         row.lights = nlohmann::json::array();
-        for (const auto& l : r.score.lights) row.lights.push_back(metrics::to_json(l));
+        for (const auto& l : score->lights) row.lights.push_back(metrics::to_json(l));
         for (const metrics::Metric* m : metrics) {
             double sum = 0, weight = 0;
-            for (const auto& l : r.score.lights)
+            for (const auto& l : score->lights)
                 if (auto v = metrics::value_of(*m, l)) {
                     sum += *v * static_cast<double>(l.pixels.scored);
                     weight += static_cast<double>(l.pixels.scored);

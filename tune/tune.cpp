@@ -8,6 +8,7 @@
 
 #include "common/errors.h"
 #include "common/stopwatch.h"
+#include "metrics/gpu_classification.h"
 #include "metrics/metric_table.h"
 #include "raster/filterable.h"
 #include "raster/technique_family.h"
@@ -343,7 +344,7 @@ std::string worse_than(const Evaluation& after, const Evaluation& before) {
 
 Evaluator::Evaluator(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
                      const raster::VulkanContext& ctx)
-    : base_(base), options_(options) {
+    : base_(base), options_(options), ctx_(&ctx), gpu_scoring_(metrics::preferred_scorer(ctx) == metrics::Scorer::gpu) {
     if (!options.objective.visible()) metric_named(options.objective.minimize, "--minimize");
     metric_named(options.objective.then, "--then");
     for (const Scenario& s : scenarios) {
@@ -392,9 +393,28 @@ Evaluation Evaluator::evaluate(const raster::Technique& technique, const Setting
     for (std::size_t si = 0; si < scenes_.size(); ++si) {
         TuneScene& scene = scenes_[si];
         const auto tr = SteadyClock::now();
+        // On the GPU the output stays where it lies and only the counts come back; the first
+        // evaluation reads back when it still has to find the world knob's footprint.
+        const bool on_gpu = gpu_scoring_ && footprint_m_ != 0 && !scene.cpu_only;
+        ro.read_back = !on_gpu;
         raster::RasterResult rr = scene.session->render(technique, ro);
         e.render_s += seconds_since(tr);
         const auto tc = SteadyClock::now();
+        std::optional<metrics::FrameScore> gpu_score;
+        if (on_gpu) {
+            if (!scene.scorer)
+                scene.scorer = std::make_shared<metrics::GpuScorer>(*ctx_, scene.oracle->frame, rr.frame);
+            gpu_score = scene.scorer->score(rr, scene.scoring);
+            if (!gpu_score) {
+                // A family that reads back, or V only without given scales: the CPU from now on.
+                scene.scorer.reset();
+                scene.cpu_only = true;
+                if (!rr.stats.on_device.empty()) {
+                    ro.read_back = true;
+                    rr = scene.session->render(technique, ro);
+                }
+            }
+        }
         if (footprint_m_ == 0) {
             // The world knob's unit: the median texel footprint at the receivers, over every light
             // of the first scenario that has one.
@@ -402,7 +422,8 @@ Evaluation Evaluator::evaluate(const raster::Technique& technique, const Setting
                 if (l.lookups && footprint_m_ == 0)
                     footprint_m_ = median_at_surface(l.lookups->footprint_m, rr.frame.A, true);
         }
-        const metrics::FrameScore score = metrics::score_frames(scene.oracle->frame, rr.frame, scene.scoring);
+        const metrics::FrameScore score =
+            gpu_score ? std::move(*gpu_score) : metrics::score_frames(scene.oracle->frame, rr.frame, scene.scoring);
         for (std::size_t li = 0; li < score.lights.size(); ++li) {
             const metrics::LightScore& ls = score.lights[li];
             LightOutcome o;

@@ -20,6 +20,10 @@
 #include "raster/technique.h"
 #include "raster/vulkan_context.h"
 
+namespace penumbra::metrics {
+class GpuScorer;  // metrics/gpu_classification.h
+}
+
 namespace penumbra::tune {
 
 // The bias knobs, each bounded and scaled as it behaves (docs/tune.md, "Knobs"), then the
@@ -163,6 +167,10 @@ struct TuneScene {
     std::shared_ptr<const OracleRun> oracle;
     std::unique_ptr<raster::RasterSession> session;
     std::vector<metrics::ScoringOptions> scoring;  // perceptual off: the objective needs counts only
+    // The counts on the GPU (metrics/gpu_classification.h), where they win on this device;
+    // made on the first evaluation that can use it, dropped when a render cannot.
+    std::shared_ptr<metrics::GpuScorer> scorer;
+    bool cpu_only = false;
 };
 
 // Evaluates settings on every scene: a warm render with lookups and the objective's counts; no
@@ -187,6 +195,8 @@ class Evaluator {
     const TuneOptions& options_;
     std::vector<TuneScene> scenes_;
     double footprint_m_ = 0;
+    const raster::VulkanContext* ctx_ = nullptr;
+    bool gpu_scoring_ = false;  // metrics::preferred_scorer
 };
 
 // Lexicographic: feasible first; then `minimize` (ties within objective.tie), `then`, and the

@@ -23,6 +23,10 @@ assert all(float(r['production_ms']) > 0 and float(r['diagnostic_ms']) > 0 for r
 check "sweep.json carries the device and repeats" python3 -c "
 import json; j = json.load(open('$tmp/one/sweep.json')); assert j['device']['name'] and j['repeat'] == 2
 assert len(j['configurations'][0]['production_ms']) == 2"
+check "sweep.json names the scorer and the clocks, without a per-run calibration (shards must merge)" python3 -c "
+import json; d = json.load(open('$tmp/one/sweep.json'))['device']
+assert d['scorer'] in ('cpu', 'gpu') and d['timestamps']['period_ns'] > 0 and 'calibration' in d['timestamps']
+assert 'calibration_deviation_ns' not in d['timestamps']"
 check "sweep.json carries setup_s and the sweep's fingerprint" python3 -c "
 import json; j = json.load(open('$tmp/one/sweep.json')); assert j['setup_s'] > 0 and len(j['fingerprint']) == 32"
 check "report.html renders cleanly in Chromium" html_check "$tmp/one/report.html"

@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 #include <stdexcept>
 
@@ -305,6 +306,38 @@ TEST_F(FamilyOnDevice, ARegisteredFamilyDrawsTheTechniquesThatNameIt) {
     EXPECT_EQ(j["family"], "constant_shade");
     // The same session goes on drawing depth maps.
     EXPECT_EQ(session.render(parse_technique(nlohmann::json::object(), "t")).stats.family, "depth_map");
+}
+
+// A render without read-back leaves each light's output where the lookup pass wrote it, for a
+// scorer on the device (metrics/gpu_classification.h): the lookups or V alone, nothing in the frame.
+TEST_F(FamilyOnDevice, ARenderWithoutReadBackLeavesItsOutputOnTheDevice) {
+    const Scenario sc = views_scene(test::directional({-0.4, -1, -0.3}));
+    raster::RasterSession session(sc, *ctx_);
+    const raster::Technique t = parse_technique({{"resolution", 256}}, "t");
+    const std::size_t n = static_cast<std::size_t>(sc.width * sc.height);
+    for (const bool lookups : {true, false}) {
+        raster::RenderOptions o;
+        o.lookups = lookups;
+        o.read_back = false;
+        const raster::RasterResult r = session.render(t, o);
+        ASSERT_EQ(r.stats.on_device.size(), 1u);
+        EXPECT_NE(r.stats.on_device[0].buffer, VkBuffer{VK_NULL_HANDLE});
+        EXPECT_EQ(r.stats.on_device[0].lookups, lookups);
+        EXPECT_EQ(r.stats.on_device[0].size, n * (lookups ? 36u : 4u));
+        ASSERT_EQ(r.frame.lights.size(), 1u);
+        EXPECT_TRUE(r.frame.lights[0].V.empty());
+    }
+    const raster::RasterResult read = session.render(t);
+    EXPECT_TRUE(read.stats.on_device.empty());
+    EXPECT_EQ(read.frame.lights[0].V.size(), n);
+    // raster.json says which clocks its GPU times rest on.
+    const nlohmann::json clocks = raster::raster_json(sc, t, read, {})["device"]["timestamps"];
+    EXPECT_GT(clocks["period_ns"].get<double>(), 0.0);
+    const std::string calibration = clocks["calibration"];
+    if (calibration != "none") {
+        const auto domains = clocks["time_domains"].get<std::vector<std::string>>();
+        EXPECT_NE(std::find(domains.begin(), domains.end(), "device"), domains.end()) << calibration;
+    }
 }
 
 // Lookups carry the view (layer) each pixel used: a cube face for a point light, chosen by the

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "metrics/classification.h"
+#include "metrics/gpu_classification.h"
 #include "pipeline/validate.h"
 #include "tests/test_support.h"
 
@@ -59,6 +60,7 @@ class Verdict : public ::testing::Test {
             session = own.get();
         }
         ValidateResult r = validate(sc, technique, metrics::Gate{}, options, session, oracle);
+        expect_gpu_scores_identical(technique, options, *session, r);
         // The counts on this device, for comparing devices (docs/raster.md, "Verdicts on two devices").
         const metrics::LightScore& l = r.score.lights[0];
         std::string counts;
@@ -68,6 +70,81 @@ class Verdict : public ::testing::Test {
                     static_cast<unsigned long long>(l.pixels.scored), counts.c_str());
         return r;
     }
+    // Every field of two verdicts, exactly: the GPU scorer does the CPU's float operations in
+    // its order (metrics/gpu_classification.h), so nothing may differ, not even a sum's last bit.
+    static void expect_identical(const metrics::LightScore& gpu, const metrics::LightScore& cpu, const char* what) {
+        SCOPED_TRACE(what);
+        EXPECT_EQ(gpu.pixels.surface, cpu.pixels.surface);
+        EXPECT_EQ(gpu.pixels.scored, cpu.pixels.scored);
+        EXPECT_EQ(gpu.pixels.back_facing, cpu.pixels.back_facing);
+        EXPECT_EQ(gpu.pixels.uncertain, cpu.pixels.uncertain);
+        EXPECT_EQ(gpu.pixels.coverage_mismatch, cpu.pixels.coverage_mismatch);
+        EXPECT_EQ(gpu.counts, cpu.counts);
+        EXPECT_EQ(gpu.counts_visible, cpu.counts_visible);
+        EXPECT_EQ(gpu.wrong, cpu.wrong);
+        EXPECT_EQ(gpu.wrong_visible, cpu.wrong_visible);
+        EXPECT_EQ(gpu.mae, cpu.mae);
+        EXPECT_EQ(gpu.rmse, cpu.rmse);
+        EXPECT_EQ(gpu.bias, cpu.bias);
+        EXPECT_EQ(gpu.wrong_fraction, cpu.wrong_fraction);
+        EXPECT_EQ(gpu.peter_panning_gap.mean, cpu.peter_panning_gap.mean);
+        EXPECT_EQ(gpu.peter_panning_gap.max, cpu.peter_panning_gap.max);
+        EXPECT_EQ(gpu.peter_panning_gap_p95, cpu.peter_panning_gap_p95);
+        EXPECT_EQ(gpu.acne_depth.mean, cpu.acne_depth.mean);
+        EXPECT_EQ(gpu.acne_depth.max, cpu.acne_depth.max);
+        EXPECT_EQ(gpu.acne_depth_pixels, cpu.acne_depth_pixels);
+        EXPECT_EQ(gpu.perceptual.mean, cpu.perceptual.mean);
+        EXPECT_EQ(gpu.perceptual.max, cpu.perceptual.max);
+        EXPECT_EQ(gpu.evidence.source, cpu.evidence.source);
+        EXPECT_EQ(gpu.evidence.texel_footprint_m, cpu.evidence.texel_footprint_m);
+        EXPECT_EQ(gpu.evidence.bias_reach_m, cpu.evidence.bias_reach_m);
+        ASSERT_EQ(gpu.soft.has_value(), cpu.soft.has_value());
+        if (!cpu.soft) return;
+        EXPECT_EQ(gpu.soft->umbra_pixels, cpu.soft->umbra_pixels);
+        EXPECT_EQ(gpu.soft->penumbra_pixels, cpu.soft->penumbra_pixels);
+        EXPECT_EQ(gpu.soft->lit_pixels, cpu.soft->lit_pixels);
+        EXPECT_EQ(gpu.soft->umbra_mae, cpu.soft->umbra_mae);
+        EXPECT_EQ(gpu.soft->penumbra_mae, cpu.soft->penumbra_mae);
+        EXPECT_EQ(gpu.soft->lit_mae, cpu.soft->lit_mae);
+        EXPECT_EQ(gpu.soft->penumbra_mae_beyond_e, cpu.soft->penumbra_mae_beyond_e);
+        EXPECT_EQ(gpu.soft->width_pixels_oracle, cpu.soft->width_pixels_oracle);
+        EXPECT_EQ(gpu.soft->width_pixels_raster, cpu.soft->width_pixels_raster);
+    }
+
+    // The GPU scorer against the CPU reference on this scene and technique: the verdict with
+    // lookups (validate's), and a V-only one with both scales given (tune's), each from a render
+    // whose output stays on the device. Families that read back anyway have nothing to compare.
+    static void expect_gpu_scores_identical(const raster::Technique& technique, const ValidateOptions& options,
+                                            raster::RasterSession& session, const ValidateResult& r) {
+        ASSERT_TRUE(ctx_->shader_float64()) << "the GPU scorer needs shaderFloat64";
+        raster::RenderOptions on_device = options.render;
+        on_device.read_back = false;
+        const raster::RasterResult rr = session.render(technique, on_device);
+        if (rr.stats.on_device.empty()) return;
+        metrics::GpuScorer scorer(*ctx_, r.oracle->frame, rr.frame);
+        const std::optional<metrics::FrameScore> gpu = scorer.score(rr, r.scoring);
+        ASSERT_TRUE(gpu);
+        ASSERT_EQ(gpu->lights.size(), r.score.lights.size());
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li)
+            expect_identical(gpu->lights[li], r.score.lights[li], "with lookups");
+
+        std::vector<metrics::ScoringOptions> v_only = r.scoring;
+        for (auto& o : v_only) {
+            o.texel_footprint_m = static_cast<float>(r.raster.stats.lights[0].projection.metres_per_texel);
+            o.bias_reach_m = 0.05f;
+        }
+        raster::RenderOptions v = on_device;
+        v.lookups = false;
+        const raster::RasterResult rv = session.render(technique, v);
+        const std::optional<metrics::FrameScore> gpu_v = scorer.score(rv, v_only);
+        ASSERT_TRUE(gpu_v);
+        v.read_back = true;
+        const metrics::FrameScore cpu_v =
+            metrics::score_frames(r.oracle->frame, session.render(technique, v).frame, v_only);
+        for (std::size_t li = 0; li < cpu_v.lights.size(); ++li)
+            expect_identical(gpu_v->lights[li], cpu_v.lights[li], "V only, scales given");
+    }
+
     static Judged judge(const Scenario& sc, const nlohmann::json& technique_json) {
         const ValidateResult r = run(sc, technique_json);
         return {r.score.lights[0], r.raster.stats.lights[0].projection.metres_per_texel};
