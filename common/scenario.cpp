@@ -76,7 +76,7 @@ Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_
 Light read_light(JsonObject o) {
     Light l;
     std::string type = o.string("type");
-    if (type == "directional") o.only_keys({"type", "name", "direction"});
+    if (type == "directional") o.only_keys({"type", "name", "direction", "angular_diameter_deg"});
     if (type == "spot") o.only_keys({"type", "name", "position", "direction", "outer_cone_deg", "inner_cone_deg"});
     if (type == "point") o.only_keys({"type", "name", "position"});
     if (type == "rect") o.only_keys({"type", "name", "center", "u", "v"});
@@ -86,6 +86,7 @@ Light read_light(JsonObject o) {
     if (type == "directional") {
         l.type = LightType::directional;
         l.direction = glm::normalize(o.nonzero_vec3("direction"));
+        l.angular_diameter_rad = o.number("angular_diameter_deg", 0.0) * kDeg;  // range: light_problem
     } else if (type == "spot") {
         l.type = LightType::spot;
         l.position = position(o, "position");

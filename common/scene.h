@@ -25,8 +25,17 @@ struct Light {
     glm::dvec3 u{0.0}, v{0.0};  // rect: full edge vectors; emits towards u x v
     glm::dvec3 normal{0.0};     // disk: unit emitting normal
     double radius = 0;          // disk, sphere
+    // directional: the sun's disk of directions, full angle (0: a punctual sun; docs/oracle.md)
+    double angular_diameter_rad = 0;
     std::string origin;         // where it came from, for messages ("lights[2]", "gltf node 4")
 };
+
+// Whether V of the light is a fraction of an extent (an area light's surface, or a sun's disk
+// of directions) that the oracle samples with a confidence bound and the metrics score as a
+// soft shadow (docs/oracle.md).
+inline bool is_soft_light(const Light& l) {
+    return is_area_light(l.type) || (l.type == LightType::directional && l.angular_diameter_rad > 0);
+}
 
 enum class ProjectionType { perspective, orthographic };
 
