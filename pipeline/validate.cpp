@@ -42,7 +42,7 @@ std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, c
     so.depth_quantum = static_cast<float>(hints.depth_quantum);
     so.light_bleeding = hints.light_bleeding;
     std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
-    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
+    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_soft_light(scenario.lights[li]);
     return scoring;
 }
 

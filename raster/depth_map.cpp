@@ -406,8 +406,11 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
         p.cascade_far[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_far[k]);
         p.cascade_texel[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_texel[k]);
     }
-    // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
-    p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
+    // PCSS reaches here with lights that have a size only (check_technique_lights): an area
+    // light's radius, or a sun's angular radius as its tangent (lookup.comp, pcss_visibility).
+    const double light_size =
+        light.type == LightType::directional ? std::tan(0.5 * light.angular_diameter_rad) : light.radius;
+    p.pcss = glm::vec4(light_size, projection.near, projection.far, t.filter.max_radius_texels);
     if (const MomentParameters* m = moment_parameters(t))
         p.moments = glm::vec4(m->min_variance, m->light_bleed, m->exponent, m->negative_exponent);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
