@@ -45,6 +45,8 @@ nlohmann::json light_json(const Light& l, std::size_t index) {
         case LightType::directional:
             j["direction"] = vec(l.direction);
             j["gltf"] = {{"type", "directional"}};
+            // The engine's sun size (Unreal's source angle), only for a sun with one.
+            if (l.angular_diameter_rad > 0) j["angular_diameter_deg"] = l.angular_diameter_rad * 180 / M_PI;
             break;
         case LightType::spot:
             j["position"] = vec(l.position);

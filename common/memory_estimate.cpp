@@ -97,7 +97,7 @@ MemoryInputs memory_inputs(const Scenario& scenario, bool oracle, const RasterMe
     in.width = static_cast<std::uint64_t>(scenario.width);
     in.height = static_cast<std::uint64_t>(scenario.height);
     in.lights = scenario.lights.size();
-    for (const Light& l : scenario.lights) in.area_lights += is_area_light(l.type) ? 1 : 0;
+    for (const Light& l : scenario.lights) in.area_lights += is_soft_light(l) ? 1 : 0;  // sampled by the oracle
     in.oracle = oracle;
     in.metrics = metrics;
     if (raster) {

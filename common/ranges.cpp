@@ -72,7 +72,15 @@ std::optional<RangeProblem> camera_problem(const Camera& c) {
 
 std::optional<RangeProblem> light_problem(const Light& l) {
     switch (l.type) {
-        case LightType::directional: return unit_problem(l.direction, "direction");
+        case LightType::directional: {
+            if (auto p = unit_problem(l.direction, "direction")) return p;
+            const double diameter = l.angular_diameter_rad / kDeg;
+            if (!(diameter >= 0 && diameter < kMaxSunDiameterDeg))
+                return RangeProblem{
+                    "angular_diameter_deg",
+                    fmt::format("{:g} degrees is outside [0, {:g}) (0: a punctual sun)", diameter, kMaxSunDiameterDeg)};
+            return std::nullopt;
+        }
         case LightType::point: return position_problem(l.position, "position");
         case LightType::spot: {
             if (auto p = position_problem(l.position, "position")) return p;

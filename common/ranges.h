@@ -20,6 +20,10 @@ inline constexpr double kMinExtent = 1e-12;
 inline constexpr double kMaxExtent = 1e15;
 inline constexpr double kMinFovDeg = 1e-3, kMaxFovDeg = 179.0;   // perspective yfov
 inline constexpr double kMinConeDeg = 1e-3, kMaxConeDeg = 90.0;  // spot outer half-angle
+// A sun's angular_diameter_deg lies in [0, kMaxSunDiameterDeg): the real sun is 0.53 degrees;
+// a source wider than 20 degrees is no sun (model it as an area light), and PCSS's small-angle
+// estimate of its penumbra (docs/raster.md) would stop meaning anything.
+inline constexpr double kMaxSunDiameterDeg = 20.0;
 
 // One value out of range: the key as the scenario spells it ("xmag", "u") and what is wrong.
 struct RangeProblem {

@@ -112,7 +112,7 @@ CameraPath read_camera_path(JsonObject o, const Scene& scene, const std::string&
 Light read_light(JsonObject o) {
     Light l;
     std::string type = o.string("type");
-    if (type == "directional") o.only_keys({"type", "name", "direction"});
+    if (type == "directional") o.only_keys({"type", "name", "direction", "angular_diameter_deg"});
     if (type == "spot") o.only_keys({"type", "name", "position", "direction", "outer_cone_deg", "inner_cone_deg"});
     if (type == "point") o.only_keys({"type", "name", "position"});
     if (type == "rect") o.only_keys({"type", "name", "center", "u", "v"});
@@ -122,6 +122,7 @@ Light read_light(JsonObject o) {
     if (type == "directional") {
         l.type = LightType::directional;
         l.direction = glm::normalize(o.nonzero_vec3("direction"));
+        l.angular_diameter_rad = o.number("angular_diameter_deg", 0.0) * kDeg;  // range: light_problem
     } else if (type == "spot") {
         l.type = LightType::spot;
         l.position = position(o, "position");

@@ -18,15 +18,23 @@ inline bool is_area_light(LightType t) {
 
 struct Light {
     LightType type = LightType::directional;
-    glm::dvec3 position{0.0};   // spot, point; centre of rect, disk, sphere
-    glm::dvec3 direction{0.0};  // directional, spot: unit direction light travels
-    double outer_cone_rad = 0;  // spot: half-angle of the cone
-    double inner_cone_rad = 0;  // spot: shading only, no effect on visibility
-    glm::dvec3 u{0.0}, v{0.0};  // rect: full edge vectors; emits towards u x v
-    glm::dvec3 normal{0.0};     // disk: unit emitting normal
-    double radius = 0;          // disk, sphere
-    std::string origin;         // where it came from, for messages ("lights[2]", "gltf node 4")
+    glm::dvec3 position{0.0};         // spot, point; centre of rect, disk, sphere
+    glm::dvec3 direction{0.0};        // directional, spot: unit direction light travels
+    double outer_cone_rad = 0;        // spot: half-angle of the cone
+    double inner_cone_rad = 0;        // spot: shading only, no effect on visibility
+    glm::dvec3 u{0.0}, v{0.0};        // rect: full edge vectors; emits towards u x v
+    glm::dvec3 normal{0.0};           // disk: unit emitting normal
+    double radius = 0;                // disk, sphere
+    double angular_diameter_rad = 0;  // directional: the sun's disk, full angle (0: punctual; docs/oracle.md 8b)
+    std::string origin;               // where it came from, for messages ("lights[2]", "gltf node 4")
 };
+
+// Whether V of the light is a fraction of an extent (an area light's surface, or a sun's disk
+// of directions) that the oracle samples with a confidence bound and the metrics score as a
+// soft shadow (docs/oracle.md).
+inline bool is_soft_light(const Light& l) {
+    return is_area_light(l.type) || (l.type == LightType::directional && l.angular_diameter_rad > 0);
+}
 
 enum class ProjectionType { perspective, orthographic };
 

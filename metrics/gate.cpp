@@ -13,7 +13,7 @@ namespace {
 
 // Whether a check of metric `m` applies to `light` at all (evaluate_gate skips it otherwise).
 bool applies(const Metric& m, const Light& light) {
-    return m.scope != MetricScope::area_lights || is_area_light(light.type);
+    return m.scope != MetricScope::area_lights || is_soft_light(light);
 }
 
 }  // namespace

@@ -21,6 +21,13 @@ AreaLight make_area_light(const Light& l, const glm::dvec3& frame_origin) {
     } else if (l.type == LightType::disk) {
         a.normal = glm::normalize(l.normal);
         orthonormal_basis(a.normal, a.e1, a.e2);
+    } else if (l.type == LightType::directional) {
+        a.normal = -glm::normalize(l.direction);
+        orthonormal_basis(a.normal, a.e1, a.e2);
+        const double alpha = 0.5 * l.angular_diameter_rad;
+        // 2 sin^2(alpha / 2): 1 - cos(alpha) would lose five digits of a 0.5-degree sun to cancellation.
+        a.cone_one_minus_cos = 2 * std::sin(0.5 * alpha) * std::sin(0.5 * alpha);
+        a.cone_sin = std::sin(alpha);
     }
     return a;
 }
@@ -57,8 +64,29 @@ AreaView view_area_light(const AreaLight& light, const glm::dvec3& p, const glm:
             view.lightable = glm::dot(n, to_center) + light.radius > 0;
             return view;
         }
+        case LightType::directional: {
+            // The direction of the cone nearest n makes angle max(0, beta - alpha) with it, beta
+            // the angle between n and the axis: some of the cone is above the tangent plane
+            // exactly when beta < 90 + alpha, i.e. n . axis > -sin(alpha).
+            view.lightable = glm::dot(n, light.normal) > -light.cone_sin;
+            return view;
+        }
         default: return view;
     }
+}
+
+glm::dvec3 sun_direction(const AreaLight& sun, double s, double t) {
+    // Uniform in solid angle over the cone: 1 - cos(theta) uniform in [0, 1 - cos(alpha)]
+    // (Archimedes; pbrt's UniformSampleCone, Pharr, Jakob & Humphreys, 3rd ed., 13.6.4), driven
+    // through the concentric map (as the disk light) so that the net's equal-area strata stay
+    // equal-solid-angle strata of the cone: r^2 of the disk point is 1 - cos(theta) scaled.
+    const glm::dvec2 d = concentric_disk(s, t);
+    const double r2 = d.x * d.x + d.y * d.y;
+    const double one_minus_cos = r2 * sun.cone_one_minus_cos;
+    const double sin_theta = std::sqrt(std::max(0.0, one_minus_cos * (2 - one_minus_cos)));
+    const double r = std::sqrt(r2);
+    const glm::dvec2 across = r > 0 ? d / r : glm::dvec2(0.0);  // (cos phi, sin phi)
+    return (1 - one_minus_cos) * sun.normal + sin_theta * (across.x * sun.e1 + across.y * sun.e2);
 }
 
 glm::dvec3 area_light_point(const AreaLight& light, const AreaView& view, double s, double t) {

@@ -29,14 +29,16 @@ inline std::uint64_t round_scramble(std::uint64_t seed, std::uint64_t light, std
     return mix64(mix64(mix64(mix64(seed) ^ light) ^ pixel) ^ round);
 }
 
-// One area light in the camera-centred frame.
+// One area light in the camera-centred frame, or a sun with a size: a disk of directions, the
+// cone of half-angle alpha around the direction towards the sun (docs/oracle.md, section 8b).
 struct AreaLight {
     LightType type = LightType::rect;
     glm::dvec3 center{0.0};
     glm::dvec3 u{0.0}, v{0.0};    // rect: full edges
-    glm::dvec3 normal{0.0};       // rect, disk: unit emitting normal (u x v for a rect)
-    glm::dvec3 e1{0.0}, e2{0.0};  // disk: orthonormal basis of its plane
+    glm::dvec3 normal{0.0};       // rect, disk: unit emitting normal (u x v for a rect); sun: unit axis towards it
+    glm::dvec3 e1{0.0}, e2{0.0};  // disk: orthonormal basis of its plane; sun: of the plane across its axis
     double radius = 0;            // disk, sphere
+    double cone_one_minus_cos = 0, cone_sin = 0;  // sun: 1 - cos(alpha) and sin(alpha)
 };
 AreaLight make_area_light(const Light& light, const glm::dvec3& frame_origin);
 
@@ -52,6 +54,8 @@ AreaView view_area_light(const AreaLight& light, const glm::dvec3& p, const glm:
 
 // The point of the emitting surface at unit-square coordinates (s, t), uniform in area.
 glm::dvec3 area_light_point(const AreaLight& light, const AreaView& view, double s, double t);
+// A sun's: the unit direction towards it at unit-square coordinates (s, t), uniform in solid angle.
+glm::dvec3 sun_direction(const AreaLight& sun, double s, double t);
 
 // Two-sided 97.5% quantile of Student's t with `df` degrees of freedom.
 double student_t975(int df);

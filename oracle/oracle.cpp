@@ -96,8 +96,7 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
     std::atomic<std::uint64_t> primary{0}, shadow{0}, retraced{0}, culled{0};
     std::atomic<int> tiles_done{0};
     const auto& lights = tracer.lights();
-    const bool any_area =
-        std::any_of(lights.begin(), lights.end(), [](const LocalLight& l) { return is_area_light(l.type); });
+    const bool any_area = std::any_of(lights.begin(), lights.end(), [](const LocalLight& l) { return l.sampled; });
     std::vector<SurfacePoint> surfaces(any_area ? frame.pixel_count() : 0);  // kept for area sampling only
     const bool progress = settings.progress && ::isatty(STDERR_FILENO);
     std::mutex progress_mutex;
@@ -131,7 +130,7 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
     t0 = SteadyClock::now();
     stats.lights.resize(lights.size());
     for (std::size_t li = 0; li < lights.size(); ++li) {
-        if (!is_area_light(lights[li].type)) continue;
+        if (!lights[li].sampled) continue;
         TraceCounters c;
         stats.lights[li].area = true;
         stats.lights[li].sampling = sample_area_light(tracer, frame, li, surfaces, settings, c);
@@ -142,12 +141,13 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
     stats.area_s = seconds_since(t0);
 
     // ---- shadow boundaries of punctual lights (and the ambiguity they imply), one light per
-    // task; an area light's visibility is continuous, it has no such boundary ----
+    // task; a sampled light's (an area light's, a sun's with a size) visibility is continuous,
+    // it has no such boundary ----
     t0 = SteadyClock::now();
     std::atomic<std::uint64_t> boundary_rays{0};
     std::vector<OracleBoundaryTimes> boundary_parts(lights.size());
     tbb::parallel_for(std::size_t(0), lights.size(), [&](std::size_t li) {
-        if (is_area_light(lights[li].type)) return;
+        if (lights[li].sampled) return;
         boundary_rays +=
             locate_shadow_boundaries(tracer, frame, li, settings.boundary_bisection_steps, boundary_parts[li]);
     });

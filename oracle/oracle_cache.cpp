@@ -117,6 +117,8 @@ void add_lights(KeyBytes& k, const std::vector<Light>& lights) {
         k.add(l.type);
         for (const glm::dvec3& v : {l.position, l.direction, l.u, l.v, l.normal}) k.add(v);
         for (double v : {l.outer_cone_rad, l.radius}) k.add(v);
+        // Only a sun with a size adds its diameter: a punctual light's key stays what it was.
+        if (l.angular_diameter_rad > 0) k.add(l.angular_diameter_rad);
     }
 }
 

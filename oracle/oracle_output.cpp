@@ -17,6 +17,8 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
                                   {"lightable", l.lightable},
                                   {"shadowed", l.shadowed},
                                   {"uncertain", l.uncertain}}}};
+        if (const double diameter = scenario.lights[li].angular_diameter_rad; diameter > 0)
+            light["angular_diameter_deg"] = diameter * 180 / M_PI;
         if (l.area) {
             const OracleAreaStats& a = l.sampling;
             nlohmann::json curve = nlohmann::json::array();

@@ -222,7 +222,8 @@ void Tracer::build() {
     device_.check("BVH build");
     for (const Light& l : scenario_.lights) {
         LocalLight ll;
-        if (is_area_light(l.type)) ll.area = make_area_light(l, frame_origin_);
+        ll.sampled = is_soft_light(l);
+        if (ll.sampled) ll.area = make_area_light(l, frame_origin_);
         ll.type = l.type;
         ll.position = l.position - frame_origin_;
         ll.to_light = -l.direction;
@@ -344,11 +345,19 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
         const auto index = static_cast<std::uint32_t>(first_point + k);
         double u = (sobol_dim0(index) ^ shift_s) * 0x1p-32;
         double v = (sobol_dim1(index) ^ shift_t) * 0x1p-32;
-        glm::dvec3 q = area_light_point(light, view, u, v);
-        // A point under the receiver's tangent plane is hidden by the receiver itself.
-        if (!(glm::dot(s.n, q - s.p) > 0)) continue;
         setup[k].origin = origin;
-        if (!(aim_at_light_point(setup[k], q) > 0)) continue;
+        if (light.type == LightType::directional) {  // a sun with a size: a direction, no point
+            const glm::dvec3 d = sun_direction(light, u, v);
+            if (!(glm::dot(s.n, d) > 0)) continue;  // under the tangent plane
+            setup[k].dir = d;
+            setup[k].dir_f = glm::vec3(d);
+            setup[k].tfar = std::numeric_limits<float>::infinity();
+        } else {
+            glm::dvec3 q = area_light_point(light, view, u, v);
+            // A point under the receiver's tangent plane is hidden by the receiver itself.
+            if (!(glm::dot(s.n, q - s.p) > 0)) continue;
+            if (!(aim_at_light_point(setup[k], q) > 0)) continue;
+        }
         set_lane(sh.ray, k, origin, setup[k].dir_f, 0.0f, setup[k].tfar);
         sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
         valid[k] = -1;
@@ -387,7 +396,7 @@ void Tracer::prefetch_tile_outputs(const OracleFrame& frame, int x0, int y0, int
         lines(&frame.P[i], w * sizeof(glm::vec3));
         lines(&frame.N[i], w * sizeof(glm::vec3));
         for (std::size_t li = 0; li < lights_.size(); ++li) {
-            if (is_area_light(lights_[li].type)) continue;  // sampled later (area_pass.cpp)
+            if (lights_[li].sampled) continue;  // sampled later (area_pass.cpp)
             const OracleLightImage& img = frame.lights[li];
             for (const std::vector<float>* channel : {&img.V, &img.U, &img.lightable, &img.occluder_m})
                 lines(&(*channel)[i], w * sizeof(float));
@@ -488,7 +497,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
             }
 
             for (std::size_t li = 0; li < lights_.size(); ++li) {
-                if (is_area_light(lights_[li].type)) continue;
+                if (lights_[li].sampled) continue;
                 OracleLightImage& img = frame.lights[li];
                 alignas(64) RTCRayHit16 sh;
                 alignas(64) int svalid[kPacket];

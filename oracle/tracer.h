@@ -26,7 +26,9 @@ struct LocalLight {
     glm::dvec3 to_light{0.0};   // directional: unit vector towards the light
     glm::dvec3 spot_axis{0.0};  // spot: unit direction light travels
     double cos_outer = -1;
-    AreaLight area;  // rect, disk, sphere
+    // V is a sampled fraction (area_pass.cpp): an area light, or a sun with a size (is_soft_light).
+    bool sampled = false;
+    AreaLight area;  // rect, disk, sphere, and a sun with a size
 };
 
 // Point and spot shadow rays stop this relative distance short of the light, so geometry

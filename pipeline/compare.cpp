@@ -318,7 +318,7 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
     so.depth_quantum = 0.0f;
     r.scoring.assign(sc.lights.size(), so);
     for (std::size_t li = 0; li < sc.lights.size(); ++li) {
-        r.scoring[li].soft = is_area_light(sc.lights[li].type);
+        r.scoring[li].soft = is_soft_light(sc.lights[li]);
         r.scoring[li].bias_reach_m = opt.bias_reach_m;
         if (opt.texel_footprint_m)
             r.scoring[li].texel_footprint_m = opt.texel_footprint_m;

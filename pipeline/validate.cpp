@@ -44,7 +44,7 @@ std::vector<metrics::ScoringOptions> scoring_options(const Scenario& scenario, c
     so.light_bleeding = hints.light_bleeding;
     if (hints.exact) so.texel_footprint_m = so.bias_reach_m = 0.0f;
     std::vector<metrics::ScoringOptions> scoring(scenario.lights.size(), so);
-    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_area_light(scenario.lights[li].type);
+    for (std::size_t li = 0; li < scoring.size(); ++li) scoring[li].soft = is_soft_light(scenario.lights[li]);
     return scoring;
 }
 

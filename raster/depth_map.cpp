@@ -576,8 +576,11 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
         p.cascade_world_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.x);
         p.cascade_constant_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.y);
     }
-    // PCSS reaches here with area lights only (check_technique_lights), which carry a radius.
-    p.pcss = glm::vec4(light.radius, projection.near, projection.far, t.filter.max_radius_texels);
+    // PCSS reaches here with lights that have a size only (check_technique_lights): an area
+    // light's radius, or a sun's angular radius as its tangent (lookup.comp, pcss_visibility).
+    const double light_size =
+        light.type == LightType::directional ? std::tan(0.5 * light.angular_diameter_rad) : light.radius;
+    p.pcss = glm::vec4(light_size, projection.near, projection.far, t.filter.max_radius_texels);
     if (const MomentParameters* m = moment_parameters(t)) p.moments = moment_uniform(*m);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
         p.view_proj[l] = glm::mat4(projection.view_proj[l]);

@@ -315,7 +315,7 @@ void check_technique_lights(const Technique& t, const std::vector<Light>& lights
                         label, separator, t.lights.size(), lights.size(), lights.size() == 1 ? "" : "s"));
     if (t.filter.type != FilterType::pcss) return;
     for (const Light& l : lights) {
-        if (is_area_light(l.type)) continue;
+        if (is_soft_light(l)) continue;  // an area light, or a sun with an angular_diameter_deg
         // Name the preset when it, not the user's own keys, chose PCSS.
         std::string from_preset;
         for (const auto& p : presets())
@@ -324,7 +324,7 @@ void check_technique_lights(const Technique& t, const std::vector<Light>& lights
                 from_preset = fmt::format(" (from preset \"{}\")", p.name);
         throw InputError(
             fmt::format("{}{}filter.type: \"pcss\"{} needs a light with a size; {} is {} (only rect, "
-                        "disk and sphere lights have one)",
+                        "disk and sphere lights have one, and directional lights with angular_diameter_deg > 0)",
                         label, separator, from_preset, l.origin, to_string(l.type)));
     }
 }

@@ -128,9 +128,9 @@ Technique parse_technique(const nlohmann::json& value, const std::string& label)
 
 // Refuses a technique that some light cannot be drawn with (InputError, exit 2): more `lights`
 // entries than the scenario has lights, or PCSS without a light size. PCSS sizes
-// its penumbra by the light's size: directional, spot and point lights have none, so it would
-// divide 0 by 0 (directional) or shrink to a one-texel filter (spot, point) and silently draw
-// a hard shadow (docs/raster.md, "Technique"). `label` names the technique as for
+// its penumbra by the light's size: spot and point lights and a punctual sun have none, so it
+// would shrink to a one-texel filter and silently draw a hard shadow (docs/raster.md,
+// "Technique"); a sun's size is its angular_diameter_deg. `label` names the technique as for
 // parse_technique; lights are named by their origin ("lights[0]").
 void check_technique_lights(const Technique& technique, const std::vector<Light>& lights, const std::string& label);
 

@@ -27,6 +27,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
     nlohmann::json scoring = nlohmann::json::array();
     for (std::size_t li = 0; li < score.lights.size(); ++li) {
         nlohmann::json l = {{"index", li}, {"type", to_string(sc.lights[li].type)}};
+        if (const double d = sc.lights[li].angular_diameter_rad; d > 0) l["angular_diameter_deg"] = d * 180 / M_PI;
         l.update(metrics::to_json(score.lights[li]));
         lights.push_back(std::move(l));
         const auto& o = in.scoring.size() == 1 ? in.scoring[0] : in.scoring.at(li);

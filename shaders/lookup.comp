@@ -166,32 +166,48 @@ float view_depth(float d) {
     return n * f / (f - d * (f - n));
 }
 
+// Metres along the light per depth unit of an orthographic layer: its depth is affine in
+// position, and row 2 of view_proj is the gradient, which points along the light.
+float ortho_metres_per_depth(uint layer) {
+    mat4 vp = p.view_proj[layer];
+    return 1.0 / length(vec3(vp[0][2], vp[1][2], vp[2][2]));
+}
+
 // Percentage-closer soft shadows (Fernando 2005; reference 001): the average depth of the
 // blockers inside the light's footprint seen from the receiver sets the penumbra width, and a
 // Poisson PCF of that width filters. Radii are texels of the layer; a texel subtends
 // p.footprint.y per metre of depth.
+// A sun (orthographic layers, p.pcss.x = tan(alpha), alpha its angular radius): a blocker d
+// metres above the receiver shadows it from up to d tan(alpha) away, so the search reaches
+// (receiver - near) tan(alpha) and the filter radius is (receiver - blocker) tan(alpha), half
+// the penumbra w = (d_receiver - d_blocker) 2 tan(alpha) (docs/raster.md, "A sun with a size").
 float pcss_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) {
     float a = pixel_angle(pix);
     mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a));
     float light_r = p.pcss.x, near = p.pcss.y, max_r = p.pcss.w;
     float per_texel = p.footprint.y;
     int res = int(p.map.x);
+    // A sun's texels of radius per depth unit between blocker and receiver.
+    float sun_texels = kDirectional ? ortho_metres_per_depth(layer) * light_r / layer_footprint(vec3(0.0), layer) : 0.0;
     // 1. blockers: the light seen from the receiver, projected onto the near plane.
-    float search = clamp(light_r * (z_receiver - near) / (z_receiver * near * per_texel), 1.0, max_r);
+    float search = kDirectional ? clamp(m.z * sun_texels, 1.0, max_r)
+                                : clamp(light_r * (z_receiver - near) / (z_receiver * near * per_texel), 1.0, max_r);
     float blocker_sum = 0.0;
     uint blockers = 0u;
     for (uint k = 0u; k < kPoissonTapCount; ++k) {
         ivec2 t = clamp(ivec2(floor(m.xy + rot * poisson_tap(k) * search)), ivec2(0), ivec2(res - 1));
         float stored = texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r;
         if (depth_units_ref(ref_at(t, m, dz)) > stored) {
-            blocker_sum += view_depth(stored);
+            blocker_sum += kDirectional ? stored : view_depth(stored);
             ++blockers;
         }
     }
     if (blockers == 0u) return 1.0;
     float z_blocker = blocker_sum / float(blockers);
     // 2. the penumbra: the light seen from the receiver, at the blockers' depth.
-    float radius = clamp(light_r * (z_receiver - z_blocker) / (z_receiver * z_blocker * per_texel), 1.0, max_r);
+    float radius = kDirectional
+                       ? clamp((m.z - z_blocker) * sun_texels, 1.0, max_r)
+                       : clamp(light_r * (z_receiver - z_blocker) / (z_receiver * z_blocker * per_texel), 1.0, max_r);
     // 3. PCF over it.
     float sum = 0.0;
     for (uint k = 0u; k < kPoissonTapCount; ++k) sum += grid_tap(m.xy + rot * poisson_tap(k) * radius, layer, m, dz);

@@ -27,8 +27,7 @@ std::vector<std::string> verdict_columns(const Scenario& scenario) {
     std::vector<std::string> c = {"wrong_fraction", "mae"};
     for (auto cls : metrics::kErrorClasses) c.push_back("rates." + std::string(metrics::to_string(cls)));
     c.push_back("perceptual.mean");
-    if (std::any_of(scenario.lights.begin(), scenario.lights.end(),
-                    [](const Light& l) { return is_area_light(l.type); })) {
+    if (std::any_of(scenario.lights.begin(), scenario.lights.end(), [](const Light& l) { return is_soft_light(l); })) {
         c.push_back("soft.penumbra_mae");
         c.push_back("soft.penumbra_width_error");
     }

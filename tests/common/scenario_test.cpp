@@ -1,6 +1,7 @@
 // Scenario files: every refusal names the file, the JSON path and what was expected.
 #include "common/scenario.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <glm/geometric.hpp>
@@ -53,6 +54,29 @@ TEST_F(ScenarioTest, NamesThePathOfAZeroDirection) {
     auto doc = valid();
     doc["lights"].push_back({{"type", "directional"}, {"direction", {0, 0, 0}}});
     EXPECT_EQ(error_of(doc), "scenario.json: lights[1].direction: zero vector");
+}
+
+TEST_F(ScenarioTest, ReadsASunsAngularDiameterAndRefusesOneOutOfRange) {
+    auto doc = valid();
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    EXPECT_EQ(load_scenario(dir_ / "scenario.json").lights[0].angular_diameter_rad, 0.0);  // punctual by default
+    doc["lights"][0]["angular_diameter_deg"] = 0.53;
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    const Scenario s = load_scenario(dir_ / "scenario.json");
+    EXPECT_NEAR(s.lights[0].angular_diameter_rad, 0.53 * M_PI / 180, 1e-15);
+    EXPECT_TRUE(is_soft_light(s.lights[0]));
+    for (double bad : {-0.1, 20.0, 45.0}) {
+        doc["lights"][0]["angular_diameter_deg"] = bad;
+        EXPECT_EQ(error_of(doc), fmt::format("scenario.json: lights[0].angular_diameter_deg: {:g} degrees is outside "
+                                             "[0, 20) (0: a punctual sun)",
+                                             bad));
+    }
+    doc["lights"][0]["angular_diameter_deg"] = "wide";
+    EXPECT_EQ(error_of(doc), "scenario.json: lights[0].angular_diameter_deg: expected a number, got string");
+    // A size belongs to suns only: the other lights have their own keys for theirs.
+    doc = valid();
+    doc["lights"] = {{{"type", "point"}, {"position", {0, 1, 0}}, {"angular_diameter_deg", 1}}};
+    EXPECT_EQ(error_of(doc), "scenario.json: lights[0].angular_diameter_deg: unknown key");
 }
 
 TEST_F(ScenarioTest, RefusesUnknownKeysAndWrongTypes) {

@@ -611,6 +611,10 @@ TEST(Gate, AGateGivenExplicitlyMustCheckSomething) {
                         lights_of({LightType::spot, LightType::disk}))
                   .checks.size(),
               1u);
+    // A sun with a size has a soft truth: its soft checks apply as an area light's do.
+    std::vector<Light> soft_sun = lights_of({LightType::directional});
+    soft_sun[0].angular_diameter_rad = 0.00925;
+    EXPECT_EQ(gate_file(R"({"checks": [{"metric": "soft.penumbra_mae", "max": 1}]})", soft_sun).checks.size(), 1u);
 }
 
 TEST(Gate, AMetricTheLightDoesNotMeasureFailsTheCheck) {

@@ -366,10 +366,11 @@ TEST_F(Raster, PresetsRunAndRecordWhichBilinearCompareRan) {
         bool bilinear = p.name == "d3d12-textbook" || p.name == "diligent-tutorial13";
         EXPECT_EQ(r.stats.hw2x2 == "unused", !bilinear) << p.name;
         // Shadow volumes and planar projection draw no map: planar's one pass is the stencil.
-        if (p.name == "rtr-planar")
+        if (p.name == "rtr-planar") {
             EXPECT_GT(r.stats.lights[0].gpu_ms["stencil"], 0.0);
-        else if (r.stats.family != "shadow_volume")
+        } else if (r.stats.family != "shadow_volume") {
             EXPECT_GT(r.stats.lights[0].layers_rendered, 0) << p.name;
+        }
     }
 }
 

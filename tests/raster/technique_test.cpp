@@ -122,7 +122,12 @@ TEST(Technique, PcssIsRefusedForLightsWithoutASize) {
     mixed.push_back(named(test::directional({0, -1, 0}), 3));
     EXPECT_EQ(error_with(pcss, mixed, "s.json: technique"),
               "s.json: technique.filter.type: \"pcss\" needs a light with a size; lights[3] is directional (only "
-              "rect, disk and sphere lights have one)");
+              "rect, disk and sphere lights have one, and directional lights with angular_diameter_deg > 0)");
+    // A sun with a size has one: its angular radius.
+    std::vector<Light> soft_sun = area;
+    soft_sun.push_back(named(test::directional({0, -1, 0}), 3));
+    soft_sun.back().angular_diameter_rad = 0.53 * M_PI / 180;
+    EXPECT_EQ(error_with(pcss, soft_sun, "s.json: technique"), "");
     EXPECT_THAT(
         error_with({{"preset", "pcss"}}, {named(test::spot({0, 5, 0}, {0, -1, 0}, 30), 0)}, "s.json: technique"),
         HasSubstr("technique.filter.type: \"pcss\" (from preset \"pcss\") needs a light with a size; "

@@ -362,6 +362,43 @@ TEST_F(Verdict, SoftShadowMetricsRankHardPcssAndAveragedMaps) {
     EXPECT_LT(averaged.penumbra_mae, 0.08);
 }
 
+// A sun with a size (the real sun's 0.53 degrees) 45 degrees from the zenith over a roof 20 m
+// up: the truth has a penumbra h (tan(45 + alpha) - tan(45 - alpha)) = 37 cm wide on the
+// ground, about 12 pixels here. PCSS sizes its filter from the blockers' depth and the sun's
+// angle (docs/raster.md, "A sun with a size"); a hard 3x3 PCF keeps a texel-wide edge. Against
+// the same soft oracle, PCSS is wrong on fewer pixels and closer inside the penumbra.
+TEST_F(Verdict, PcssOnASunWithASizeIsJudgedAgainstItsSoftTruthAndBeatsHardPcf) {
+    test::SceneBuilder b;
+    b.grid({10, 0, 10}, {20, 0, 0}, {0, 0, -20}, 8, 8);                // the ground where the roof's edge casts
+    b.quad({-10, 20, 15}, {0, 20, 15}, {0, 20, -15}, {-10, 20, -15});  // the roof, x < 0
+    const double s45 = std::sqrt(0.5);
+    Light sun = test::directional({s45, -s45, 0});
+    sun.angular_diameter_rad = 0.53 * 3.14159265358979323846 / 180.0;
+    Scenario sc = test::make_scenario(b.build(), test::look_at({23, 6, 6}, {20, 0, 0}, 30), {sun}, 160, 120);
+    ValidateOptions options;
+    options.use_cache = false;
+    const auto truth = std::make_shared<const OracleRun>(oracle_for(sc, options));
+    raster::RasterSession session(sc, *ctx_);
+    auto score = [&](const nlohmann::json& technique_json) {
+        const ValidateResult r = run(sc, technique_json, &session, truth);
+        EXPECT_TRUE(r.score.lights[0].soft.has_value()) << "a sun with a size is scored as soft";
+        return r.score.lights[0];
+    };
+    const nlohmann::json bias = {{"slope", 1.5}, {"constant", 8}};
+    const metrics::LightScore pcf =
+        score({{"resolution", 2048}, {"bias", bias}, {"filter", {{"type", "pcf"}, {"size", 3}}}});
+    const metrics::LightScore pcss = score({{"preset", "pcss"}, {"resolution", 2048}, {"bias", bias}});
+    ASSERT_TRUE(pcf.soft && pcss.soft);
+    for (const auto* s : {&pcf, &pcss})
+        std::printf("  wrong %.4f, visible %.4f, penumbra MAE %.4f, width error %+.3f\n", s->wrong_fraction,
+                    static_cast<double>(s->wrong_visible) / static_cast<double>(s->pixels.scored),
+                    s->soft->penumbra_mae, s->soft->penumbra_width_error);
+    EXPECT_GT(pcf.soft->penumbra_pixels, 800u) << "the truth has a penumbra";
+    EXPECT_LT(pcss.wrong_fraction, pcf.wrong_fraction);
+    EXPECT_LT(pcss.soft->penumbra_mae, pcf.soft->penumbra_mae);
+    EXPECT_GT(pcss.soft->penumbra_width_error, pcf.soft->penumbra_width_error);
+}
+
 // A point light beside the scene's box, off its edge: off the faces' axes the depth along the
 // axis is less than the distance to the box, and a near plane at that distance put the block
 // at the box's edge and the cube over it in front of the map (both compared as lit). The
