@@ -624,8 +624,7 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     const Cascades* cascades = cascaded(t, light) ? cascades_of(t) : nullptr;
     const bool texel_scaled = cascades && cascades->texel_scaled_bias;
     MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
-                       t.bias.constant,         t.bias.slope,      t.bias.clamp, t.depth_layer,
-                       texel_scaled};
+                       t.bias.constant,         t.bias.slope,      t.bias.clamp, t.depth_layer,  texel_scaled};
     LightMap& map = map_of(li);
     // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
     // ids serves it too, but a depth-only map must be drawn again for the lookups.
