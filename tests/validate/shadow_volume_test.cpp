@@ -17,33 +17,15 @@
 #include "metrics/classification.h"
 #include "pipeline/validate.h"
 #include "tests/test_support.h"
+#include "tests/validate/vulkan_suite.h"
 
 namespace penumbra {
 namespace {
 
 using metrics::PixelClass;
 
-class ShadowVolume : public ::testing::Test {
+class ShadowVolume : public test::VulkanSuite<ShadowVolume> {
   protected:
-    static void SetUpTestSuite() {
-        raster::ContextOptions co;
-        co.validation = true;
-        try {
-            ctx_ = new raster::VulkanContext(co);
-        } catch (const std::exception& e) {
-            setup_error_ = e.what();
-        }
-    }
-    static void TearDownTestSuite() {
-        delete ctx_;
-        ctx_ = nullptr;
-    }
-    void SetUp() override { ASSERT_TRUE(ctx_) << "no Vulkan device: " << setup_error_; }
-    void TearDown() override {
-        if (!ctx_) return;
-        EXPECT_TRUE(ctx_->validation_messages().empty()) << ctx_->validation_messages().front();
-    }
-
     static ValidateResult run(const Scenario& sc, const nlohmann::json& technique_json) {
         const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
         ValidateOptions options;
@@ -61,12 +43,7 @@ class ShadowVolume : public ::testing::Test {
         }
         return r;
     }
-
-    static raster::VulkanContext* ctx_;
-    static std::string setup_error_;
 };
-raster::VulkanContext* ShadowVolume::ctx_ = nullptr;
-std::string ShadowVolume::setup_error_;
 
 const nlohmann::json kVolumes = {{"preset", "rtr-shadow-volume"}};
 

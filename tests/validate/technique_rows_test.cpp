@@ -11,33 +11,15 @@
 #include "pipeline/validate.h"
 #include "raster/planar_projection.h"
 #include "tests/test_support.h"
+#include "tests/validate/vulkan_suite.h"
 
 namespace penumbra {
 namespace {
 
 using metrics::PixelClass;
 
-class TechniqueRows : public ::testing::Test {
+class TechniqueRows : public test::VulkanSuite<TechniqueRows> {
   protected:
-    static void SetUpTestSuite() {
-        raster::ContextOptions co;
-        co.validation = true;
-        try {
-            ctx_ = new raster::VulkanContext(co);
-        } catch (const std::exception& e) {
-            setup_error_ = e.what();
-        }
-    }
-    static void TearDownTestSuite() {
-        delete ctx_;
-        ctx_ = nullptr;
-    }
-    void SetUp() override { ASSERT_TRUE(ctx_) << "no Vulkan device: " << setup_error_; }
-    void TearDown() override {
-        if (!ctx_) return;
-        EXPECT_TRUE(ctx_->validation_messages().empty()) << ctx_->validation_messages().front();
-    }
-
     static ValidateResult run(const Scenario& sc, const nlohmann::json& technique_json) {
         const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
         ValidateOptions options;
@@ -51,12 +33,7 @@ class TechniqueRows : public ::testing::Test {
                     technique_json.dump().c_str(), static_cast<unsigned long long>(l.pixels.scored), counts.c_str());
         return r;
     }
-
-    static raster::VulkanContext* ctx_;
-    static std::string setup_error_;
 };
-raster::VulkanContext* TechniqueRows::ctx_ = nullptr;
-std::string TechniqueRows::setup_error_;
 
 Light sun_at_elevation(double elevation_deg) {
     const double e = elevation_deg * 3.14159265358979323846 / 180.0;

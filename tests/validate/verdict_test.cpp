@@ -13,36 +13,15 @@
 #include "metrics/gpu_classification.h"
 #include "pipeline/validate.h"
 #include "tests/test_support.h"
+#include "tests/validate/vulkan_suite.h"
 
 namespace penumbra {
 namespace {
 
 using metrics::PixelClass;
 
-class Verdict : public ::testing::Test {
+class Verdict : public test::VulkanSuite<Verdict> {
   protected:
-    // Under the Khronos validation layer: any message fails the suite.
-    // A device that cannot be opened fails every test: a throw out of SetUpTestSuite would make
-    // gtest skip them, and ctest count the skips as a pass.
-    static void SetUpTestSuite() {
-        raster::ContextOptions co;
-        co.validation = true;
-        try {
-            ctx_ = new raster::VulkanContext(co);
-        } catch (const std::exception& e) {
-            setup_error_ = e.what();
-        }
-    }
-    static void TearDownTestSuite() {
-        delete ctx_;
-        ctx_ = nullptr;
-    }
-    void SetUp() override { ASSERT_TRUE(ctx_) << "no Vulkan device: " << setup_error_; }
-    void TearDown() override {
-        if (!ctx_) return;
-        EXPECT_TRUE(ctx_->validation_messages().empty()) << ctx_->validation_messages().front();
-    }
-
     // The verdict as the CLI's validate reaches it: the pipeline, with no cache.
     struct Judged {
         metrics::LightScore score;
@@ -149,12 +128,7 @@ class Verdict : public ::testing::Test {
         const ValidateResult r = run(sc, technique_json);
         return {r.score.lights[0], r.raster.stats.lights[0].projection.metres_per_texel};
     }
-
-    static raster::VulkanContext* ctx_;
-    static std::string setup_error_;
 };
-raster::VulkanContext* Verdict::ctx_ = nullptr;
-std::string Verdict::setup_error_;
 
 // `c` has more pixels than every other error class.
 void expect_dominant(const metrics::LightScore& s, PixelClass c) {
