@@ -62,6 +62,10 @@ const char* to_string(FilterType f) {
 }
 
 const std::vector<Preset>& presets() {
+    // Every bias key at zero: the presets that mean "no bias of any kind" say so key by key.
+    static const json kNoBias = {
+        {"constant", 0},          {"slope", 0}, {"clamp", 0}, {"world", 0}, {"normal_offset", 0}, {"shader_depth", 0},
+        {"receiver_plane", false}};
     // The configurations of references 000-004 (docs/design.md, "References") in technique keys.
     static const std::vector<Preset> kPresets = {
         {"d3d12-textbook",
@@ -105,16 +109,7 @@ const std::vector<Preset>& presets() {
         {"no-bias",
          "no bias of any kind, back-face culling, a single tap: penumbra's default before the biased default. "
          "Every surface that both casts and receives shows acne; the setup to see a scene's raw acne",
-         json{{"cull", "back"},
-              {"bias",
-               {{"constant", 0},
-                {"slope", 0},
-                {"clamp", 0},
-                {"world", 0},
-                {"normal_offset", 0},
-                {"shader_depth", 0},
-                {"receiver_plane", false}}},
-              {"filter", {{"type", "none"}}}}},
+         json{{"cull", "back"}, {"bias", kNoBias}, {"filter", {{"type", "none"}}}}},
         {"rtr-shadow-volume",
          "seed 001's stencil shadow volumes: silhouettes extruded to infinity, z-fail (Carmack's reverse) with "
          "two-sided stencil, open meshes skipped (Everitt & Kilgard 2002)",
@@ -126,14 +121,7 @@ const std::vector<Preset>& presets() {
          json{{"family", "depth_map"},
               {"depth_layer", "midpoint"},
               {"cull", "none"},
-              {"bias",
-               {{"constant", 0},
-                {"slope", 0},
-                {"clamp", 0},
-                {"world", 0},
-                {"normal_offset", 0},
-                {"shader_depth", 0},
-                {"receiver_plane", false}}},
+              {"bias", kNoBias},
               {"filter", {{"type", "none"}}}}},
         {"rtr-planar",
          "seed 001's planar-projection row (Blinn, \"Me and My (Fake) Shadow\", 1988): casters flattened onto the "
