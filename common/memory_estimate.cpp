@@ -83,6 +83,8 @@ MemoryEstimate estimate_memory(const MemoryInputs& in) {
         e.terms.push_back({fmt::format("shadow maps ({}^2 x {} layers x {} bytes)", in.shadow_resolution,
                                        in.shadow_layers, in.shadow_texel_bytes),
                            mul(texels, in.shadow_texel_bytes)});
+        if (in.family_bytes > 0)
+            e.terms.push_back({"the technique's own targets and geometry (no shadow map)", in.family_bytes});
     }
     if (in.metrics)
         e.terms.push_back(
@@ -124,6 +126,11 @@ MemoryInputs memory_inputs(const Scenario& scenario, bool oracle, const RasterMe
         const std::uint64_t all =
             mul(mul(mul(in.shadow_resolution, in.shadow_resolution), layers), in.shadow_texel_bytes);
         in.shadow_layers = all <= kShadowMapBudget ? layers : std::max<std::uint64_t>(most, 1);
+        const std::uint64_t px = mul(in.width, in.height), lights = in.lights;
+        in.family_bytes =
+            add(mul(px, add(static_cast<std::uint64_t>(raster->pixel_bytes),
+                            mul(lights, static_cast<std::uint64_t>(raster->pixel_bytes_per_light)))),
+                mul(mul(in.triangles, lights), static_cast<std::uint64_t>(raster->triangle_bytes_per_light)));
     }
     return in;
 }

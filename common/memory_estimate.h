@@ -34,6 +34,8 @@ struct MemoryInputs {
     // and bytes per texel.
     std::uint64_t raster_lights = 0;
     std::uint64_t shadow_resolution = 0, shadow_layers = 0, shadow_texel_bytes = 0;
+    // A family's own targets and geometry (RasterMemory's pixel and triangle terms), in bytes.
+    std::uint64_t family_bytes = 0;
 };
 
 struct MemoryTerm {
@@ -63,6 +65,9 @@ struct RasterMemory {
     int depth_bytes = 4;
     int area_samples = 0;
     int directional_layers = 1, spot_layers = 1, cube_layers = 6;  // cube: point lights, area lights' points
+    // What a family without a map holds instead (shadow volumes, planar projection): targets at
+    // the image's size, once and per light drawn, and geometry per scene triangle per light.
+    int pixel_bytes = 0, pixel_bytes_per_light = 0, triangle_bytes_per_light = 0;
 };
 
 // The inputs of a command on `scenario` (after load_scenario): the oracle when `oracle`, the

@@ -339,7 +339,9 @@ FamilyEntry planar_projection_family_entry() {
         return h;
     };
     // No shadow map: the coverage target is the size of the image (counted with the frame).
-    e.memory = [](const Technique&) { return RasterMemory{0, 4, 0, 0, 0, 0}; };
+    // The coverage target and its depth (4 + 4 bytes a pixel), a read-back of 4 a pixel a light,
+    // and each light's flattened casters (36 bytes a triangle).
+    e.memory = [](const Technique&) { return RasterMemory{0, 4, 0, 0, 0, 0, 8, 4, 36}; };
     e.describe_light = [](const Technique& t, const Light&, const RasterLightStats&) {
         const PlanarProjection* p = planar_of(t);
         return nlohmann::json{{"projection", "planar"},

@@ -723,6 +723,12 @@ FamilyEntry shadow_volume_family_entry() {
         RasterMemory m;  // no shadow map: resolution 0 counts no map bytes
         m.resolution = 0;
         m.directional_layers = m.spot_layers = m.cube_layers = 0;
+        // Depth-stencil and V targets (8 + 4 bytes a pixel), a read-back of 4 a pixel a light;
+        // per light and caster triangle its two caps (2 x 48 bytes) and, bounding the sides, one
+        // silhouette edge's (96 bytes); the depth pass's 48 bytes a triangle are in the scene term.
+        m.pixel_bytes = 12;
+        m.pixel_bytes_per_light = 4;
+        m.triangle_bytes_per_light = 192;
         return m;
     };
     e.describe_light = [](const Technique& t, const Light&, const RasterLightStats& stats) {

@@ -182,6 +182,29 @@ TEST(HostileInput, ShadowMapsCountCubeFacesAndAreaSamples) {
     EXPECT_EQ(estimate_memory(in).biggest().bytes, 16384ull * 16384 * 6 * 8);
 }
 
+// A family without a map (shadow volumes, planar projection) counts its targets and geometry.
+TEST(HostileInput, AFamilyWithoutAMapCountsItsTargetsAndGeometry) {
+    Scenario s;
+    s.width = 100;
+    s.height = 50;
+    s.lights = {Light{}, Light{}};
+    s.scene.triangles.resize(1000);
+    RasterMemory rm;
+    rm.resolution = 0;
+    rm.pixel_bytes = 12;
+    rm.pixel_bytes_per_light = 4;
+    rm.triangle_bytes_per_light = 192;
+    const MemoryInputs in = memory_inputs(s, false, &rm, false);
+    EXPECT_EQ(in.family_bytes, 5000u * (12 + 2 * 4) + 1000u * 2 * 192);
+    const MemoryEstimate e = estimate_memory(in);
+    bool found = false;
+    for (const MemoryTerm& t : e.terms)
+        found |= contains(t.name, "own targets and geometry") && t.bytes == in.family_bytes;
+    EXPECT_TRUE(found);
+    rm = RasterMemory{2048};  // a depth map: no such term
+    EXPECT_EQ(memory_inputs(s, false, &rm, false).family_bytes, 0u);
+}
+
 TEST(HostileInput, MaxMemoryParsesSizesAndRefusesTheRest) {
     EXPECT_EQ(parse_memory_size("8G"), 8ull << 30);
     EXPECT_EQ(parse_memory_size("512MiB"), 512ull << 20);

@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "oracle/oracle.h"
+#include "tests/metrics/synthetic_frames.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
@@ -142,6 +143,33 @@ TEST(CameraPath, AMovedRasterSessionDrawsWhatAColdOneDraws) {
     EXPECT_EQ(warm.frame.prim, cold.frame.prim);
     EXPECT_EQ(warm.frame.frame_origin, cold.frame.frame_origin);
     EXPECT_EQ(warm.frame.lights[0].V, cold.frame.lights[0].V);
+}
+
+// The flicker rule on two synthetic frames from one orthographic camera (pixel j sees the same
+// point in both): a raster change where the truth changes too is a moving true edge, not
+// shimmer; one where the truth holds is flicker (docs/metrics.md, "Flicker over a camera path").
+TEST(CameraPathFlicker, OnlyARasterChangeTheTruthDoesNotMakeIsFlicker) {
+    Camera cam;
+    cam.type = ProjectionType::orthographic;
+    cam.eye = {0, 0, 10};
+    cam.xmag = cam.ymag = 4;  // 8 x 8 pixels of 1 m
+    test::Frames a(8, 8), b(8, 8);
+    for (test::Frames* f : {&a, &b}) {
+        f->o.frame_origin = cam.eye;
+        f->o.P.resize(64);
+        for (int y = 0; y < 8; ++y)
+            for (int x = 0; x < 8; ++x)
+                f->o.P[static_cast<std::size_t>(y * 8 + x)] = glm::vec3(x + 0.5f - 4.0f, 4.0f - (y + 0.5f), -10.0f);
+    }
+    b.ol().V[5] = 0.0f;  // the truth moved here: the raster follows
+    b.rl().V[5] = 0.0f;
+    b.rl().V[7] = 0.0f;  // the truth holds here: the raster shimmers
+    const PairFlicker pf = flicker_between(a.o, a.r, cam, b.o, b.r, 1.0 / 255.0);
+    EXPECT_EQ(pf.points, 64u);
+    ASSERT_EQ(pf.flicker.size(), 1u);
+    EXPECT_EQ(pf.flicker[0], 1u);
+    EXPECT_EQ(pf.map[0][7], 1);
+    EXPECT_EQ(pf.map[0][5], 0);
 }
 
 }  // namespace
