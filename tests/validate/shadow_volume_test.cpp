@@ -24,26 +24,7 @@ namespace {
 
 using metrics::PixelClass;
 
-class ShadowVolume : public test::VulkanSuite<ShadowVolume> {
-  protected:
-    static ValidateResult run(const Scenario& sc, const nlohmann::json& technique_json) {
-        const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
-        ValidateOptions options;
-        options.use_cache = false;
-        raster::RasterSession session(sc, *ctx_);
-        ValidateResult r = validate(sc, technique, metrics::Gate{}, options, &session, nullptr);
-        for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
-            const metrics::LightScore& l = r.score.lights[li];
-            std::string counts;
-            for (PixelClass c : metrics::kErrorClasses)
-                counts += fmt::format(", {} {}", metrics::to_string(c), l.count(c));
-            std::printf("  [%s] light %zu scored %llu%s\n",
-                        ::testing::UnitTest::GetInstance()->current_test_info()->name(), li,
-                        static_cast<unsigned long long>(l.pixels.scored), counts.c_str());
-        }
-        return r;
-    }
-};
+class ShadowVolume : public test::VulkanSuite<ShadowVolume> {};
 
 const nlohmann::json kVolumes = {{"preset", "rtr-shadow-volume"}};
 
@@ -109,7 +90,7 @@ TEST_F(ShadowVolume, ClosedBoxesOnAPlaneAreExactUnderDirectionalSpotAndPointLigh
         {test::directional({0.55, -0.7, 0.45}), test::spot({-3, 4, 2.5}, glm::normalize(glm::dvec3(0.6, -1, -0.5)), 50),
          test::point({2.2, 2.5, 1.8})},
         320, 240);
-    const ValidateResult r = run(sc, kVolumes);
+    const ValidateResult r = judge(sc, kVolumes);
     ASSERT_EQ(r.raster.stats.family, "shadow_volume");
     const char* names[] = {"directional", "spot", "point"};
     for (std::size_t li = 0; li < 3; ++li) {
@@ -140,8 +121,8 @@ TEST_F(ShadowVolume, TheCameraInsideAVolumeIsJudgedAsOutsideWithZFailAndNotWithZ
     const Camera outside = test::look_at({-4, 5, 6}, {0, 0, -1}, 50);
     const Scenario in_volume = test::make_scenario(b.build(), inside, {sun}, 320, 240);
     const Scenario out_volume = test::make_scenario(b.build(), outside, {sun}, 320, 240);
-    const ValidateResult in_zfail = run(in_volume, kVolumes);
-    const ValidateResult out_zfail = run(out_volume, kVolumes);
+    const ValidateResult in_zfail = judge(in_volume, kVolumes);
+    const ValidateResult out_zfail = judge(out_volume, kVolumes);
     expect_exact(in_zfail, 0, "camera inside, z-fail");
     expect_exact(out_zfail, 0, "camera outside, z-fail");
     // The same verdict: every class empty but beside a boundary, inside as outside.
@@ -151,9 +132,9 @@ TEST_F(ShadowVolume, TheCameraInsideAVolumeIsJudgedAsOutsideWithZFailAndNotWithZ
     // everywhere from inside.
     nlohmann::json zpass = kVolumes;
     zpass["shadow_volume"] = {{"method", "zpass"}};
-    const ValidateResult out_zpass = run(out_volume, zpass);
+    const ValidateResult out_zpass = judge(out_volume, zpass);
     expect_exact(out_zpass, 0, "camera outside, z-pass");
-    const ValidateResult in_zpass = run(in_volume, zpass);
+    const ValidateResult in_zpass = judge(in_volume, zpass);
     EXPECT_GT(in_zpass.score.lights[0].wrong_fraction, 0.2);
 }
 
@@ -172,7 +153,7 @@ TEST_F(ShadowVolume, AnOpenMeshIsReportedAndTheRuleDecidesWhetherItCasts) {
     const Scenario sc = test::make_scenario(b.build(), test::look_at({3, 6, 7}, {0, 0.3, 0}, 45),
                                             {test::directional({0.55, -0.7, 0.45})}, 320, 240);
 
-    const ValidateResult skipped = run(sc, kVolumes);
+    const ValidateResult skipped = judge(sc, kVolumes);
     const nlohmann::json& report = skipped.raster_info["lights"][0]["shadow_volume"];
     ASSERT_EQ(report["open_meshes"].size(), 2u);  // the ground and the box
     const nlohmann::json& box = report["open_meshes"][1];
@@ -188,7 +169,7 @@ TEST_F(ShadowVolume, AnOpenMeshIsReportedAndTheRuleDecidesWhetherItCasts) {
 
     nlohmann::json include = kVolumes;
     include["shadow_volume"] = {{"open_meshes", "include"}};
-    const ValidateResult cast = run(sc, include);
+    const ValidateResult cast = judge(sc, include);
     EXPECT_EQ(cast.raster_info["lights"][0]["shadow_volume"]["open_meshes"][1]["casts"], true);
     expect_exact(cast, 0, "open box included");
 }

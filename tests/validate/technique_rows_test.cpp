@@ -18,22 +18,7 @@ namespace {
 
 using metrics::PixelClass;
 
-class TechniqueRows : public test::VulkanSuite<TechniqueRows> {
-  protected:
-    static ValidateResult run(const Scenario& sc, const nlohmann::json& technique_json) {
-        const raster::Technique technique = raster::parse_technique(technique_json, "test: technique");
-        ValidateOptions options;
-        options.use_cache = false;
-        raster::RasterSession session(sc, *ctx_);
-        ValidateResult r = validate(sc, technique, metrics::Gate{}, options, &session, nullptr);
-        const metrics::LightScore& l = r.score.lights[0];
-        std::string counts;
-        for (PixelClass c : metrics::kErrorClasses) counts += fmt::format(", {} {}", metrics::to_string(c), l.count(c));
-        std::printf("  [%s %s] scored %llu%s\n", ::testing::UnitTest::GetInstance()->current_test_info()->name(),
-                    technique_json.dump().c_str(), static_cast<unsigned long long>(l.pixels.scored), counts.c_str());
-        return r;
-    }
-};
+class TechniqueRows : public test::VulkanSuite<TechniqueRows> {};
 
 Light sun_at_elevation(double elevation_deg) {
     const double e = elevation_deg * 3.14159265358979323846 / 180.0;
@@ -85,10 +70,10 @@ std::uint64_t wrong(const metrics::LightScore& s) {
 TEST_F(TechniqueRows, MidpointDepthCuresAcneOnAClosedBoxWithoutAnyBias) {
     const Scenario sc = plane_and_box();
     // One depth layer without bias: acne over every lit surface (the no-bias preset).
-    const ValidateResult single = run(sc, {{"preset", "no-bias"}, {"resolution", 1024}});
+    const ValidateResult single = judge(sc, {{"preset", "no-bias"}, {"resolution", 1024}});
     EXPECT_GT(single.score.lights[0].rate(PixelClass::acne), 0.1);
     // Woo's midpoint, no bias of any kind: the lit faces lie a half box in front of what the map holds.
-    const ValidateResult midpoint = run(sc, {{"preset", "rtr-midpoint"}, {"resolution", 1024}});
+    const ValidateResult midpoint = judge(sc, {{"preset", "rtr-midpoint"}, {"resolution", 1024}});
     const metrics::LightScore& m = midpoint.score.lights[0];
     EXPECT_EQ(midpoint.technique.bias.constant, 0);
     EXPECT_EQ(midpoint.technique.bias.slope, 0);
@@ -103,22 +88,22 @@ TEST_F(TechniqueRows, MidpointDepthFailsWhereASingleSidedPlateHasItsSecondLayerR
     const nlohmann::json midpoint = {{"preset", "rtr-midpoint"}, {"resolution", 1024}};
     // No second layer: the map keeps its clear value (the far plane) behind the plate, so the
     // plate is lit, and there is nothing behind it to shadow.
-    const ValidateResult alone = run(plate(0), midpoint);
+    const ValidateResult alone = judge(plate(0), midpoint);
     EXPECT_EQ(wrong(alone.score.lights[0]), 0u);
     // A ground 1 m below is the plate's second layer: the midpoint half a metre behind the
     // plate cures its acne and the ground is shadowed as it should be.
-    const ValidateResult far = run(plate(1.0), midpoint);
+    const ValidateResult far = judge(plate(1.0), midpoint);
     EXPECT_LE(far.score.lights[0].count(PixelClass::acne), far.score.lights[0].pixels.scored / 1000);
     // A ground 2 mm below: the midpoint is 1 mm behind the plate, less than the plate's depth
     // changes across a texel under this 35-degree sun (~7 mm), so acne is back on the plate.
-    const ValidateResult thin = run(plate(0.002), midpoint);
+    const ValidateResult thin = judge(plate(0.002), midpoint);
     const std::uint64_t plate_acne = count_on(thin, PixelClass::acne, false);
     EXPECT_GT(plate_acne, scored_on_plate(thin) / 5) << "the thin case should show acne on the plate";
 }
 
 TEST_F(TechniqueRows, SecondDepthDrawsBackFacesOnlySoASingleSidedPlateCastsNoShadow) {
     const ValidateResult second =
-        run(plate(1.0), {{"preset", "no-bias"}, {"depth_layer", "second"}, {"resolution", 1024}});
+        judge(plate(1.0), {{"preset", "no-bias"}, {"depth_layer", "second"}, {"resolution", 1024}});
     EXPECT_EQ(second.technique.cull, raster::Cull::front);
     // The plate has no back face: nothing is in the map, the ground under it reads lit.
     EXPECT_GT(count_on(second, PixelClass::false_lit, true, 2), 1000u);
@@ -138,7 +123,7 @@ TEST_F(TechniqueRows, PlanarProjectionIsRightOnTheGroundAndFalseLightEverywhereE
     const Scenario sc = ground_and_boxes();
     ASSERT_TRUE(raster::largest_upward_plane(sc.scene));
     EXPECT_NEAR(raster::largest_upward_plane(sc.scene)->y, 1.0, 1e-12);
-    const ValidateResult r = run(sc, {{"preset", "rtr-planar"}});
+    const ValidateResult r = judge(sc, {{"preset", "rtr-planar"}});
     const metrics::LightScore& s = r.score.lights[0];
     // On the ground: the shadow of both boxes, right to within a rasterised edge.
     std::uint64_t ground_scored = 0, ground_wrong = 0, ground_dark = 0;
@@ -167,7 +152,7 @@ TEST_F(TechniqueRows, PlanarProjectionIsRightOnTheGroundAndFalseLightEverywhereE
 TEST_F(TechniqueRows, PlanarProjectionOntoAGivenPlaneShadowsOnlyThatPlane) {
     // The plane y = 0.3 holds only the low box's top: the ground gets no shadow at all.
     const ValidateResult r =
-        run(ground_and_boxes(), {{"family", "planar_projection"}, {"planar", {{"plane", {0, 2, 0, -0.6}}}}});
+        judge(ground_and_boxes(), {{"family", "planar_projection"}, {"planar", {{"plane", {0, 2, 0, -0.6}}}}});
     EXPECT_GT(count_on(r, PixelClass::false_lit, true), 1000u);
     EXPECT_EQ(r.technique.to_json()["planar"]["plane"], nlohmann::json({0.0, 1.0, 0.0, -0.3}));
 }
