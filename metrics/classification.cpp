@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "metrics/perceptual.h"
+#include "metrics/score_sums.h"
 
 namespace penumbra::metrics {
 
@@ -54,51 +55,7 @@ namespace {
 // only bounds a pathological one.
 constexpr int kMaxBandIterations = 32;
 
-// Sums of one image row; rows are added in order afterwards so the totals do not depend on
-// how the rows were shared between threads.
 constexpr float kWidthBand = kPenumbraWidthBand;
-
-struct RowSums {
-    PixelCounts pixels;
-    std::array<std::uint64_t, kErrorClasses.size()> counts{}, counts_visible{};
-    double abs_sum = 0, sq_sum = 0, signed_sum = 0;
-    double gap_sum = 0, gap_max = 0, acne_sum = 0, acne_max = 0;
-    std::uint64_t acne_measured = 0;
-    std::vector<float> gaps;  // peter-panning gaps, for their percentile
-    // Soft lights: per oracle region (umbra, penumbra, lit) pixels and |error| sums.
-    std::array<std::uint64_t, 3> region_pixels{};
-    std::array<double, 3> region_abs{};
-    double penumbra_excess = 0;
-    std::uint64_t band_oracle = 0, band_raster = 0;  // pixels with V in the width band
-
-    void add(const RowSums& r) {
-        for (std::size_t k = 0; k < 3; ++k) {
-            region_pixels[k] += r.region_pixels[k];
-            region_abs[k] += r.region_abs[k];
-        }
-        penumbra_excess += r.penumbra_excess;
-        band_oracle += r.band_oracle;
-        band_raster += r.band_raster;
-        pixels.surface += r.pixels.surface;
-        pixels.scored += r.pixels.scored;
-        pixels.back_facing += r.pixels.back_facing;
-        pixels.uncertain += r.pixels.uncertain;
-        pixels.coverage_mismatch += r.pixels.coverage_mismatch;
-        for (std::size_t k = 0; k < counts.size(); ++k) {
-            counts[k] += r.counts[k];
-            counts_visible[k] += r.counts_visible[k];
-        }
-        acne_measured += r.acne_measured;
-        abs_sum += r.abs_sum;
-        sq_sum += r.sq_sum;
-        signed_sum += r.signed_sum;
-        gap_sum += r.gap_sum;
-        gap_max = std::max(gap_max, r.gap_max);
-        gaps.insert(gaps.end(), r.gaps.begin(), r.gaps.end());
-        acne_sum += r.acne_sum;
-        acne_max = std::max(acne_max, r.acne_max);
-    }
-};
 
 // The wrong pixel's class, in docs/metrics.md's order: aliasing, acne, peter-panning, the rest.
 PixelClass classify_from_lookups(float error, const OracleLightImage& o, std::uint32_t oracle_prim,
@@ -213,10 +170,10 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
     img.error.assign(n, 0.0f);
     img.visible_threshold = opt.visible_threshold;
     img.cls.assign(n, static_cast<std::uint8_t>(PixelClass::background));
-    std::vector<RowSums> rows(static_cast<std::size_t>(of.height));
+    std::vector<detail::RowSums> rows(static_cast<std::size_t>(of.height));
 
     tbb::parallel_for(0, of.height, [&](int y) {
-        RowSums& s = rows[static_cast<std::size_t>(y)];
+        detail::RowSums& s = rows[static_cast<std::size_t>(y)];
         for (int x = 0; x < W; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * W + x;
             PixelClass c = PixelClass::background;
@@ -280,49 +237,16 @@ LightScore score_light(const OracleFrame& of, const RasterFrame& rf, std::size_t
         }
     });
 
-    RowSums t;
-    for (const RowSums& row : rows) t.add(row);
+    detail::RowSums t;
+    for (const detail::RowSums& row : rows) t.add(row);
     LightScore s;
     s.evidence = evidence;
-    s.pixels = t.pixels;
-    s.counts = t.counts;
-    s.counts_visible = t.counts_visible;
-    for (auto c : t.counts) s.wrong += c;
-    for (auto c : t.counts_visible) s.wrong_visible += c;
-    if (t.pixels.scored > 0) {
-        const double scored = static_cast<double>(t.pixels.scored);
-        s.mae = t.abs_sum / scored;
-        s.rmse = std::sqrt(t.sq_sum / scored);
-        s.bias = t.signed_sum / scored;
-        s.wrong_fraction = static_cast<double>(s.wrong) / scored;
-    }
-    const auto pp = s.count(PixelClass::peter_panning);
-    s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
+    detail::fill_score(t, opt, s);
     if (!t.gaps.empty()) {
         // Nearest rank: the smallest gap with at least 95% of them at or below it.
         const std::size_t rank = (t.gaps.size() * 95 + 99) / 100 - 1;
         std::nth_element(t.gaps.begin(), t.gaps.begin() + static_cast<std::ptrdiff_t>(rank), t.gaps.end());
         s.peter_panning_gap_p95 = t.gaps[rank];
-    }
-    s.acne_depth = {t.acne_measured ? t.acne_sum / static_cast<double>(t.acne_measured) : 0.0, t.acne_max};
-    s.acne_depth_pixels = t.acne_measured;
-    if (opt.soft) {
-        SoftScore& soft = s.soft.emplace();
-        auto mean = [&](std::size_t k) {
-            return t.region_pixels[k] ? t.region_abs[k] / static_cast<double>(t.region_pixels[k]) : 0.0;
-        };
-        soft.umbra_pixels = t.region_pixels[0];
-        soft.penumbra_pixels = t.region_pixels[1];
-        soft.lit_pixels = t.region_pixels[2];
-        soft.umbra_mae = mean(0);
-        soft.penumbra_mae = mean(1);
-        soft.lit_mae = mean(2);
-        soft.penumbra_mae_beyond_e =
-            t.region_pixels[1] ? t.penumbra_excess / static_cast<double>(t.region_pixels[1]) : 0.0;
-        soft.width_pixels_oracle = t.band_oracle;
-        soft.width_pixels_raster = t.band_raster;
-        soft.penumbra_width_error =
-            t.band_oracle ? static_cast<double>(t.band_raster) / static_cast<double>(t.band_oracle) - 1.0 : 0.0;
     }
 
     if (!opt.perceptual) return s;
@@ -482,5 +406,74 @@ FrameScore score_frames(const OracleFrame& oracle, const RasterFrame& raster, st
             score_light(oracle, raster, li, options.size() == 1 ? options[0] : options[li], out.images[li]));
     return out;
 }
+
+namespace detail {
+
+void RowSums::add(const RowSums& r) {
+    for (std::size_t k = 0; k < 3; ++k) {
+        region_pixels[k] += r.region_pixels[k];
+        region_abs[k] += r.region_abs[k];
+    }
+    penumbra_excess += r.penumbra_excess;
+    band_oracle += r.band_oracle;
+    band_raster += r.band_raster;
+    pixels.surface += r.pixels.surface;
+    pixels.scored += r.pixels.scored;
+    pixels.back_facing += r.pixels.back_facing;
+    pixels.uncertain += r.pixels.uncertain;
+    pixels.coverage_mismatch += r.pixels.coverage_mismatch;
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+        counts[k] += r.counts[k];
+        counts_visible[k] += r.counts_visible[k];
+    }
+    acne_measured += r.acne_measured;
+    abs_sum += r.abs_sum;
+    sq_sum += r.sq_sum;
+    signed_sum += r.signed_sum;
+    gap_sum += r.gap_sum;
+    gap_max = std::max(gap_max, r.gap_max);
+    gaps.insert(gaps.end(), r.gaps.begin(), r.gaps.end());
+    acne_sum += r.acne_sum;
+    acne_max = std::max(acne_max, r.acne_max);
+}
+
+void fill_score(const RowSums& t, const ScoringOptions& opt, LightScore& s) {
+    s.pixels = t.pixels;
+    s.counts = t.counts;
+    s.counts_visible = t.counts_visible;
+    for (auto c : t.counts) s.wrong += c;
+    for (auto c : t.counts_visible) s.wrong_visible += c;
+    if (t.pixels.scored > 0) {
+        const double scored = static_cast<double>(t.pixels.scored);
+        s.mae = t.abs_sum / scored;
+        s.rmse = std::sqrt(t.sq_sum / scored);
+        s.bias = t.signed_sum / scored;
+        s.wrong_fraction = static_cast<double>(s.wrong) / scored;
+    }
+    const auto pp = s.count(PixelClass::peter_panning);
+    s.peter_panning_gap = {pp ? t.gap_sum / pp : 0.0, t.gap_max};
+    s.acne_depth = {t.acne_measured ? t.acne_sum / static_cast<double>(t.acne_measured) : 0.0, t.acne_max};
+    s.acne_depth_pixels = t.acne_measured;
+    if (opt.soft) {
+        SoftScore& soft = s.soft.emplace();
+        auto mean = [&](std::size_t k) {
+            return t.region_pixels[k] ? t.region_abs[k] / static_cast<double>(t.region_pixels[k]) : 0.0;
+        };
+        soft.umbra_pixels = t.region_pixels[0];
+        soft.penumbra_pixels = t.region_pixels[1];
+        soft.lit_pixels = t.region_pixels[2];
+        soft.umbra_mae = mean(0);
+        soft.penumbra_mae = mean(1);
+        soft.lit_mae = mean(2);
+        soft.penumbra_mae_beyond_e =
+            t.region_pixels[1] ? t.penumbra_excess / static_cast<double>(t.region_pixels[1]) : 0.0;
+        soft.width_pixels_oracle = t.band_oracle;
+        soft.width_pixels_raster = t.band_raster;
+        soft.penumbra_width_error =
+            t.band_oracle ? static_cast<double>(t.band_raster) / static_cast<double>(t.band_oracle) - 1.0 : 0.0;
+    }
+}
+
+}  // namespace detail
 
 }  // namespace penumbra::metrics

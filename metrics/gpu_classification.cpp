@@ -13,6 +13,7 @@
 #include "classify_comp.h"
 #include "common/errors.h"
 #include "metrics/perceptual.h"
+#include "metrics/score_sums.h"
 #include "raster/gpu_passes.h"
 
 namespace penumbra::metrics {
@@ -265,74 +266,37 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
     for (std::size_t li = 0; li < L; ++li) {
         const ScoringOptions& opt = opt_of(li);
         const auto* rows = static_cast<const GpuRow*>(m.lights[li].rows.mapped);
-        // Rows added in order, as score_light's RowSums::add.
-        GpuRow t{};
+        // Rows added in order, as the CPU scorer adds its own (score_sums.h): the same sums.
+        detail::RowSums t;
         for (std::uint32_t y = 0; y < m.height; ++y) {
             const GpuRow& r = rows[y];
-            for (std::size_t k = 0; k < 3; ++k) {
-                t.region_pixels[k] += r.region_pixels[k];
-                t.region_abs[k] += r.region_abs[k];
-            }
-            t.penumbra_excess += r.penumbra_excess;
-            t.band_oracle += r.band_oracle;
-            t.band_raster += r.band_raster;
-            t.surface += r.surface;
-            t.scored += r.scored;
-            t.back_facing += r.back_facing;
-            t.uncertain += r.uncertain;
-            t.coverage_mismatch += r.coverage_mismatch;
+            detail::RowSums row;
+            row.pixels = {r.surface, r.scored, r.back_facing, r.uncertain, r.coverage_mismatch};
             for (std::size_t k = 0; k < 6; ++k) {
-                t.counts[k] += r.counts[k];
-                t.counts_visible[k] += r.counts_visible[k];
+                row.counts[k] = r.counts[k];
+                row.counts_visible[k] = r.counts_visible[k];
             }
-            t.acne_measured += r.acne_measured;
-            t.abs_sum += r.abs_sum;
-            t.sq_sum += r.sq_sum;
-            t.signed_sum += r.signed_sum;
-            t.gap_sum += r.gap_sum;
-            t.gap_max = std::max(t.gap_max, r.gap_max);
-            t.acne_sum += r.acne_sum;
-            t.acne_max = std::max(t.acne_max, r.acne_max);
+            row.abs_sum = r.abs_sum;
+            row.sq_sum = r.sq_sum;
+            row.signed_sum = r.signed_sum;
+            row.gap_sum = r.gap_sum;
+            row.gap_max = r.gap_max;
+            row.acne_sum = r.acne_sum;
+            row.acne_max = r.acne_max;
+            row.acne_measured = r.acne_measured;
+            for (std::size_t k = 0; k < 3; ++k) {
+                row.region_pixels[k] = r.region_pixels[k];
+                row.region_abs[k] = r.region_abs[k];
+            }
+            row.penumbra_excess = r.penumbra_excess;
+            row.band_oracle = r.band_oracle;
+            row.band_raster = r.band_raster;
+            t.add(row);
         }
-        // As score_light from its RowSums.
         LightScore& s = result.lights[li];
         s.evidence = evidence[li];
-        s.pixels = {t.surface, t.scored, t.back_facing, t.uncertain, t.coverage_mismatch};
-        for (std::size_t k = 0; k < 6; ++k) {
-            s.counts[k] = t.counts[k];
-            s.counts_visible[k] = t.counts_visible[k];
-            s.wrong += t.counts[k];
-            s.wrong_visible += t.counts_visible[k];
-        }
-        if (t.scored > 0) {
-            const double scored = static_cast<double>(t.scored);
-            s.mae = t.abs_sum / scored;
-            s.rmse = std::sqrt(t.sq_sum / scored);
-            s.bias = t.signed_sum / scored;
-            s.wrong_fraction = static_cast<double>(s.wrong) / scored;
-        }
+        detail::fill_score(t, opt, s);
         const auto pp = s.count(PixelClass::peter_panning);
-        s.peter_panning_gap = {pp ? t.gap_sum / static_cast<double>(pp) : 0.0, t.gap_max};
-        s.acne_depth = {t.acne_measured ? t.acne_sum / static_cast<double>(t.acne_measured) : 0.0, t.acne_max};
-        s.acne_depth_pixels = t.acne_measured;
-        if (opt.soft) {
-            SoftScore& soft = s.soft.emplace();
-            auto mean = [&](std::size_t k) {
-                return t.region_pixels[k] ? t.region_abs[k] / static_cast<double>(t.region_pixels[k]) : 0.0;
-            };
-            soft.umbra_pixels = t.region_pixels[0];
-            soft.penumbra_pixels = t.region_pixels[1];
-            soft.lit_pixels = t.region_pixels[2];
-            soft.umbra_mae = mean(0);
-            soft.penumbra_mae = mean(1);
-            soft.lit_mae = mean(2);
-            soft.penumbra_mae_beyond_e =
-                t.region_pixels[1] ? t.penumbra_excess / static_cast<double>(t.region_pixels[1]) : 0.0;
-            soft.width_pixels_oracle = t.band_oracle;
-            soft.width_pixels_raster = t.band_raster;
-            soft.penumbra_width_error =
-                t.band_oracle ? static_cast<double>(t.band_raster) / static_cast<double>(t.band_oracle) - 1.0 : 0.0;
-        }
         result.images[li].visible_threshold = opt.visible_threshold;
         need_all[li] = images || opt.perceptual;
         need_cls[li] = need_all[li] || pp > 0;
