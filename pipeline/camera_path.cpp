@@ -120,6 +120,7 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
     double oracle_s = oracle.build_s(), raster_s = 0, metrics_s = 0, flicker_s = 0;
     std::vector<std::string> warnings;
     ValidateResult previous;
+    std::shared_ptr<OracleRun> last_run;  // the last frame's, whose oracle.json tells the whole path
     for (int f = 0; f < path.frames; ++f) {
         frame.camera = cameras[static_cast<std::size_t>(f)];
         if (f > 0) session.set_camera(frame.camera);
@@ -131,6 +132,7 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
         run->seconds = seconds_since(t1);
         oracle_s += run->seconds;
         trace_s.push_back(run->seconds);
+        last_run = run;
         ValidateResult r = validate(frame, technique, gate, options, &session, std::move(run));
         raster_s += r.raster_s;
         metrics_s += r.metrics_s;
@@ -178,15 +180,18 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
     }
     r.report["timing"]["camera_path"] = {{"frames", path.frames},  {"oracle_s", oracle_s},   {"raster_s", raster_s},
                                          {"metrics_s", metrics_s}, {"flicker_s", flicker_s}, {"device_s", device_s}};
-    // oracle.json is the last frame's, with what the whole path cost.
-    auto info = std::make_shared<OracleRun>(*r.oracle);
-    info->info["frames"] = path.frames;
-    info->info["bvh_builds"] = out.bvh_builds;
-    info->info["seconds"]["build"] = oracle.build_s();
-    info->info["camera_path"] = {
-        {"frames", path.frames}, {"bvh_builds", out.bvh_builds}, {"build_s", oracle.build_s()}, {"frame_s", trace_s}};
-    info->seconds = oracle_s;
-    r.oracle = std::move(info);
+    // oracle.json is the last frame's, with what the whole path cost: r.oracle is that run, edited
+    // in place (its frame is not copied).
+    if (last_run) {
+        last_run->info["frames"] = path.frames;
+        last_run->info["bvh_builds"] = out.bvh_builds;
+        last_run->info["seconds"]["build"] = oracle.build_s();
+        last_run->info["camera_path"] = {{"frames", path.frames},
+                                         {"bvh_builds", out.bvh_builds},
+                                         {"build_s", oracle.build_s()},
+                                         {"frame_s", trace_s}};
+        last_run->seconds = oracle_s;
+    }
     return out;
 }
 
