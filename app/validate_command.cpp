@@ -52,7 +52,8 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
     const metrics::Gate gate =
         metrics::parse_gate(gate_json, gate_label, scenario.lights,
-                            v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file);
+                            v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file,
+                            scenario.camera_path.has_value());
     check_run_memory(scenario, c, true, &technique, true);
 
     ValidateOptions options = validate_options(c, v.verdict);

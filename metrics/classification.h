@@ -110,6 +110,14 @@ struct SoftScore {
     std::uint64_t width_pixels_oracle = 0, width_pixels_raster = 0;
 };
 
+// Over a camera path (pipeline/camera_path.h): the flicker between consecutive frames, for the
+// whole path (docs/metrics.md, "Flicker over a camera path").
+struct TemporalScore {
+    std::uint64_t points = 0;          // surface points seen in both frames of a pair, summed over pairs
+    std::uint64_t flicker_pixels = 0;  // those that flickered
+    double flicker_rate = 0;           // flicker_pixels / points (0 when none)
+};
+
 struct LightScore {
     PixelCounts pixels;
     std::array<std::uint64_t, kErrorClasses.size()> counts{};  // indexed like kErrorClasses
@@ -129,6 +137,7 @@ struct LightScore {
                                               // whose depths are not recorded, so no depth is claimed for them
     MeanMax perceptual;                       // FLIP-style error in [0, 1] over surface pixels (see perceptual.h)
     std::optional<SoftScore> soft;            // area lights only
+    std::optional<TemporalScore> temporal;    // a camera path's verdict only
     ClassificationEvidence evidence;          // what the classes rest on
     std::uint64_t count(PixelClass c) const;  // 0 for classes that are not errors
     double rate(PixelClass c) const;          // count / scored

@@ -16,10 +16,18 @@ bool applies(const Metric& m, const Light& light) {
     return m.scope != MetricScope::area_lights || is_soft_light(light);
 }
 
+// Whether outcome a is worse than b (the same check on another frame): failing beats passing; then
+// the value further past (or nearer to) the limit; a value that is not measured is the worst.
+bool worse(const CheckOutcome& a, const CheckOutcome& b) {
+    if (a.passed != b.passed) return !a.passed;
+    if (!std::isfinite(a.value) || !std::isfinite(b.value)) return !std::isfinite(a.value) && std::isfinite(b.value);
+    return a.bound == "max" ? a.value > b.value : a.value < b.value;
+}
+
 }  // namespace
 
-Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<const Light> lights,
-                GateOrigin origin) {
+Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<const Light> lights, GateOrigin origin,
+                bool camera_path) {
     Gate g;
     JsonObject top(gate, label, "");
     if (origin == GateOrigin::scenario && gate.empty()) return g;  // no "gate" in the scenario
@@ -42,6 +50,10 @@ Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<
         if (c.has("max")) check.max = c.number("max");
         if (c.has("min")) check.min = c.number("min");
         if (!check.max && !check.min) c.fail_here("a check needs \"max\" or \"min\"");
+        if (check.metric->scope == MetricScope::camera_paths && !camera_path)
+            c.fail("metric", fmt::format("{} is measured over a camera path only, and the scenario has no "
+                                         "\"camera_path\"",
+                                         metric));
         if (c.has("light")) {
             if (lights.empty()) c.fail("light", "the scenario has no lights");
             check.light = static_cast<std::size_t>(c.integer("light", 0, static_cast<long long>(lights.size()) - 1));
@@ -69,10 +81,11 @@ std::string CheckOutcome::name() const {
 }
 
 std::string CheckOutcome::failure() const {
+    const std::string where = frame ? fmt::format(" in frame {}", *frame) : "";
     if (!std::isfinite(value))
-        return fmt::format("light {}: {} is not measured for this light (needs {} {})", light, metric,
-                           bound == "max" ? "<=" : ">=", limit);
-    return fmt::format("light {}: {} = {} {} {}", light, metric, value, bound == "max" ? ">" : "<", limit);
+        return fmt::format("light {}: {} is not measured for this light (needs {} {}){}", light, metric,
+                           bound == "max" ? "<=" : ">=", limit, where);
+    return fmt::format("light {}: {} = {} {} {}{}", light, metric, value, bound == "max" ? ">" : "<", limit, where);
 }
 
 GateResult evaluate_gate(const Gate& gate, std::span<const LightScore> lights) {
@@ -82,15 +95,43 @@ GateResult evaluate_gate(const Gate& gate, std::span<const LightScore> lights) {
             if (check.light && *check.light != li) continue;
             // soft.* numbers exist for area lights only; elsewhere the check does not apply.
             if (check.metric->scope == MetricScope::area_lights && !lights[li].soft) continue;
+            // temporal.* numbers exist over a camera path only: a single frame skips them.
+            if (check.metric->scope == MetricScope::camera_paths && !lights[li].temporal) continue;
             const double value = value_of(*check.metric, lights[li]).value_or(std::nan(""));
             auto add = [&](const char* bound, double limit, bool ok) {
-                CheckOutcome o{li, std::string(check.metric->path), bound, value, limit, ok && std::isfinite(value)};
+                CheckOutcome o{li,    std::string(check.metric->path), bound,       value,
+                               limit, ok && std::isfinite(value),      std::nullopt};
                 r.passed = r.passed && o.passed;
                 r.outcomes.push_back(std::move(o));
             };
             if (check.max) add("max", *check.max, value <= *check.max);
             if (check.min) add("min", *check.min, value >= *check.min);
         }
+    }
+    return r;
+}
+
+void fold_worst_frame(GateResult& worst, const GateResult& frame_result, int frame) {
+    const bool first = worst.outcomes.empty();
+    for (std::size_t k = 0; k < frame_result.outcomes.size(); ++k) {
+        CheckOutcome o = frame_result.outcomes[k];
+        o.frame = frame;
+        if (first)
+            worst.outcomes.push_back(std::move(o));
+        else if (k < worst.outcomes.size() && worse(o, worst.outcomes[k]))
+            worst.outcomes[k] = std::move(o);
+    }
+    worst.passed = worst.passed && frame_result.passed;
+}
+
+GateResult camera_path_gate(const GateResult& last, const GateResult& worst) {
+    GateResult r;
+    std::size_t next = 0;  // worst's outcomes are last's, in order, less the temporal ones
+    for (const CheckOutcome& o : last.outcomes) {
+        const Metric* m = find_metric(o.metric);
+        const bool temporal = m && m->scope == MetricScope::camera_paths;
+        r.outcomes.push_back(!temporal && next < worst.outcomes.size() ? worst.outcomes[next++] : o);
+        r.passed = r.passed && r.outcomes.back().passed;
     }
     return r;
 }

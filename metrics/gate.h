@@ -34,7 +34,9 @@ enum class GateOrigin { scenario, file };
 // naming a light its metric does not apply to (soft.* and a punctual light). A gate given
 // explicitly must check something: one that would evaluate no (light x check) outcome (no
 // checks, no lights, or soft.* checks only and no area light) is an InputError naming `label`.
-Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<const Light> lights, GateOrigin origin);
+// temporal.* metrics need `camera_path` (the scenario has one): without it they are an InputError.
+Gate parse_gate(const nlohmann::json& gate, const std::string& label, std::span<const Light> lights, GateOrigin origin,
+                bool camera_path = false);
 
 struct CheckOutcome {
     std::size_t light = 0;
@@ -43,8 +45,9 @@ struct CheckOutcome {
     double value = 0;   // NaN where the light does not measure the metric (acne_depth with V only)
     double limit = 0;
     bool passed = true;
+    std::optional<int> frame;     // over a camera path: the frame the value is from (the worst)
     std::string name() const;     // "rates.acne <= 0.001"
-    std::string failure() const;  // "light 0: rates.acne = 0.0123 > 0.001"
+    std::string failure() const;  // "light 0: rates.acne = 0.0123 > 0.001" (+ " in frame 7")
 };
 
 struct GateResult {
@@ -53,7 +56,16 @@ struct GateResult {
 };
 
 // Evaluates every check on every light it names, reading the values from the table. A soft.*
-// check skips punctual lights; a metric a light does not measure fails the check.
+// check skips punctual lights, a temporal.* check a light without a camera path's numbers; a
+// metric a light does not measure fails the check.
 GateResult evaluate_gate(const Gate& gate, std::span<const LightScore> lights);
+
+// A camera path is gated on every frame, not on the last one alone (docs/metrics.md, "Gates"):
+// `worst` (empty at first) takes frame `frame`'s result (evaluated without temporal numbers), and
+// keeps per outcome the frame whose value fails, or comes nearest to failing.
+void fold_worst_frame(GateResult& worst, const GateResult& frame_result, int frame);
+// The path's gate: `last` evaluated on the last frame with the temporal numbers, each of its other
+// outcomes replaced by `worst`'s (the same checks in the same order, less the temporal ones).
+GateResult camera_path_gate(const GateResult& last, const GateResult& worst);
 
 }  // namespace penumbra::metrics

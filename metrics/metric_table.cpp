@@ -145,6 +145,15 @@ constexpr std::array kMetrics = {
            [](const LightScore& s) { return static_cast<double>(s.soft->width_pixels_oracle); }},
     Metric{"soft.width_band_pixels.raster", pixels, area_lights, "the raster's pixels with V in (0.05, 0.95)",
            [](const LightScore& s) { return static_cast<double>(s.soft->width_pixels_raster); }},
+    Metric{"temporal.flicker_rate", fraction, camera_paths,
+           "flickering points / points seen in two consecutive frames, over the whole path (not of scored pixels)",
+           [](const LightScore& s) { return s.temporal->flicker_rate; }},
+    Metric{"temporal.flicker_pixels", pixels, camera_paths,
+           "points whose raster V changed between two frames while the truth did not, summed over the pairs",
+           [](const LightScore& s) { return static_cast<double>(s.temporal->flicker_pixels); }},
+    Metric{"temporal.points", pixels, camera_paths,
+           "surface points seen in both frames of a pair, summed over the pairs",
+           [](const LightScore& s) { return static_cast<double>(s.temporal->points); }},
 };
 
 }  // namespace
@@ -166,6 +175,7 @@ std::string_view to_string(MetricScope s) {
         case every_light: return "every light";
         case area_lights: return "area lights";
         case depth_map_lookups: return "depth-map lookups";
+        case camera_paths: return "camera paths";
     }
     return "?";
 }
@@ -188,6 +198,9 @@ std::optional<double> value_of(const Metric& m, const LightScore& s) {
             break;
         case depth_map_lookups:
             if (s.evidence.source != Evidence::depth_map_lookups) return std::nullopt;
+            break;
+        case camera_paths:
+            if (!s.temporal) return std::nullopt;
             break;
     }
     return m.read(s);

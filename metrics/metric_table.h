@@ -29,6 +29,7 @@ enum class MetricScope : std::uint8_t {
     every_light,
     area_lights,        // soft.*: lights scored with ScoringOptions::soft
     depth_map_lookups,  // needs the raster's lookup layer (Evidence::depth_map_lookups)
+    camera_paths,       // temporal.*: a scenario with a camera_path (LightScore::temporal)
 };
 std::string_view to_string(MetricScope s);
 

@@ -119,6 +119,7 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
     nlohmann::json trace_s = nlohmann::json::array();
     double oracle_s = oracle.build_s(), raster_s = 0, metrics_s = 0, flicker_s = 0;
     std::vector<std::string> warnings;
+    metrics::GateResult worst;  // each check's worst frame (the temporal ones come at the end)
     ValidateResult previous;
     std::shared_ptr<OracleRun> last_run;  // the last frame's, whose oracle.json tells the whole path
     for (int f = 0; f < path.frames; ++f) {
@@ -134,6 +135,7 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
         trace_s.push_back(run->seconds);
         last_run = run;
         ValidateResult r = validate(frame, technique, gate, options, &session, std::move(run));
+        if (r.gate) metrics::fold_worst_frame(worst, *r.gate, f);
         raster_s += r.raster_s;
         metrics_s += r.metrics_s;
         for (const std::string& w : r.warnings)
@@ -167,16 +169,20 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
     ValidateResult& r = out.last;
     r.warnings = warnings;
     r.raster_timings.device_s = device_s;
-    // The report is the last frame's, told apart from other runs by the whole path.
+    // The verdict is the last frame's with the path's temporal numbers; the gate judges every
+    // frame (each check's worst) and the temporal checks once over the path.
+    for (std::size_t li = 0; li < lights && li < r.score.lights.size(); ++li)
+        r.score.lights[li].temporal = metrics::TemporalScore{
+            points, flicker[li], points ? static_cast<double>(flicker[li]) / static_cast<double>(points) : 0.0};
+    if (!gate.checks.empty()) r.gate = metrics::camera_path_gate(metrics::evaluate_gate(gate, r.score.lights), worst);
+    make_report(frame, r);
+    // The report is told apart from other runs by the whole path.
     r.report["fingerprint"] = scenario_fingerprint(scenario);
     for (std::size_t li = 0; li < lights && li < r.report["lights"].size(); ++li) {
-        r.report["lights"][li]["temporal"] = {
-            {"frames", path.frames},
-            {"pairs", path.frames - 1},
-            {"points", points},
-            {"flicker_pixels", flicker[li]},
-            {"flicker_rate", points ? static_cast<double>(flicker[li]) / static_cast<double>(points) : 0.0},
-            {"per_frame", per_frame[li]}};
+        nlohmann::json& t = r.report["lights"][li]["temporal"];  // points, flicker_* from the metrics table
+        t["frames"] = path.frames;
+        t["pairs"] = path.frames - 1;
+        t["per_frame"] = per_frame[li];
     }
     r.report["timing"]["camera_path"] = {{"frames", path.frames},  {"oracle_s", oracle_s},   {"raster_s", raster_s},
                                          {"metrics_s", metrics_s}, {"flicker_s", flicker_s}, {"device_s", device_s}};

@@ -187,6 +187,11 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                   {"lookup", r.raster.stats.gpu_ms["lookup"]}}},
                 {"metrics_s", r.metrics_s}};
     if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, r.score.lights);
+    make_report(scenario, r);
+    return r;
+}
+
+void make_report(const Scenario& scenario, ValidateResult& r) {
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
     for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
         const raster::RasterLightStats& ls = r.raster.stats.lights[li];
@@ -196,7 +201,6 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
         if (const auto& sdsm = ls.projection.sdsm_range)  // SDSM: the range the splits were placed in
             r.report["lights"][li]["sdsm"] = {{"near_m", sdsm->x}, {"far_m", sdsm->y}};
     }
-    return r;
 }
 
 std::string validate_junit(const Scenario& scenario, const ValidateResult& result) {

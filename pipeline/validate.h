@@ -83,6 +83,11 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                         const ValidateOptions& options, raster::RasterSession* session = nullptr,
                         std::shared_ptr<const OracleRun> oracle = nullptr);
 
+// r.report from r's score, gate and timings (report.json's object, with each cascaded light's
+// `cascades` and `sdsm`): validate calls it, and a camera path again once its gate and temporal
+// numbers are known.
+void make_report(const Scenario& scenario, ValidateResult& r);
+
 // What the report files are made from; pointers into `scenario` and `r`, valid while both are.
 // `oracle_info` is the oracle.json the report names.
 report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResult& r,

@@ -53,7 +53,7 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
     if (!in.fingerprint.is_null()) r["fingerprint"] = in.fingerprint;
     if (in.gate) {
         nlohmann::json checks = nlohmann::json::array();
-        for (const auto& o : in.gate->outcomes)
+        for (const auto& o : in.gate->outcomes) {
             checks.push_back({{"name", o.name()},
                               {"light", o.light},
                               {"metric", o.metric},
@@ -62,6 +62,8 @@ nlohmann::json report_json(const ReportInputs& in, const metrics::FrameScore& sc
                               {"limit", o.limit},
                               {"passed", o.passed},
                               {"message", o.passed ? "" : o.failure()}});
+            if (o.frame) checks.back()["frame"] = *o.frame;  // over a camera path: the worst frame
+        }
         r["gate"] = {{"passed", in.gate->passed}, {"checks", checks}};
     }
     return r;

@@ -49,4 +49,20 @@ check "report.json: the temporal verdict per light" test "$(jsonq "$tmp/ok/repor
 check "report.json: the pairs saw common points" test "$(jsonq "$tmp/ok/report.json" 'j["lights"][0]["temporal"]["points"] > 0')" = "true"
 check "stdout tells the flicker" grep -q "flicker over 3 frames" "$tmp/stdout"
 
+# Gates over a path: every frame is judged (the worst frame is named), temporal.* once over the
+# path; a temporal check on a scenario without a path is exit 2.
+echo '{"checks": [{"metric": "temporal.flicker_rate", "max": 1}, {"metric": "pixels.scored", "min": 1e9}]}' >"$tmp/gate.json"
+run validate "$tmp/path.json" --out "$tmp/gated" --set resolution=512 --gate "$tmp/gate.json"
+check "a failing check over a path exits 1" test "$rc" -eq 1
+check "report.json: the worst frame named, flicker judged over the path" test "$(jsonq "$tmp/gated/report.json" '[[c["metric"], c["passed"], "frame" in c] for c in j["gate"]["checks"]]')" = '[["temporal.flicker_rate", true, false], ["pixels.scored", false, true]]'
+check "the failure names its frame" grep -q -E 'pixels.scored = [0-9]+ < 1000000000 in frame [0-2]' <<<"$(cat "$tmp/stdout")$err"
+cat >"$tmp/still.json" <<JSON
+{"scene": "scene.glb", "image": {"width": 64, "height": 48}, "camera": $(key 0 45),
+ "lights": [{"type": "directional", "direction": [-0.3, -1, -0.2]}]}
+JSON
+run validate "$tmp/still.json" --out "$tmp/still" --gate "$tmp/gate.json"
+check "a temporal check without a camera path exits 2" test "$rc" -eq 2
+check "it says why" grep -q -F 'temporal.flicker_rate is measured over a camera path only' <<<"$err"
+check "and writes nothing" test ! -e "$tmp/still"
+
 finish

@@ -515,6 +515,51 @@ TEST(Classification, TheReadingNamesTheDominantVisibleClass) {
     EXPECT_FALSE(reading_line(f.score().lights[0]));
 }
 
+// A camera path is gated on every frame: a frame in the middle that fails fails the path, and
+// the outcome names it, though the last frame passes. temporal.* checks are judged once, over
+// the path, and are refused for a scenario without one.
+TEST(Gate, ACameraPathIsGatedOnItsWorstFrameAndItsFlicker) {
+    const auto one_sun = lights_of({LightType::directional});
+    const char* text = R"({"checks": [{"metric": "rates.acne", "max": 0.001},
+        {"metric": "temporal.flicker_rate", "max": 0.01}, {"metric": "peter_panning_gap.max", "min": 0.5}]})";
+    try {
+        gate_file(text, one_sun);
+        ADD_FAILURE() << "a temporal check without a camera path was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("checks[1].metric: temporal.flicker_rate is measured over a camera "
+                                             "path only"),
+                  std::string::npos)
+            << e.what();
+    }
+    const Gate g = parse_gate(nlohmann::json::parse(text), "gate.json", one_sun, GateOrigin::file, true);
+    // Frames 0..2: acne 0.0005, 0.0123, 0.0005; the gap 1.0, 1.0, 0.7. No temporal numbers per frame.
+    GateResult worst;
+    const std::uint64_t acne[] = {5, 123, 5};
+    const double gap[] = {1.0, 1.0, 0.7};
+    std::vector<LightScore> last;
+    for (int f = 0; f < 3; ++f) {
+        last = {light_with(acne[f], gap[f])};
+        const GateResult r = evaluate_gate(g, last);
+        ASSERT_EQ(r.outcomes.size(), 2u) << "a frame skips the temporal check";
+        fold_worst_frame(worst, r, f);
+    }
+    last[0].temporal = TemporalScore{1000, 20, 0.02};
+    const GateResult path = camera_path_gate(evaluate_gate(g, last), worst);
+    ASSERT_EQ(path.outcomes.size(), 3u);
+    EXPECT_FALSE(path.passed);
+    EXPECT_EQ(path.outcomes[0].failure(), "light 0: rates.acne = 0.0123 > 0.001 in frame 1");
+    EXPECT_EQ(path.outcomes[1].metric, "temporal.flicker_rate");
+    EXPECT_FALSE(path.outcomes[1].passed);
+    EXPECT_FALSE(path.outcomes[1].frame) << "over the whole path, not one frame";
+    EXPECT_TRUE(path.outcomes[2].passed);
+    EXPECT_EQ(path.outcomes[2].frame, 2) << "the frame nearest to failing: 0.7 >= 0.5";
+    EXPECT_DOUBLE_EQ(path.outcomes[2].value, 0.7);
+    // The last frame alone would have passed the acne check: that was the silent pass.
+    EXPECT_TRUE(evaluate_gate(g, last).outcomes[0].passed);
+    last[0].temporal->flicker_rate = 0.001;
+    EXPECT_TRUE(camera_path_gate(evaluate_gate(g, last), worst).outcomes[1].passed);
+}
+
 TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
     Gate g = gate_file(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
         {"metric": "peter_panning_gap.max", "max": 0.05, "light": 1}]})");
@@ -545,10 +590,12 @@ TEST(Gate, EveryMetricOfTheTableCanBeChecked) {
     Frames f = test::Frames(4, 2);
     ScoringOptions opt;
     opt.soft = true;
-    const LightScore area = f.score(opt).lights[0];
+    LightScore area = f.score(opt).lights[0];
+    area.temporal = TemporalScore{10, 1, 0.1};  // as over a camera path
     for (const Metric& m : metric_table()) {
         const std::string text = fmt::format(R"({{"checks": [{{"metric": "{}", "max": 1e9}}]}})", m.path);
-        const Gate g = gate_file(text.c_str(), lights_of({LightType::rect}));
+        const Gate g =
+            parse_gate(nlohmann::json::parse(text), "gate.json", lights_of({LightType::rect}), GateOrigin::file, true);
         const GateResult r = evaluate_gate(g, std::span(&area, 1));
         ASSERT_EQ(r.outcomes.size(), 1u) << m.path;
         EXPECT_TRUE(r.passed) << m.path;
@@ -635,7 +682,8 @@ TEST(MetricTable, EveryPathIsUniqueAndResolvesInTheReportObject) {
     Frames f(4, 2);
     ScoringOptions opt;
     opt.soft = true;
-    const LightScore area = f.score(opt).lights[0];
+    LightScore area = f.score(opt).lights[0];
+    area.temporal = TemporalScore{10, 1, 0.1};  // as over a camera path
     const nlohmann::json j = to_json(area);
     std::set<std::string_view> paths;
     for (const Metric& m : metric_table()) {
