@@ -451,16 +451,20 @@ TEST_P(BoundaryAcrossTheImage, IsTheNearestInTheLightsFrame) {
 INSTANTIATE_TEST_SUITE_P(Oracle, BoundaryAcrossTheImage, ::testing::Values(false, true),
                          [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "point" : "directional"; });
 
-// Thin cables and posts floating a little over a long ground, seen from near it (the long view of
+// Thin bars and posts floating a little over a long ground, seen from near it (the long view of
 // docs/raster.md's cascades): near the camera the ground's pixels are far denser in the light's
 // chart than its cells, so a cell's 3 x 3 block holds the boundary points of several thin shadows
-// side by side. Each shadow is the convex hull of its box's corners seen along the light, so
-// the exact distance of a ground point is its distance in the light's chart to the nearest hull
-// edge (the hulls are disjoint, each wider than a pixel's footprint, and in plain view: in
-// front of its caster, before any other's view of the ground). The located points lie on those
-// edges, two 4-adjacent pixels apart at most: the nearest is within that spacing of the exact
-// nearest point, so boundary_m may exceed the exact distance by the spacing, never fall below it.
-TEST(Oracle, BoundaryDistanceIsExactBesideCrowdedThinShadows) {
+// side by side. Each shadow is the convex hull of its box's corners projected onto the ground
+// from the light, so the exact distance of a ground point is its lateral distance to the
+// nearest hull edge (the hulls are disjoint, each wider than a pixel's footprint, and in plain
+// view: in front of its caster, before any other's view of the ground). The located points lie
+// on those edges, two 4-adjacent pixels apart at most: the nearest is within that spacing of
+// the exact nearest point, so boundary_m may exceed the exact distance by the spacing, never
+// fall below it.
+class BoundaryBesideCrowdedThinShadows : public ::testing::TestWithParam<bool> {};
+
+TEST_P(BoundaryBesideCrowdedThinShadows, IsExact) {
+    const bool point = GetParam();
     SceneBuilder b;
     const std::uint32_t ground = b.quad({-40, 0, 2}, {40, 0, 2}, {40, 0, -300}, {-40, 0, -300}, false);
     std::vector<std::pair<glm::dvec3, glm::dvec3>> casters;
@@ -473,22 +477,25 @@ TEST(Oracle, BoundaryDistanceIsExactBesideCrowdedThinShadows) {
         casters.push_back({{x - 0.02, 0.1, z - 0.02}, {x + 0.02, 1.5, z + 0.02}});
     }
     for (const auto& c : casters) b.box(c.first, c.second);
-    const glm::dvec3 to_light = -glm::normalize(glm::dvec3(0.25, -1, 0.35));
+    // The light comes from behind the casters, so their shadows fall towards the camera.
+    const glm::dvec3 sun = glm::normalize(glm::dvec3(-0.25, 1, -0.35)), lamp = glm::dvec3(0, 0, -4) + 20.0 * sun;
     Camera cam = test::look_at({0, 1.7, 2}, {0, 1.0, -60}, 50);
     cam.znear = 0.1;
     cam.zfar = 300;
-    Scenario sc = test::make_scenario(b.build(), cam, {test::directional(-to_light)}, 480, 300);
+    const Light light = point ? test::point(lamp) : test::directional(-sun);
+    Scenario sc = test::make_scenario(b.build(), cam, {light}, 480, 300);
     OracleResult res = run_oracle(sc);
     const OracleFrame& f = res.frame;
     const OracleLightImage& img = f.lights[0];
 
-    // The light's chart: coordinates across the light.
-    const glm::dvec3 e1 = glm::normalize(glm::cross(to_light, glm::dvec3(0, 0, 1))), e2 = glm::cross(to_light, e1);
-    auto chart = [&](const glm::dvec3& p) { return glm::dvec2(glm::dot(p, e1), glm::dot(p, e2)); };
+    // The hulls on the ground (x, z), and the lateral distance from p to a point q.
     std::vector<std::vector<glm::dvec2>> hulls;
     for (const auto& [lo, hi] : casters) {
         std::vector<glm::dvec2> v;
-        for (int c = 0; c < 8; ++c) v.push_back(chart({c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z}));
+        for (int c = 0; c < 8; ++c) {
+            const glm::dvec3 corner(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
+            v.push_back(point ? project_from_point(lamp, corner) : project_along(-sun, corner));
+        }
         std::sort(v.begin(), v.end(),
                   [](glm::dvec2 u, glm::dvec2 w) { return u.x < w.x || (u.x == w.x && u.y < w.y); });
         std::vector<glm::dvec2> h(16);  // Andrew's monotone chain
@@ -504,14 +511,20 @@ TEST(Oracle, BoundaryDistanceIsExactBesideCrowdedThinShadows) {
         h.resize(k - 1);
         hulls.push_back(h);
     }
+    auto to_light = [&](const glm::dvec3& p) { return point ? glm::normalize(lamp - p) : sun; };
+    auto lateral = [&](const glm::dvec3& p, const glm::dvec3& q) {
+        return glm::length(glm::cross(q - p, to_light(p)));
+    };
+    // Per hull edge a z: |(a - p + s (z - a)) x u|^2 is a quadratic in s.
     auto expect = [&](const glm::dvec3& p) {
-        const glm::dvec2 q = chart(p);
+        const glm::dvec3 u = to_light(p);
         double best = 1e300;
         for (const auto& h : hulls)
             for (std::size_t e = 0; e < h.size(); ++e) {
-                const glm::dvec2 a = h[e], d = h[(e + 1) % h.size()] - a;
-                const double s = std::clamp(glm::dot(q - a, d) / glm::dot(d, d), 0.0, 1.0);
-                best = std::min(best, glm::length(q - a - s * d));
+                const glm::dvec3 a(h[e].x, 0, h[e].y), z(h[(e + 1) % h.size()].x, 0, h[(e + 1) % h.size()].y);
+                const glm::dvec3 c0 = glm::cross(a - p, u), c1 = glm::cross(z - a, u);
+                const double s = std::clamp(-glm::dot(c0, c1) / glm::dot(c1, c1), 0.0, 1.0);
+                best = std::min(best, glm::length(c0 + s * c1));
             }
         return best;
     };
@@ -526,7 +539,7 @@ TEST(Oracle, BoundaryDistanceIsExactBesideCrowdedThinShadows) {
         if (near_ground(i))
             for (const std::size_t j : {i + 1, i + W})
                 if (j < f.pixel_count() && (j % W) != 0 && near_ground(j))
-                    spacing = std::max(spacing, glm::length(chart(world_point(f, i)) - chart(world_point(f, j))));
+                    spacing = std::max(spacing, lateral(world_point(f, i), world_point(f, j)));
     ASSERT_GT(spacing, 0);
     EXPECT_LT(spacing, 0.15);
 
@@ -558,6 +571,9 @@ TEST(Oracle, BoundaryDistanceIsExactBesideCrowdedThinShadows) {
     ASSERT_EQ(ba.size(), bc.size());
     EXPECT_EQ(std::memcmp(ba.data(), bc.data(), ba.size() * sizeof(float)), 0);
 }
+
+INSTANTIATE_TEST_SUITE_P(Oracle, BoundaryBesideCrowdedThinShadows, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "point" : "directional"; });
 
 // ---- invariance ---------------------------------------------------------------------------
 
