@@ -13,7 +13,8 @@
 //    the point to the pixel's ray. Two raster sweeps over that grid (a vector distance
 //    transform, Danielsson 1980) give each cell the point nearest to its centre's ray; a pixel
 //    takes the nearest of its own and the eight surrounding cells' points and of the points
-//    filed in them, then walks along the boundary from there (nearest_in_chart). A point
+//    filed in them, then walks along the boundary from there, or, in a cell too crowded to list
+//    them all, searches a k-d tree of the chart's points from there (nearest_in_chart). A point
 //    light whose rays spread too wide for one chart gets one per face of a cube around it, and
 //    then the same sweeps over the image, for the pixels whose face sees no boundary point.
 // Boundaries that no pixel pair straddles (hidden from the camera, or lying exactly on a
@@ -157,6 +158,88 @@ constexpr std::size_t kNeighbours = 6;
 constexpr int kMaxWalkSteps = 64;
 // Candidates a cell keeps at most (nearest_in_chart).
 constexpr std::size_t kMaxCandidates = 48;
+
+// A k-d tree over the boundary points a chart holds, keyed by their chart point (a directional
+// light's, z = 0) or their position (a point light's), for the pixels of crowded cells: there a
+// cell's candidates are cut to the kMaxCandidates nearest to its centre, and the walk along the
+// boundary from the best of them keeps to one boundary where several run side by side (thin
+// shadows seen from near the ground, docs/oracle.md section 6), so those pixels search the tree
+// instead, from the best candidate, which is exact.
+class SeedTree {
+  public:
+    SeedTree(std::vector<int> points, const std::vector<glm::dvec3>& keys) : order_(std::move(points)) {
+        if (order_.empty()) return;
+        nodes_.reserve(4 * order_.size() / kLeafPoints + 1);
+        nodes_.resize(1);
+        build(keys, 0, 0, static_cast<std::uint32_t>(order_.size()));
+    }
+
+    // Improves (cur, cur_d2) to the nearest point by measure(s), visiting only the nodes whose box
+    // bound(lo, hi), a lower bound of the measure of any point in it, is below the nearest so far.
+    template <typename Measure, typename Bound>
+    void nearest(const Measure& measure, const Bound& bound, int& cur, double& cur_d2) const {
+        if (nodes_.empty()) return;
+        std::array<std::uint32_t, 64> stack;
+        std::size_t top = 0;
+        stack[top++] = 0;
+        while (top > 0) {
+            const Node& node = nodes_[stack[--top]];
+            if (!(bound(node.lo, node.hi) < cur_d2)) continue;
+            if (node.left == 0) {
+                for (std::uint32_t f = node.begin; f != node.end; ++f) {
+                    const double d2 = measure(order_[f]);
+                    if (d2 < cur_d2) {
+                        cur_d2 = d2;
+                        cur = order_[f];
+                    }
+                }
+                continue;
+            }
+            // The nearer child last, so that it is searched first.
+            const Node &a = nodes_[node.left], &b = nodes_[node.left + 1];
+            const bool a_first = bound(a.lo, a.hi) <= bound(b.lo, b.hi);
+            stack[top++] = a_first ? node.left + 1 : node.left;
+            stack[top++] = a_first ? node.left : node.left + 1;
+        }
+    }
+
+  private:
+    struct Node {
+        glm::dvec3 lo, hi;
+        std::uint32_t begin, end;
+        std::uint32_t left = 0;  // its children are left and left + 1; 0: a leaf
+    };
+    static constexpr std::uint32_t kLeafPoints = 8;
+
+    // Node `index` over order_[begin, end), split at the median of its box's longest side; its
+    // children take the next two free slots. Depth is at most log2(points / kLeafPoints) + 2, so
+    // the search's stack of 64 holds it.
+    void build(const std::vector<glm::dvec3>& keys, std::uint32_t index, std::uint32_t begin, std::uint32_t end) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (std::uint32_t f = begin; f != end; ++f) {
+            lo = glm::min(lo, keys[static_cast<std::size_t>(order_[f])]);
+            hi = glm::max(hi, keys[static_cast<std::size_t>(order_[f])]);
+        }
+        nodes_[index] = {lo, hi, begin, end};
+        if (end - begin <= kLeafPoints) return;
+        const glm::dvec3 extent = hi - lo;
+        const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : (extent.y >= extent.z ? 1 : 2);
+        const std::uint32_t mid = begin + (end - begin) / 2;
+        // Ties by index: the tree, and so the search's order, is the same on every run.
+        std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end, [&](int a, int b) {
+            const double ka = keys[static_cast<std::size_t>(a)][axis], kb = keys[static_cast<std::size_t>(b)][axis];
+            return ka < kb || (ka == kb && a < b);
+        });
+        const auto left = static_cast<std::uint32_t>(nodes_.size());
+        nodes_[index].left = left;
+        nodes_.resize(left + 2);
+        build(keys, left, begin, mid);
+        build(keys, left + 1, mid, end);
+    }
+
+    std::vector<int> order_;
+    std::vector<Node> nodes_;
+};
 
 // Cells about kCellsPerPoint per chart point of a lightable pixel, over their bounding box.
 ChartGrid grid_over(const glm::dvec2& lo, const glm::dvec2& hi, std::size_t points) {
@@ -514,7 +597,9 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
     times.grid_s += seconds_since(t0);
 
     // Each cell's nearest point to its centre's ray: its own filed points, then the sweeps.
-    auto run = [&](auto at_chart_point) {
+    // at_chart_point(uv) measures the points from chart point uv (see below); bound_at(uv), a
+    // lower bound of that measure over a box of SeedTree keys.
+    auto run = [&](auto at_chart_point, auto bound_at, const std::vector<glm::dvec3>& keys) {
         t0 = SteadyClock::now();
         std::vector<int> cell_nearest(grid.size(), -1);
         std::vector<double> cell_best(grid.size(), kInf);
@@ -572,7 +657,7 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                         }
                     // Where points crowd (a chart whose pixels are far denser in places than
                     // its cells), only the kMaxCandidates nearest to the cell's centre are kept,
-                    // and its pixels always walk.
+                    // and its pixels search the tree from the best of them.
                     if (row.size() - begin > kMaxCandidates) {
                         const auto measure = at_chart_point(grid.centre(x, y));
                         const auto from = row.begin() + static_cast<std::ptrdiff_t>(begin);
@@ -620,6 +705,15 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                     }
         });
 
+        // The crowded cells' pixels search the whole chart's points (SeedTree).
+        std::optional<SeedTree> tree;
+        if (std::find(crowded.begin(), crowded.end(), 1) != crowded.end()) {
+            std::vector<int> charted;
+            for (std::size_t s = 0; s < m; ++s)
+                if (seed_cell[s] < grid.size()) charted.push_back(static_cast<int>(s));
+            tree.emplace(std::move(charted), keys);
+        }
+
         times.lists_s += seconds_since(t0);
         t0 = SteadyClock::now();
 
@@ -655,9 +749,13 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
                 };
                 const std::size_t k = grid.index(c.x, c.y);
                 scan(list_first[k], list_first[k + 1]);
-                // Within a cell of a directional light's chart, every nearer point lies in the 3 x 3
-                // cells just scanned: cur is the nearest. Otherwise walk along the boundary.
-                if (!(chart.directional && cur_d2 <= cell2 && !crowded[k]))
+                // A crowded cell's candidates are only some of its points: search them all, from
+                // the nearest so far. Within a cell of a directional light's chart, every nearer
+                // point lies in the 3 x 3 cells just scanned: cur is the nearest. Otherwise walk
+                // along the boundary.
+                if (crowded[k])
+                    tree->nearest(measure, bound_at(uv), cur, cur_d2);
+                else if (!(chart.directional && cur_d2 <= cell2))
                     for (int step = 0; cur >= 0 && step < kMaxWalkSteps; ++step) {
                         const int before = cur;
                         for (const int t : neighbours[static_cast<std::size_t>(cur)]) {
@@ -683,21 +781,46 @@ void nearest_in_chart(const RayChart& chart, const OracleFrame& frame, const Ora
         times.pixels_s += seconds_since(t0);
     };
     if (chart.directional) {
-        // The distance between a point and a ray is the distance between their chart points.
-        run([&](const glm::dvec2& at) {
-            return [&seed_uv, at](int s) {
-                const glm::dvec2 d = seed_uv[static_cast<std::size_t>(s)] - at;
-                return glm::dot(d, d);
-            };
-        });
+        // The distance between a point and a ray is the distance between their chart points; the
+        // tree's keys are those, and a box's bound is its distance from the pixel's (the same
+        // differences, rounded alike, so never above a point's measure).
+        std::vector<glm::dvec3> keys(m);
+        for (std::size_t s = 0; s < m; ++s) keys[s] = glm::dvec3(seed_uv[s], 0.0);
+        run(
+            [&](const glm::dvec2& at) {
+                return [&seed_uv, at](int s) {
+                    const glm::dvec2 d = seed_uv[static_cast<std::size_t>(s)] - at;
+                    return glm::dot(d, d);
+                };
+            },
+            [](const glm::dvec2& at) {
+                return [at](const glm::dvec3& lo, const glm::dvec3& hi) {
+                    const glm::dvec2 d = glm::max(glm::dvec2(lo) - at, glm::max(at - glm::dvec2(hi), glm::dvec2(0.0)));
+                    return glm::dot(d, d);
+                };
+            },
+            keys);
     } else {
-        run([&](const glm::dvec2& at) {
-            return [&seeds, &chart, dir = chart.ray_direction(at)](int s) {
-                const glm::dvec3 d = seeds[static_cast<std::size_t>(s)] - chart.origin;
-                const double along = glm::dot(d, dir);
-                return std::max(0.0, glm::dot(d, d) - along * along);
-            };
-        });
+        // The tree's keys are the points themselves; a box's bound, the distance from the pixel's
+        // ray to the box's bounding sphere, less a margin for the rounding of either measure.
+        run(
+            [&](const glm::dvec2& at) {
+                return [&seeds, &chart, dir = chart.ray_direction(at)](int s) {
+                    const glm::dvec3 d = seeds[static_cast<std::size_t>(s)] - chart.origin;
+                    const double along = glm::dot(d, dir);
+                    return std::max(0.0, glm::dot(d, d) - along * along);
+                };
+            },
+            [&chart](const glm::dvec2& at) {
+                return [&chart, dir = chart.ray_direction(at)](const glm::dvec3& lo, const glm::dvec3& hi) {
+                    const glm::dvec3 c = 0.5 * (lo + hi) - chart.origin;
+                    const double r = 0.5 * glm::length(hi - lo), along = glm::dot(c, dir);
+                    const double gap =
+                        std::sqrt(std::max(0.0, glm::dot(c, c) - along * along)) - r - 1e-7 * (glm::length(c) + r);
+                    return gap > 0 ? gap * gap : 0.0;
+                };
+            },
+            seeds);
     }
 }
 

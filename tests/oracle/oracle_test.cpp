@@ -451,6 +451,130 @@ TEST_P(BoundaryAcrossTheImage, IsTheNearestInTheLightsFrame) {
 INSTANTIATE_TEST_SUITE_P(Oracle, BoundaryAcrossTheImage, ::testing::Values(false, true),
                          [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "point" : "directional"; });
 
+// Thin bars and posts floating a little over a long ground, seen from near it (the long view of
+// docs/raster.md's cascades): near the camera the ground's pixels are far denser in the light's
+// chart than its cells, so a cell's 3 x 3 block holds the boundary points of several thin shadows
+// side by side. Each shadow is the convex hull of its box's corners projected onto the ground
+// from the light, so the exact distance of a ground point is its lateral distance to the
+// nearest hull edge (the hulls are disjoint, each wider than a pixel's footprint, and in plain
+// view: in front of its caster, before any other's view of the ground). The located points lie
+// on those edges, two 4-adjacent pixels apart at most: the nearest is within that spacing of
+// the exact nearest point, so boundary_m may exceed the exact distance by the spacing, never
+// fall below it.
+class BoundaryBesideCrowdedThinShadows : public ::testing::TestWithParam<bool> {};
+
+TEST_P(BoundaryBesideCrowdedThinShadows, IsExact) {
+    const bool point = GetParam();
+    SceneBuilder b;
+    const std::uint32_t ground = b.quad({-40, 0, 2}, {40, 0, 2}, {40, 0, -300}, {-40, 0, -300}, false);
+    std::vector<std::pair<glm::dvec3, glm::dvec3>> casters;
+    for (int k = 0; k < 4; ++k) {  // bars across the view, 20 cm over the ground, 20 cm apart
+        const double z = -3.5 - 0.2 * k, x = 0.1 * k;
+        casters.push_back({{-2.5 + x, 0.2, z - 0.05}, {0.5 + x, 0.23, z + 0.05}});
+    }
+    for (int k = 0; k < 8; ++k) {  // posts, 4 cm thick, 10 cm over it, 25 cm apart
+        const double x = 1.4 + 0.25 * k, z = -4.5 - 0.05 * k;
+        casters.push_back({{x - 0.02, 0.1, z - 0.02}, {x + 0.02, 1.5, z + 0.02}});
+    }
+    for (const auto& c : casters) b.box(c.first, c.second);
+    // The light comes from behind the casters, so their shadows fall towards the camera.
+    const glm::dvec3 sun = glm::normalize(glm::dvec3(-0.25, 1, -0.35)), lamp = glm::dvec3(0, 0, -4) + 20.0 * sun;
+    Camera cam = test::look_at({0, 1.7, 2}, {0, 1.0, -60}, 50);
+    cam.znear = 0.1;
+    cam.zfar = 300;
+    const Light light = point ? test::point(lamp) : test::directional(-sun);
+    Scenario sc = test::make_scenario(b.build(), cam, {light}, 480, 300);
+    OracleResult res = run_oracle(sc);
+    const OracleFrame& f = res.frame;
+    const OracleLightImage& img = f.lights[0];
+
+    // The hulls on the ground (x, z), and the lateral distance from p to a point q.
+    std::vector<std::vector<glm::dvec2>> hulls;
+    for (const auto& [lo, hi] : casters) {
+        std::vector<glm::dvec2> v;
+        for (int c = 0; c < 8; ++c) {
+            const glm::dvec3 corner(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
+            v.push_back(point ? project_from_point(lamp, corner) : project_along(-sun, corner));
+        }
+        std::sort(v.begin(), v.end(),
+                  [](glm::dvec2 u, glm::dvec2 w) { return u.x < w.x || (u.x == w.x && u.y < w.y); });
+        std::vector<glm::dvec2> h(16);  // Andrew's monotone chain
+        std::size_t k = 0;
+        for (std::size_t i = 0; i < v.size(); ++i) {
+            while (k >= 2 && cross2(h[k - 2], h[k - 1], v[i]) <= 0) --k;
+            h[k++] = v[i];
+        }
+        for (std::size_t i = v.size() - 1, t = k + 1; i-- > 0;) {
+            while (k >= t && cross2(h[k - 2], h[k - 1], v[i]) <= 0) --k;
+            h[k++] = v[i];
+        }
+        h.resize(k - 1);
+        hulls.push_back(h);
+    }
+    auto to_light = [&](const glm::dvec3& p) { return point ? glm::normalize(lamp - p) : sun; };
+    auto lateral = [&](const glm::dvec3& p, const glm::dvec3& q) {
+        return glm::length(glm::cross(q - p, to_light(p)));
+    };
+    // Per hull edge a z: |(a - p + s (z - a)) x u|^2 is a quadratic in s.
+    auto expect = [&](const glm::dvec3& p) {
+        const glm::dvec3 u = to_light(p);
+        double best = 1e300;
+        for (const auto& h : hulls)
+            for (std::size_t e = 0; e < h.size(); ++e) {
+                const glm::dvec3 a(h[e].x, 0, h[e].y), z(h[(e + 1) % h.size()].x, 0, h[(e + 1) % h.size()].y);
+                const glm::dvec3 c0 = glm::cross(a - p, u), c1 = glm::cross(z - a, u);
+                const double s = std::clamp(-glm::dot(c0, c1) / glm::dot(c1, c1), 0.0, 1.0);
+                best = std::min(best, glm::length(c0 + s * c1));
+            }
+        return best;
+    };
+
+    // The located points' spacing: the farthest apart two 4-adjacent ground pixels near a shadow are.
+    const auto W = static_cast<std::size_t>(f.width);
+    auto near_ground = [&](std::size_t i) {
+        return f.A[i] != 0 && img.lightable[i] != 0 && f.prim[i] < ground + 2 && expect(world_point(f, i)) < 0.5;
+    };
+    double spacing = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i)
+        if (near_ground(i))
+            for (const std::size_t j : {i + 1, i + W})
+                if (j < f.pixel_count() && (j % W) != 0 && near_ground(j))
+                    spacing = std::max(spacing, lateral(world_point(f, i), world_point(f, j)));
+    ASSERT_GT(spacing, 0);
+    EXPECT_LT(spacing, 0.15);
+
+    std::size_t checked = 0, over = 0;
+    double worst_over = 0, worst_under = 0;
+    for (std::size_t i = 0; i < f.pixel_count(); ++i) {
+        if (!near_ground(i)) continue;
+        ++checked;
+        const double e = expect(world_point(f, i));
+        const double d = img.boundary_m[i];
+        worst_under = std::max(worst_under, e - d);
+        worst_over = std::max(worst_over, d - e);
+        if (d - e > spacing) {
+            if (over < 5) ADD_FAILURE() << "pixel " << i << ": boundary_m " << d << ", exact " << e;
+            ++over;
+        }
+    }
+    EXPECT_GT(checked, 5000u);
+    EXPECT_EQ(over, 0u) << "of " << checked << " pixels near the shadows; spacing " << spacing << " m, worst "
+                        << worst_over << " m over";
+    EXPECT_LT(worst_under, 1e-5) << "nearer than the exact outline";
+
+    // and the same answer on any number of threads.
+    OracleSettings one, many;
+    one.threads = 1;
+    many.threads = 16;
+    const OracleResult a = run_oracle(sc, one), c = run_oracle(sc, many);
+    const std::vector<float>&ba = a.frame.lights[0].boundary_m, &bc = c.frame.lights[0].boundary_m;
+    ASSERT_EQ(ba.size(), bc.size());
+    EXPECT_EQ(std::memcmp(ba.data(), bc.data(), ba.size() * sizeof(float)), 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Oracle, BoundaryBesideCrowdedThinShadows, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "point" : "directional"; });
+
 // ---- invariance ---------------------------------------------------------------------------
 
 Scenario invariance_scene(int width = 320, int height = 180) {
