@@ -108,6 +108,35 @@ int main(int argc, char** argv) {
                     t.device.value("timestamps", nlohmann::json::object()).dump().c_str());
         std::printf("# set-up %.2f s (oracle %s + session); %zu configurations %.2f s, %.3f s each\n", t.setup_s,
                     "from the cache or traced", t.rows.size(), sum, sum / static_cast<double>(t.rows.size()));
+        // Where a configuration's wall clock goes (medians over the configurations after the
+        // first, which builds pipelines): the verdict, the timed renders of each kind with their
+        // warm-ups (their families' set-up, submit-and-wait, and GPU time), the perceptual wait.
+        if (t.rows.size() > 1) {
+            auto med = [&](auto field) {
+                std::vector<double> v;
+                for (std::size_t i = 1; i < t.rows.size(); ++i) v.push_back(field(t.rows[i]));
+                return bench::median(v);
+            };
+            const double renders = 2.0 * (repeat + sweep::kWarmUpRenders) - 1;
+            std::printf(
+                "# per configuration (median, ms): total %.1f = verdict %.1f (render %.1f) + diagnostic renders %.1f + "
+                "production "
+                "renders %.1f + perceptual wait %.1f; timed renders (%.0f): set-up %.1f, submit-and-wait %.1f, GPU "
+                "(timed repeats) %.1f\n",
+                1e3 * med([](const sweep::Row& r) { return r.seconds; }),
+                1e3 * med([](const sweep::Row& r) { return r.verdict_s; }),
+                1e3 * med([](const sweep::Row& r) { return r.verdict_render_s; }),
+                1e3 * med([](const sweep::Row& r) { return r.diagnostic_s; }),
+                1e3 * med([](const sweep::Row& r) { return r.production_s; }),
+                1e3 * med([](const sweep::Row& r) { return r.perceptual_wait_s; }), renders,
+                1e3 * med([](const sweep::Row& r) { return r.timed_setup_s; }),
+                1e3 * med([](const sweep::Row& r) { return r.timed_submit_s; }), med([](const sweep::Row& r) {
+                    double g = 0;
+                    for (double v : r.diagnostic_ms) g += v;
+                    for (double v : r.production_ms) g += v;
+                    return g;
+                }));
+        }
         if (rss_mb.size() >= 20) {
             // Growth per configuration from the 10th on (the first ones fill caches and pools).
             const double per = (rss_mb.back() - rss_mb[9]) / static_cast<double>(rss_mb.size() - 10);

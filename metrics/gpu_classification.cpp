@@ -66,16 +66,15 @@ struct Push {
     float width_lo, width_hi;
 };
 constexpr std::uint32_t kModeLookups = 0, kModeGeometry = 1, kSoft = 1, kLightBleed = 2;
-constexpr std::uint32_t kRowsPerGroup = 64;  // classify.comp's local_size_x
-
-constexpr std::array<raster::BindingDecl, 7> kBindings = {{
+constexpr std::array<raster::BindingDecl, 8> kBindings = {{
     {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // oracle pixels
     {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // the lookups (LookupTexel per pixel)
     {2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // or V alone: the same buffer, read as its mode says
     {3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // row sums
     {4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // class per pixel
     {5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // error per pixel
-    {6, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // the raster's V per pixel
+    {6, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // the perceptual error's test picture per pixel
+    {7, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},  // the peter-panning gaps: a count, then the gaps
 }};
 
 // The bucket of docs/metrics.md ("Which pixels are scored"), as classification.cpp's bucket_of.
@@ -105,10 +104,15 @@ struct GpuScorer::Impl {
     raster::UniquePipeline pipeline;
     struct Light {
         GpuBuffer oracle, rows, cls, errors, shown;
+        // Host-visible: only the few peter-panning pixels write it, and their gaps' percentile
+        // then needs no class map read back.
+        GpuBuffer gaps;
         GpuBuffer cls_host, errors_host, shown_host;  // discrete devices, made on first need
+        std::vector<float> truth;                     // the perceptual error's reference picture
     };
     std::vector<Light> lights;
     std::vector<std::uint32_t> camera_prim;  // the camera pass the buckets were made with
+    std::uint64_t camera_pass = 0;           // its RasterStats::camera_pass, once a render named it
 
     Impl(const raster::VulkanContext& c, const OracleFrame& of)
         : ctx(c),
@@ -138,11 +142,14 @@ struct GpuScorer::Impl {
                 px[i] = {
                     bucket_of(oracle, camera, o, i), o.V[i], o.E[i], o.boundary_m[i], o.occluder_m[i], oracle.prim[i]};
             Light& l = lights.emplace_back();
+            l.truth.resize(n);
+            for (std::size_t i = 0; i < n; ++i) l.truth[i] = oracle.A[i] != 0 ? o.V[i] : 0.0f;
             l.oracle = raster::upload(ctx, px.data(), n * sizeof(OraclePixel), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
             l.rows = create_buffer(ctx, height * sizeof(GpuRow), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
             l.cls = create_buffer(ctx, n * 4, storage, direct);
             l.errors = create_buffer(ctx, n * 4, storage, direct);
             l.shown = create_buffer(ctx, n * 4, storage, direct);
+            l.gaps = create_buffer(ctx, (n + 1) * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
         }
     }
 
@@ -179,8 +186,34 @@ GpuScorer::GpuScorer(const raster::VulkanContext& ctx, const OracleFrame& oracle
 
 GpuScorer::~GpuScorer() = default;
 
+bool GpuScorer::knows_camera(const raster::RasterStats& stats) const {
+    return stats.camera_pass != 0 && stats.camera_pass == impl_->camera_pass;
+}
+
+void DeferredPerceptual::run(FrameScore& score) {
+    // One light after another: run side by side (tbb::parallel_for) the lights' scratch images
+    // made a 1,000-configuration sweep's resident memory grow 0.24 MB a configuration
+    // (docs/sweep.md, "Down to the GPU's time").
+    for (const Light& l : lights_) {
+        const OracleFrame& of = *oracle_;
+        LightErrorImage& img = score.images[l.index];
+        LightScore& s = score.lights[l.index];
+        const std::vector<float> shown(l.shown, l.shown + of.pixel_count());
+        img.perceptual = perceptual_error(*l.truth, shown, of.width, of.height, l.pixels_per_degree);
+        double sum = 0, mx = 0;
+        for (std::size_t i = 0; i < img.perceptual.size(); ++i)
+            if (of.A[i] != 0) {
+                sum += img.perceptual[i];
+                mx = std::max(mx, static_cast<double>(img.perceptual[i]));
+            }
+        s.perceptual = {s.pixels.surface ? sum / static_cast<double>(s.pixels.surface) : 0.0, mx};
+    }
+    lights_.clear();
+}
+
 std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
-                                           std::span<const ScoringOptions> options, bool images) {
+                                           std::span<const ScoringOptions> options, bool images,
+                                           DeferredPerceptual* deferred) {
     Impl& m = *impl_;
     const std::size_t L = m.lights.size();
     const auto& out = rendered.stats.on_device;
@@ -191,7 +224,11 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
     if (options.empty() || (options.size() != 1 && options.size() != L))
         throw std::invalid_argument("GpuScorer: need one ScoringOptions, or one per light");
     if (out.size() != L) return std::nullopt;
-    if (rendered.frame.prim != m.camera_prim) m.prepare(rendered.frame);
+    if (!knows_camera(rendered.stats)) {
+        if (rendered.frame.prim.empty()) return std::nullopt;  // rendered without the camera images
+        if (rendered.frame.prim != m.camera_prim) m.prepare(rendered.frame);
+        m.camera_pass = rendered.stats.camera_pass;
+    }
     auto opt_of = [&](std::size_t li) -> const ScoringOptions& {
         return options.size() == 1 ? options[0] : options[li];
     };
@@ -239,7 +276,10 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
         r[4].buffer = {l.cls.buffer.get(), 0, VK_WHOLE_SIZE};
         r[5].buffer = {l.errors.buffer.get(), 0, VK_WHOLE_SIZE};
         r[6].buffer = {l.shown.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[7].buffer = {l.gaps.buffer.get(), 0, VK_WHOLE_SIZE};
         m.sets.write(li, r);
+        const std::uint32_t no_gaps = 0;
+        std::memcpy(l.gaps.mapped, &no_gaps, sizeof(no_gaps));
     }
     m.ctx.submit_and_wait([&](VkCommandBuffer cmd) {
         // The lookups were written by an earlier submission: a fence wait makes no device write visible.
@@ -250,7 +290,7 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
             VkDescriptorSet set = m.sets[li];
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, m.layout.get(), 0, 1, &set, 0, nullptr);
             vkCmdPushConstants(cmd, m.layout.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(Push), &pushes[li]);
-            vkCmdDispatch(cmd, (m.height + kRowsPerGroup - 1) / kRowsPerGroup, 1, 1);
+            vkCmdDispatch(cmd, m.height, 1, 1);  // a workgroup per row
         }
         raster::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
                                VK_PIPELINE_STAGE_2_HOST_BIT | VK_PIPELINE_STAGE_2_COPY_BIT,
@@ -260,9 +300,11 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
     FrameScore result;
     result.lights.resize(L);
     result.images.resize(L);
-    // What each light needs of the per-pixel outputs: the class map for the peter-panning gaps'
-    // percentile, everything for the perceptual error and the images.
-    std::vector<bool> need_cls(L), need_all(L);
+    // What each light needs of the per-pixel outputs: everything for the perceptual error and
+    // the images, nothing otherwise (the gaps' percentile reads the gaps alone).
+    std::vector<bool> need_all(L);
+    // Deferred and no images asked: the perceptual error's test picture alone comes back.
+    const bool apart = deferred && !images;
     for (std::size_t li = 0; li < L; ++li) {
         const ScoringOptions& opt = opt_of(li);
         const auto* rows = static_cast<const GpuRow*>(m.lights[li].rows.mapped);
@@ -299,10 +341,19 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
         const auto pp = s.count(PixelClass::peter_panning);
         result.images[li].visible_threshold = opt.visible_threshold;
         need_all[li] = images || opt.perceptual;
-        need_cls[li] = need_all[li] || pp > 0;
+        if (pp > 0) {
+            // Nearest rank, as score_light: the gaps' order does not change the value at a rank.
+            const auto* g = static_cast<const std::uint32_t*>(m.lights[li].gaps.mapped);
+            if (g[0] != pp) throw std::logic_error("GpuScorer: the gaps and the peter-panning count differ");
+            std::vector<float> gaps(pp);
+            std::memcpy(gaps.data(), g + 1, pp * sizeof(float));
+            const std::size_t rank = (gaps.size() * 95 + 99) / 100 - 1;
+            std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(rank), gaps.end());
+            s.peter_panning_gap_p95 = gaps[rank];
+        }
     }
 
-    if (!m.direct && std::find(need_cls.begin(), need_cls.end(), true) != need_cls.end()) {
+    if (!m.direct && std::find(need_all.begin(), need_all.end(), true) != need_all.end()) {
         m.ctx.submit_and_wait([&](VkCommandBuffer cmd) {
             for (std::size_t li = 0; li < L; ++li) {
                 Impl::Light& l = m.lights[li];
@@ -311,11 +362,12 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
                     VkBufferCopy region{0, 0, from.size};
                     vkCmdCopyBuffer(cmd, from.buffer.get(), to.buffer.get(), 1, &region);
                 };
-                if (need_cls[li]) copy(l.cls, l.cls_host);
-                if (need_all[li]) {
+                if (!need_all[li]) continue;
+                if (!apart) {
+                    copy(l.cls, l.cls_host);
                     copy(l.errors, l.errors_host);
-                    copy(l.shown, l.shown_host);
                 }
+                copy(l.shown, l.shown_host);
             }
             raster::memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                                    VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
@@ -323,46 +375,32 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
     }
 
     const std::size_t n = m.pixels;
+    DeferredPerceptual own;
+    DeferredPerceptual& later = deferred ? *deferred : own;
+    later.oracle_ = &m.oracle;
+    later.lights_.clear();
     for (std::size_t li = 0; li < L; ++li) {
-        if (!need_cls[li]) continue;
-        Impl::Light& l = m.lights[li];
-        const OracleLightImage& o = m.oracle.lights[li];
-        const ScoringOptions& opt = opt_of(li);
-        LightScore& s = result.lights[li];
-        const auto* cls = static_cast<const std::uint32_t*>(m.host(l.cls, l.cls_host).mapped);
-        std::vector<float> gaps;
-        for (std::size_t i = 0; i < n; ++i)
-            if (cls[i] == static_cast<std::uint32_t>(PixelClass::peter_panning)) gaps.push_back(o.occluder_m[i]);
-        if (!gaps.empty()) {
-            // Nearest rank, as score_light.
-            const std::size_t rank = (gaps.size() * 95 + 99) / 100 - 1;
-            std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(rank), gaps.end());
-            s.peter_panning_gap_p95 = gaps[rank];
-        }
         if (!need_all[li]) continue;
-        LightErrorImage& img = result.images[li];
-        const auto* err = static_cast<const float*>(m.host(l.errors, l.errors_host).mapped);
-        const auto* shown_v = static_cast<const float*>(m.host(l.shown, l.shown_host).mapped);
-        img.cls.resize(n);
-        for (std::size_t i = 0; i < n; ++i) img.cls[i] = static_cast<std::uint8_t>(cls[i]);
-        img.error.assign(err, err + n);
-        if (!opt.perceptual) continue;
-        // As score_light: both pictures agree wherever the pixel is not scored.
-        std::vector<float> truth(n), shown(n);
-        for (std::size_t i = 0; i < n; ++i) {
-            const bool scored = img.cls[i] >= static_cast<std::uint8_t>(PixelClass::correct);
-            truth[i] = m.oracle.A[i] != 0 ? o.V[i] : 0.0f;
-            shown[i] = scored ? shown_v[i] : truth[i];
+        Impl::Light& l = m.lights[li];
+        const ScoringOptions& opt = opt_of(li);
+        if (!apart) {
+            LightErrorImage& img = result.images[li];
+            const auto* cls = static_cast<const std::uint32_t*>(m.host(l.cls, l.cls_host).mapped);
+            const auto* err = static_cast<const float*>(m.host(l.errors, l.errors_host).mapped);
+            img.cls.resize(n);
+            for (std::size_t i = 0; i < n; ++i) img.cls[i] = static_cast<std::uint8_t>(cls[i]);
+            img.error.assign(err, err + n);
         }
-        img.perceptual = perceptual_error(truth, shown, m.oracle.width, m.oracle.height, opt.pixels_per_degree);
-        double sum = 0, mx = 0;
-        for (std::size_t i = 0; i < n; ++i)
-            if (m.oracle.A[i] != 0) {
-                sum += img.perceptual[i];
-                mx = std::max(mx, static_cast<double>(img.perceptual[i]));
-            }
-        s.perceptual = {s.pixels.surface ? sum / static_cast<double>(s.pixels.surface) : 0.0, mx};
+        if (!opt.perceptual) continue;
+        // As score_light: both pictures agree wherever the pixel is not scored (the shader made
+        // the test picture so).
+        DeferredPerceptual::Light& p = later.lights_.emplace_back();
+        p.index = li;
+        p.pixels_per_degree = opt.pixels_per_degree;
+        p.truth = &l.truth;
+        p.shown = static_cast<const float*>(m.host(l.shown, l.shown_host).mapped);
     }
+    if (!deferred) later.run(result);
     return result;
 }
 

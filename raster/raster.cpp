@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <cstring>
 
 #include "common/camera.h"
@@ -160,6 +161,8 @@ void prepare_scene(SceneOnGpu& s) {
     VK_CHECK(vkGetQueryPoolResults(ctx.device(), queries.get(), 0, 2, sizeof(t), t, sizeof(std::uint64_t),
                                    VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
     s.camera_ms = t[1] >= t[0] ? static_cast<double>(t[1] - t[0]) * ctx.limits().timestampPeriod * 1e-6 : 0.0;
+    static std::atomic<std::uint64_t> passes_drawn{0};
+    s.camera_pass = ++passes_drawn;
     s.prim.resize(s.pixels);
     std::memcpy(s.prim.data(), readback.mapped, s.pixels * 4);
     s.A.resize(s.pixels);
@@ -274,6 +277,7 @@ RasterResult RasterSession::render(const Technique& technique, const RenderOptio
     }
     const SceneOnGpu& s = fresh_scene ? *fresh_scene : *impl_->scene;
     stats.camera_ms = s.camera_ms;
+    stats.camera_pass = s.camera_pass;
     stats.family = std::string(entry->name);
     std::unique_ptr<TechniqueFamily>& family = (*families)[entry->name];
     if (!family) family = entry->make(s);
@@ -281,8 +285,10 @@ RasterResult RasterSession::render(const Technique& technique, const RenderOptio
     f.width = sc.width;
     f.height = sc.height;
     f.frame_origin = s.origin;
-    f.A = s.A;
-    f.prim = s.prim;
+    if (options.camera_images) {
+        f.A = s.A;
+        f.prim = s.prim;
+    }
     try {
         family->render(technique, sc.lights, options, f, stats);
     } catch (...) {

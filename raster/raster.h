@@ -60,8 +60,11 @@ struct DeviceLightOutput {
 
 struct RasterStats {
     DeviceInfo device;
-    std::string hw2x2;                 // "hardware", "emulated" or "unused"
-    double camera_ms = 0;              // GPU time of the session's camera pass
+    std::string hw2x2;     // "hardware", "emulated" or "unused"
+    double camera_ms = 0;  // GPU time of the session's camera pass
+    // The camera pass the frame's A and prim come from: an id unique in the process, new with
+    // every camera pass drawn (a session's first, set_camera, a new precision).
+    std::uint64_t camera_pass = 0;
     PassTimes gpu_ms;                  // GPU time of every other pass, by name, all lights together
     double setup_s = 0, render_s = 0;  // wall clock: uploads, GPU work
     std::string family;                // the technique family that drew
@@ -91,6 +94,10 @@ struct RenderOptions {
     // and the frame's lights empty, for a scorer on the GPU or a timing run that discards it;
     // a family that cannot reads back as usual.
     bool read_back = true;
+    // Off: the frame's A and prim (the camera pass's, the same for every render of a session)
+    // are left empty, saving two image copies a render; RasterStats::camera_pass names them.
+    // For timing runs, and for a GPU scorer that already has them.
+    bool camera_images = true;
 };
 
 // The raster path for one scenario on one device, kept warm: made once, it uploads the scene

@@ -44,7 +44,8 @@ struct SceneOnGpu {
     glm::mat4 camera_view_proj{1.0f};  // the camera pass's clip space (reversed depth), for families that redraw it
     std::vector<float> A;              // 1 where a triangle covers the pixel
     std::vector<std::uint32_t> prim;
-    double camera_ms = 0;  // GPU time of the camera pass
+    double camera_ms = 0;           // GPU time of the camera pass
+    std::uint64_t camera_pass = 0;  // RasterStats::camera_pass of this pass
 };
 
 class TechniqueFamily {

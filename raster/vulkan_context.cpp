@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <string_view>
+#include <thread>
 
 #include "common/errors.h"
 
@@ -442,6 +445,22 @@ void VulkanContext::submit_and_wait(const std::function<void(VkCommandBuffer)>& 
     si.commandBufferCount = 1;
     si.pCommandBuffers = &cmd;
     VK_CHECK(vkQueueSubmit(queue_, 1, &si, fence.get()));
+    // A GPU's short passes (a sweep's renders take a few ms) are answered sooner by polling the
+    // fence than by a blocking wait, which wakes up late; past kSpinWait it blocks. A CPU device
+    // blocks at once: its work runs on the cores a poll would take. $PENUMBRA_FENCE_WAIT=block or
+    // spin overrides (docs/raster.md, "Timings").
+    static const char* const mode = std::getenv("PENUMBRA_FENCE_WAIT");
+    const bool spin = mode ? std::string_view(mode) == "spin" : info_.type != "cpu";
+    if (spin) {
+        constexpr auto kSpinWait = std::chrono::milliseconds(50);
+        const auto until = std::chrono::steady_clock::now() + kSpinWait;
+        while (std::chrono::steady_clock::now() < until) {
+            const VkResult r = vkGetFenceStatus(device_, fence.get());
+            if (r == VK_SUCCESS) return;
+            if (r != VK_NOT_READY) VK_CHECK(r);
+            std::this_thread::yield();
+        }
+    }
     VK_CHECK(vkWaitForFences(device_, 1, fence.ptr(), VK_TRUE, UINT64_MAX));
 }
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <future>
 
 #include "common/errors.h"
 #include "common/stopwatch.h"
@@ -66,8 +67,10 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
     production.lookups = false;
     production.reuse_maps = false;
     production.read_back = false;  // timings only: the output is discarded where it lies
+    production.camera_images = false;
     raster::RenderOptions timed = diagnostic.render;
     timed.read_back = false;
+    timed.camera_images = false;
     std::unique_ptr<metrics::GpuScorer> scorer;
     const metrics::Gate no_gate;
     std::vector<const metrics::Metric*> metrics;
@@ -82,20 +85,46 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
         // (and, on lavapipe, compiles) the pipelines and counts as the first diagnostic one; the
         // production pipelines are built by the first production render.
         std::optional<metrics::FrameScore> score;
+        metrics::DeferredPerceptual perceptual;
         if (scorer_kind == metrics::Scorer::gpu) {
-            const raster::RasterResult rr = session.render(c.technique, timed);
+            // The camera images go to the scorer once per camera pass (a new precision draws another).
+            raster::RenderOptions verdict = timed;
+            verdict.camera_images = !scorer;
+            raster::RasterResult rr = session.render(c.technique, verdict);
+            if (scorer && !scorer->knows_camera(rr.stats)) {
+                verdict.camera_images = true;
+                rr = session.render(c.technique, verdict);
+            }
+            row.verdict_render_s = seconds_since(tc);
             if (!scorer) scorer = std::make_unique<metrics::GpuScorer>(ctx, oracle->frame, rr.frame);
-            score = scorer->score(rr, scoring_options(scenario, c.technique, options.validate.tolerance,
-                                                      options.validate.visible_threshold));
+            score = scorer->score(
+                rr,
+                scoring_options(scenario, c.technique, options.validate.tolerance, options.validate.visible_threshold),
+                false, &perceptual);
         }
         // The CPU's verdict: on a CPU device, or for a family that reads its output back.
         if (!score) score = validate(scenario, c.technique, no_gate, diagnostic, &session, oracle).score;
-        for (int k = 1; k < kWarmUpRenders; ++k) session.render(c.technique, timed);
-        for (int k = 0; k < options.repeat; ++k)
-            row.diagnostic_ms.push_back(shadow_cost_ms(session.render(c.technique, timed).stats));
-        for (int k = 0; k < kWarmUpRenders; ++k) session.render(c.technique, production);
-        for (int k = 0; k < options.repeat; ++k)
-            row.production_ms.push_back(shadow_cost_ms(session.render(c.technique, production).stats));
+        row.verdict_s = seconds_since(tc);
+        // The perceptual error (CPU work) runs while the timed renders wait on the GPU.
+        std::future<void> perceptual_done =
+            std::async(std::launch::async, [&perceptual, &score] { perceptual.run(*score); });
+        auto timed_render = [&](const raster::RenderOptions& o) {
+            const raster::RasterResult r = session.render(c.technique, o);
+            row.timed_setup_s += r.stats.setup_s;
+            row.timed_submit_s += r.stats.render_s;
+            return shadow_cost_ms(r.stats);
+        };
+        auto td = SteadyClock::now();
+        for (int k = 1; k < kWarmUpRenders; ++k) timed_render(timed);
+        for (int k = 0; k < options.repeat; ++k) row.diagnostic_ms.push_back(timed_render(timed));
+        row.diagnostic_s = seconds_since(td);
+        td = SteadyClock::now();
+        for (int k = 0; k < kWarmUpRenders; ++k) timed_render(production);
+        for (int k = 0; k < options.repeat; ++k) row.production_ms.push_back(timed_render(production));
+        row.production_s = seconds_since(td);
+        td = SteadyClock::now();
+        perceptual_done.get();
+        row.perceptual_wait_s = seconds_since(td);
         row.lights = nlohmann::json::array();
         for (const auto& l : score->lights) row.lights.push_back(metrics::to_json(l));
         for (const metrics::Metric* m : metrics) {

@@ -127,6 +127,13 @@ struct Row {
     std::vector<double> production_ms;  // per repeat: shadow + lookup (+ mask) GPU ms, V only
     std::vector<double> diagnostic_ms;  // per repeat: the same passes with the lookups
     double seconds = 0;                 // wall clock of this configuration: verdict and timings
+    // Where `seconds` went, for benchmarks (not written to the files): the verdict (its render
+    // and scoring), the timed renders of each kind with their warm-ups, the wait for the
+    // perceptual error after them; and of the timed renders' wall clock, the families' set-up
+    // and their submit-and-wait (RasterStats::setup_s, render_s).
+    double verdict_s = 0, diagnostic_s = 0, production_s = 0, perceptual_wait_s = 0;
+    double verdict_render_s = 0;  // of verdict_s, the render
+    double timed_setup_s = 0, timed_submit_s = 0;
 };
 
 struct Table {

@@ -397,7 +397,13 @@ Evaluation Evaluator::evaluate(const raster::Technique& technique, const Setting
         // evaluation reads back when it still has to find the world knob's footprint.
         const bool on_gpu = gpu_scoring_ && footprint_m_ != 0 && !scene.cpu_only;
         ro.read_back = !on_gpu;
+        // The camera images go to the scorer once (GpuScorer::knows_camera).
+        ro.camera_images = !on_gpu || !scene.scorer;
         raster::RasterResult rr = scene.session->render(technique, ro);
+        if (!ro.camera_images && !scene.scorer->knows_camera(rr.stats)) {
+            ro.camera_images = true;
+            rr = scene.session->render(technique, ro);
+        }
         e.render_s += seconds_since(tr);
         const auto tc = SteadyClock::now();
         std::optional<metrics::FrameScore> gpu_score;
@@ -409,8 +415,9 @@ Evaluation Evaluator::evaluate(const raster::Technique& technique, const Setting
                 // A family that reads back, or V only without given scales: the CPU from now on.
                 scene.scorer.reset();
                 scene.cpu_only = true;
-                if (!rr.stats.on_device.empty()) {
+                if (!rr.stats.on_device.empty() || rr.frame.prim.empty()) {
                     ro.read_back = true;
+                    ro.camera_images = true;
                     rr = scene.session->render(technique, ro);
                 }
             }

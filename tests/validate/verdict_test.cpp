@@ -122,6 +122,23 @@ class Verdict : public test::VulkanSuite<Verdict> {
             metrics::score_frames(r.oracle->frame, session.render(technique, v).frame, v_only);
         for (std::size_t li = 0; li < cpu_v.lights.size(); ++li)
             expect_identical(gpu_v->lights[li], cpu_v.lights[li], "V only, scales given");
+
+        // sweep's way: a render without the camera images (the scorer has seen its camera pass),
+        // the perceptual error computed apart. A scorer that has not seen the pass declines.
+        raster::RenderOptions bare = on_device;
+        bare.camera_images = false;
+        const raster::RasterResult rb = session.render(technique, bare);
+        EXPECT_TRUE(rb.frame.prim.empty());
+        ASSERT_TRUE(scorer.knows_camera(rb.stats));
+        metrics::DeferredPerceptual perceptual;
+        std::optional<metrics::FrameScore> gpu_b = scorer.score(rb, r.scoring, false, &perceptual);
+        ASSERT_TRUE(gpu_b);
+        perceptual.run(*gpu_b);
+        for (std::size_t li = 0; li < r.score.lights.size(); ++li)
+            expect_identical(gpu_b->lights[li], r.score.lights[li], "without camera images, perceptual apart");
+        metrics::GpuScorer fresh(*ctx_, r.oracle->frame, rr.frame);
+        EXPECT_FALSE(fresh.knows_camera(rb.stats));
+        EXPECT_FALSE(fresh.score(rb, r.scoring).has_value());
     }
 
     static Judged judge(const Scenario& sc, const nlohmann::json& technique_json) {
