@@ -50,14 +50,15 @@ double filter_reach_texels(const Filter& f) {
         case FilterType::none: return 1.0;
         case FilterType::hw2x2: return 1.0;
         case FilterType::pcf: return std::max(1.0, 0.5 * f.size + bilinear);
-        case FilterType::poisson: return std::max(1.0, f.radius_texels + bilinear);
+        case FilterType::poisson:
+        case FilterType::vogel: return std::max(1.0, f.radius_texels + bilinear);
         case FilterType::pcss: return std::max(1.0, f.max_radius_texels);
     }
     return 1.0;
 }
 
 const char* to_string(FilterType f) {
-    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson", "pcss"};
+    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson", "pcss", "vogel"};
     return kNames[static_cast<int>(f)];
 }
 
@@ -277,7 +278,8 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
         JsonObject f = o.object("filter");
         t.filter.type =
             pick_enum(f, "type", FilterType::none,
-                      {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss});
+                      {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss,
+                       FilterType::vogel});
         t.filter.size = static_cast<int>(f.integer("size", 3, 1, 15));
         t.filter.taps = static_cast<int>(f.integer("taps", 16, 1, 64));
         t.filter.radius_texels = f.number_in("radius_texels", 1.5, 0.0, 64.0, "texels in [0, 64]");

@@ -5,7 +5,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <glm/mat4x4.hpp>
+#include <string>
+#include <vector>
 
 #include "common/errors.h"
 #include "raster/light_projection.h"
@@ -149,6 +152,7 @@ TEST(Technique, FilterReachAndDepthResolutionForTheMetrics) {
     EXPECT_EQ(reach({{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}), 2.0);
     EXPECT_EQ(reach({{"type", "poisson"}, {"radius_texels", 3.0}}), 3.0);
     EXPECT_EQ(reach({{"type", "poisson"}, {"radius_texels", 0.25}}), 1.0);
+    EXPECT_EQ(reach({{"type", "vogel"}, {"radius_texels", 1.0}, {"bilinear_taps", true}}), 1.5);
     EXPECT_EQ(raster::depth_resolution(raster::DepthFormat::d16), std::ldexp(1.0, -16));
     EXPECT_EQ(raster::depth_resolution(raster::DepthFormat::d32), 0.0);
 }
@@ -192,6 +196,17 @@ TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
     t = parse_technique({{"preset", "d3d12-textbook"}, {"bias", {{"slope", 2.5}}}}, "x");
     EXPECT_EQ(t.bias.slope, 2.5);
     EXPECT_EQ(t.bias.constant, 100000.0);
+}
+
+TEST(Technique, VogelFilterParsesAndWritesItsKeys) {
+    const raster::Technique t = parse_technique(
+        {{"filter", {{"type", "vogel"}, {"taps", 7}, {"radius_texels", 2.5}}}}, "s.json: technique");
+    EXPECT_EQ(t.filter.type, raster::FilterType::vogel);
+    const nlohmann::json f = t.to_json().at("filter");
+    EXPECT_EQ(f.at("type"), "vogel");
+    EXPECT_EQ(f.at("taps"), 7);
+    EXPECT_EQ(f.at("radius_texels"), 2.5);
+    EXPECT_THAT(error_of({{"filter", {{"type", "gaussian"}}}}), HasSubstr("\"vogel\""));
 }
 
 TEST(Technique, OverridesSetOneKeyAndParseJsonValues) {
