@@ -198,6 +198,45 @@ TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
     EXPECT_EQ(t.bias.constant, 100000.0);
 }
 
+// The engines' presets (docs/engines.md): each parses, writes back what it read, and carries the
+// values docs/engines.md cites.
+TEST(Technique, EnginePresetsParseAndRoundTrip) {
+    const std::vector<std::string> engines = {"bevy",  "godot",    "unity-urp", "unreal-csm", "three",
+                                              "three-csm", "filament", "babylon",   "babylon-csm"};
+    for (const std::string& name : engines) {
+        SCOPED_TRACE(name);
+        const raster::Technique t = parse_technique({{"preset", name}}, "s.json: technique");
+        const nlohmann::json written = t.to_json();
+        EXPECT_EQ(written.at("preset"), name);
+        EXPECT_EQ(parse_technique(written, "raster.json: technique").to_json(), written);
+    }
+    raster::Technique t = parse_technique({{"preset", "three"}}, "x");
+    EXPECT_EQ(t.resolution, 512);
+    EXPECT_EQ(t.fit, raster::Fit::scene_sphere);
+    EXPECT_EQ(t.depth_layer, raster::DepthLayer::second);
+    EXPECT_EQ(t.cull, raster::Cull::front);
+    EXPECT_EQ(t.filter.type, raster::FilterType::vogel);
+    EXPECT_EQ(t.filter.taps, 5);
+    EXPECT_EQ(t.filter.radius_texels, 1.0);
+    EXPECT_TRUE(t.filter.bilinear_taps);
+
+    t = parse_technique({{"preset", "bevy"}}, "x");
+    EXPECT_EQ(t.family, "cascaded");
+    EXPECT_EQ(t.bias.world, 0.02);
+    EXPECT_NEAR(t.bias.normal_offset, 1.8 * std::sqrt(2.0), 1e-12);
+
+    t = parse_technique({{"preset", "filament"}}, "x");
+    EXPECT_EQ(t.resolution, 1024);
+    EXPECT_EQ(t.bias.constant, 0.5);
+    EXPECT_EQ(t.bias.slope, 2.0);
+    EXPECT_EQ(t.bias.world, 0.001);
+
+    // The user's keys still win over an engine preset's.
+    t = parse_technique({{"preset", "godot"}, {"resolution", 1024}}, "x");
+    EXPECT_EQ(t.resolution, 1024);
+    EXPECT_EQ(t.depth_format, raster::DepthFormat::d16);
+}
+
 TEST(Technique, VogelFilterParsesAndWritesItsKeys) {
     const raster::Technique t = parse_technique(
         {{"filter", {{"type", "vogel"}, {"taps", 7}, {"radius_texels", 2.5}}}}, "s.json: technique");
