@@ -189,8 +189,7 @@ const std::vector<Preset>& presets() {
               {"bias",
                {{"constant", 1.0},
                 {"slope", 2.5},
-                {"caster",
-                 {{"world_texels", 1.0}, {"normal_texels", 1.0}, {"normal_factor", "one_minus_ndotl"}}}}},
+                {"caster", {{"world_texels", 1.0}, {"normal_texels", 1.0}, {"normal_factor", "one_minus_ndotl"}}}}},
               {"cascades", {{"count", 1}, {"max_distance", 50.0}, {"fit", "sphere"}, {"stabilize", true}}},
               {"filter", {{"type", "hw2x2"}}}}},
         {"unreal-csm",
@@ -468,10 +467,9 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
     }
     if (o.has("filter")) {
         JsonObject f = o.object("filter");
-        t.filter.type =
-            pick_enum(f, "type", FilterType::none,
-                      {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss,
-                       FilterType::vogel});
+        t.filter.type = pick_enum(f, "type", FilterType::none,
+                                  {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson,
+                                   FilterType::pcss, FilterType::vogel});
         t.filter.size = static_cast<int>(f.integer("size", 3, 1, 15));
         t.filter.taps = static_cast<int>(f.integer("taps", 16, 1, 64));
         t.filter.radius_texels = f.number_in("radius_texels", 1.5, 0.0, 64.0, "texels in [0, 64]");

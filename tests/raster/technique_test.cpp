@@ -201,7 +201,7 @@ TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
 // The engines' presets (docs/engines.md): each parses, writes back what it read, and carries the
 // values docs/engines.md cites.
 TEST(Technique, EnginePresetsParseAndRoundTrip) {
-    const std::vector<std::string> engines = {"bevy",  "godot",    "unity-urp", "unreal-csm", "three",
+    const std::vector<std::string> engines = {"bevy",      "godot",    "unity-urp", "unreal-csm", "three",
                                               "three-csm", "filament", "babylon",   "babylon-csm"};
     for (const std::string& name : engines) {
         SCOPED_TRACE(name);
@@ -238,8 +238,8 @@ TEST(Technique, EnginePresetsParseAndRoundTrip) {
 }
 
 TEST(Technique, VogelFilterParsesAndWritesItsKeys) {
-    const raster::Technique t = parse_technique(
-        {{"filter", {{"type", "vogel"}, {"taps", 7}, {"radius_texels", 2.5}}}}, "s.json: technique");
+    const raster::Technique t =
+        parse_technique({{"filter", {{"type", "vogel"}, {"taps", 7}, {"radius_texels", 2.5}}}}, "s.json: technique");
     EXPECT_EQ(t.filter.type, raster::FilterType::vogel);
     const nlohmann::json f = t.to_json().at("filter");
     EXPECT_EQ(f.at("type"), "vogel");
