@@ -35,6 +35,10 @@ const char* to_string(Precision p) {
     static const char* const kNames[] = {"camera_relative", "world_float32"};
     return kNames[static_cast<int>(p)];
 }
+const char* to_string(NormalFactor f) {
+    static const char* const kNames[] = {"none", "one_minus_ndotl", "sin"};
+    return kNames[static_cast<int>(f)];
+}
 double depth_resolution(DepthFormat f) {
     switch (f) {
         case DepthFormat::d16: return std::ldexp(1.0, -16);
@@ -137,16 +141,37 @@ namespace {
 // Reads the bias keys an object gives (any subset), checked; unknown keys are errors.
 BiasOverride read_bias(JsonObject& b) {
     BiasOverride o;
-    auto number = [&](const char* key, std::optional<double>& out, double lo, double hi, const char* what) {
-        if (b.has(key)) out = b.number_in(key, lo, hi, what);
+    auto number = [](JsonObject& from, const char* key, std::optional<double>& out, double lo, double hi,
+                     const char* what) {
+        if (from.has(key)) out = from.number_in(key, lo, hi, what);
     };
-    number("constant", o.constant, -1e9, 1e9, "a depth-bias constant factor within +-1e9");
-    number("slope", o.slope, -1e4, 1e4, "a slope factor within +-1e4");
-    number("clamp", o.clamp, -1.0, 1.0, "a clamp within [-1, 1] depth units");
-    number("world", o.world, -1e6, 1e6, "metres within +-1e6");
-    number("normal_offset", o.normal_offset, -1e3, 1e3, "texel footprints within +-1000");
-    number("shader_depth", o.shader_depth, -1.0, 1.0, "depth units within [-1, 1]");
+    auto factor = [](JsonObject& from, std::optional<NormalFactor>& out) {
+        if (from.has("normal_factor"))
+            out = pick_enum(from, "normal_factor", NormalFactor::none,
+                            {NormalFactor::none, NormalFactor::one_minus_ndotl, NormalFactor::sin});
+    };
+    number(b, "constant", o.constant, -1e9, 1e9, "a depth-bias constant factor within +-1e9");
+    number(b, "slope", o.slope, -1e4, 1e4, "a slope factor within +-1e4");
+    number(b, "clamp", o.clamp, -1.0, 1.0, "a clamp within [-1, 1] depth units");
+    number(b, "world", o.world, -1e6, 1e6, "metres within +-1e6");
+    number(b, "normal_offset", o.normal_offset, -1e3, 1e3, "texel footprints within +-1000");
+    number(b, "shader_depth", o.shader_depth, -1.0, 1.0, "depth units within [-1, 1]");
     if (b.has("receiver_plane")) o.receiver_plane = b.boolean("receiver_plane", false);
+    number(b, "normal_offset_m", o.normal_offset_m, -1e6, 1e6, "metres within +-1e6");
+    factor(b, o.normal_factor);
+    if (b.has("normal_perpendicular")) o.normal_perpendicular = b.boolean("normal_perpendicular", false);
+    number(b, "world_depth_range", o.world_depth_range, 0.0, 1.0, "a fraction of the map's depth range in [0, 1]");
+    if (b.has("caster")) {
+        JsonObject c = b.object("caster");
+        CasterBiasOverride& k = o.caster;
+        number(c, "world", k.world, -1e6, 1e6, "metres within +-1e6");
+        number(c, "world_texels", k.world_texels, -1e3, 1e3, "texels within +-1000");
+        number(c, "normal", k.normal, -1e6, 1e6, "metres within +-1e6");
+        number(c, "normal_texels", k.normal_texels, -1e3, 1e3, "texels within +-1000");
+        factor(c, k.normal_factor);
+        number(c, "depth", k.depth, -1.0, 1.0, "normalised depth within [-1, 1]");
+        c.finish();
+    }
     b.finish();
     return o;
 }
@@ -159,6 +184,17 @@ void apply(const BiasOverride& o, Bias& b) {
     if (o.normal_offset) b.normal_offset = *o.normal_offset;
     if (o.shader_depth) b.shader_depth = *o.shader_depth;
     if (o.receiver_plane) b.receiver_plane = *o.receiver_plane;
+    if (o.normal_offset_m) b.normal_offset_m = *o.normal_offset_m;
+    if (o.normal_factor) b.normal_factor = *o.normal_factor;
+    if (o.normal_perpendicular) b.normal_perpendicular = *o.normal_perpendicular;
+    if (o.world_depth_range) b.world_depth_range = *o.world_depth_range;
+    const CasterBiasOverride& k = o.caster;
+    if (k.world) b.caster.world = *k.world;
+    if (k.world_texels) b.caster.world_texels = *k.world_texels;
+    if (k.normal) b.caster.normal = *k.normal;
+    if (k.normal_texels) b.caster.normal_texels = *k.normal_texels;
+    if (k.normal_factor) b.caster.normal_factor = *k.normal_factor;
+    if (k.depth) b.caster.depth = *k.depth;
 }
 
 json bias_json(const BiasOverride& o) {
@@ -170,6 +206,21 @@ json bias_json(const BiasOverride& o) {
     if (o.normal_offset) j["normal_offset"] = *o.normal_offset;
     if (o.shader_depth) j["shader_depth"] = *o.shader_depth;
     if (o.receiver_plane) j["receiver_plane"] = *o.receiver_plane;
+    if (o.normal_offset_m) j["normal_offset_m"] = *o.normal_offset_m;
+    if (o.normal_factor) j["normal_factor"] = to_string(*o.normal_factor);
+    if (o.normal_perpendicular) j["normal_perpendicular"] = *o.normal_perpendicular;
+    if (o.world_depth_range) j["world_depth_range"] = *o.world_depth_range;
+    const CasterBiasOverride& k = o.caster;
+    if (k != CasterBiasOverride{}) {
+        json c = json::object();
+        if (k.world) c["world"] = *k.world;
+        if (k.world_texels) c["world_texels"] = *k.world_texels;
+        if (k.normal) c["normal"] = *k.normal;
+        if (k.normal_texels) c["normal_texels"] = *k.normal_texels;
+        if (k.normal_factor) c["normal_factor"] = to_string(*k.normal_factor);
+        if (k.depth) c["depth"] = *k.depth;
+        j["caster"] = c;
+    }
     return j;
 }
 
@@ -254,6 +305,7 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
     if (t.shadow_distance > 0 && t.fit != Fit::camera_frustum)
         o.fail("shadow_distance", "only the camera_frustum fit has a shadow distance");
     t.cull = pick_enum(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
+    t.reversed_z = o.boolean("reversed_z", false);
     if (o.has("bias")) {
         JsonObject b = o.object("bias");
         apply(read_bias(b), t.bias);
@@ -340,7 +392,19 @@ json depth_map_keys_json(const Technique& t) {
              {"world", bias.world},
              {"normal_offset", bias.normal_offset},
              {"shader_depth", bias.shader_depth},
-             {"receiver_plane", bias.receiver_plane}}},
+             {"receiver_plane", bias.receiver_plane},
+             {"normal_offset_m", bias.normal_offset_m},
+             {"normal_factor", to_string(bias.normal_factor)},
+             {"normal_perpendicular", bias.normal_perpendicular},
+             {"world_depth_range", bias.world_depth_range},
+             {"caster",
+              {{"world", bias.caster.world},
+               {"world_texels", bias.caster.world_texels},
+               {"normal", bias.caster.normal},
+               {"normal_texels", bias.caster.normal_texels},
+               {"normal_factor", to_string(bias.caster.normal_factor)},
+               {"depth", bias.caster.depth}}}}},
+           {"reversed_z", t.reversed_z},
            {"filter",
             {{"type", to_string(filter.type)},
              {"size", filter.size},

@@ -30,6 +30,23 @@ enum class DepthLayer { first, midpoint, second };
 // far from the origin degrades as it does there (godot #72015).
 enum class Precision { camera_relative, world_float32 };
 
+// How a normal offset scales with the angle between the surface and the light (docs/raster.md,
+// "Bias as engines apply it"): not at all, by 1 - max(0, N.L) (Godot, Unity URP), or by
+// sin(theta) = sqrt(1 - (N.L)^2) (Filament, Babylon).
+enum class NormalFactor { none, one_minus_ndotl, sin };
+
+// Offsets applied to the casters while the map is drawn (Unity URP, Babylon): the stored surface
+// moves away from the light.
+struct CasterBias {
+    double world = 0;                                 // along L, metres
+    double world_texels = 0;                          // along L, texels of the map or cascade
+    double normal = 0;                                // inward along the vertex normal (-N), metres
+    double normal_texels = 0;                         // inward along the vertex normal, texels of the map or cascade
+    NormalFactor normal_factor = NormalFactor::none;  // of `normal` and `normal_texels`
+    double depth = 0;                                 // added to the drawn depth, [0, 1] of the map's depth range
+    bool operator==(const CasterBias&) const = default;
+};
+
 struct Bias {
     double constant = 0;       // Vulkan depthBiasConstantFactor, units of the format's r
     double slope = 0;          // Vulkan depthBiasSlopeFactor
@@ -38,12 +55,28 @@ struct Bias {
     double normal_offset = 0;  // receiver moved along its normal, shadow-map texel footprints
     double shader_depth = 0;   // subtracted from the receiver depth in the shader, depth units
     bool receiver_plane = false;
+    double normal_offset_m = 0;  // receiver moved along its normal, metres (added to normal_offset's)
+    NormalFactor normal_factor = NormalFactor::none;  // of both receiver normal offsets
+    bool normal_perpendicular = false;                // the receiver's normal offset loses its component along L
+    double world_depth_range = 0;  // receiver moved towards the light, fraction of the map's depth range
+    CasterBias caster;
+};
+
+// The caster keys one light gives over the technique's `bias.caster`.
+struct CasterBiasOverride {
+    std::optional<double> world, world_texels, normal, normal_texels, depth;
+    std::optional<NormalFactor> normal_factor;
+    bool operator==(const CasterBiasOverride&) const = default;
 };
 
 // The bias keys one light gives over the technique's `bias` (engines set bias per light).
 struct BiasOverride {
     std::optional<double> constant, slope, clamp, world, normal_offset, shader_depth;
     std::optional<bool> receiver_plane;
+    std::optional<double> normal_offset_m, world_depth_range;
+    std::optional<NormalFactor> normal_factor;
+    std::optional<bool> normal_perpendicular;
+    CasterBiasOverride caster;
     bool operator==(const BiasOverride&) const = default;
 };
 
@@ -87,7 +120,12 @@ struct Technique {
     // tried): Filament's polygon offset, LightManager::ShadowOptions polygonOffsetConstant 0.5
     // and polygonOffsetSlope 2.0 (../shared/reference/engines.md, section 6). The `no-bias`
     // preset keeps the bias-free setup.
-    Bias bias{.constant = 0.5, .slope = 2.0};
+    Bias bias = [] {
+        Bias b;
+        b.constant = 0.5;
+        b.slope = 2.0;
+        return b;
+    }();
     Filter filter;
     // The depth_map family's `depth_layer` (first in every other family). `second` draws with
     // cull front: parse sets `cull` so.
@@ -98,6 +136,10 @@ struct Technique {
     // Read and written by the averaged_area family only (0 in every other family).
     int area_samples = 0;
     Precision precision = Precision::camera_relative;
+    // Depth-map families: the map stores 1 - z, cleared to 0 and compared greater-or-equal, with
+    // the hardware bias's sign flipped (bevy's reverse-Z Depth32Float). Lookups report depth
+    // converted back, so the metrics read the forward convention either way.
+    bool reversed_z = false;
     // Per-light overrides, indexed as the scenario's lights (may be shorter than them): their
     // keys win over `bias` for that light.
     std::vector<LightOverride> lights;
@@ -163,5 +205,6 @@ const char* to_string(Cull c);
 const char* to_string(FilterType f);
 const char* to_string(DepthLayer d);
 const char* to_string(Precision p);
+const char* to_string(NormalFactor f);
 
 }  // namespace penumbra::raster

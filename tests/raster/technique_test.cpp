@@ -194,6 +194,65 @@ TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
     EXPECT_EQ(t.bias.constant, 100000.0);
 }
 
+// The engine bias keys (issue 38): off by default, parsed with their key paths in errors, per
+// light, through --set, and written back by to_json.
+TEST(Technique, EngineBiasKeysParseValidateAndRoundTrip) {
+    const raster::Technique d = parse_technique(nlohmann::json::object(), "s.json: technique");
+    EXPECT_EQ(d.bias.normal_offset_m, 0.0);
+    EXPECT_EQ(d.bias.normal_factor, raster::NormalFactor::none);
+    EXPECT_FALSE(d.bias.normal_perpendicular);
+    EXPECT_EQ(d.bias.world_depth_range, 0.0);
+    EXPECT_EQ(d.bias.caster, raster::CasterBias{});
+    EXPECT_FALSE(d.reversed_z);
+
+    nlohmann::json j = {{"reversed_z", true},
+                        {"bias",
+                         {{"normal_offset_m", 0.02},
+                          {"normal_factor", "sin"},
+                          {"normal_perpendicular", true},
+                          {"world_depth_range", 0.001},
+                          {"caster", {{"world", 0.05}, {"normal_factor", "one_minus_ndotl"}, {"depth", 1e-4}}}}},
+                        {"lights", {{{"bias", {{"caster", {{"normal_texels", 2}}}, {"normal_factor", "none"}}}}}}};
+    raster::apply_override(j, "bias.caster.world_texels=1.5");
+    raster::apply_override(j, "bias.caster.normal=0.01");
+    const raster::Technique t = parse_technique(j, "s.json: technique");
+    EXPECT_TRUE(t.reversed_z);
+    EXPECT_EQ(t.bias.normal_offset_m, 0.02);
+    EXPECT_EQ(t.bias.normal_factor, raster::NormalFactor::sin);
+    EXPECT_TRUE(t.bias.normal_perpendicular);
+    EXPECT_EQ(t.bias.world_depth_range, 0.001);
+    EXPECT_EQ(t.bias.caster.world, 0.05);
+    EXPECT_EQ(t.bias.caster.world_texels, 1.5);
+    EXPECT_EQ(t.bias.caster.normal, 0.01);
+    EXPECT_EQ(t.bias.caster.normal_texels, 0.0);
+    EXPECT_EQ(t.bias.caster.normal_factor, raster::NormalFactor::one_minus_ndotl);
+    EXPECT_EQ(t.bias.caster.depth, 1e-4);
+    // Light 0's override wins key by key, the nested caster keys included.
+    const raster::Bias b0 = t.bias_for(0);
+    EXPECT_EQ(b0.caster.normal_texels, 2.0);
+    EXPECT_EQ(b0.caster.world, 0.05);
+    EXPECT_EQ(b0.normal_factor, raster::NormalFactor::none);
+    EXPECT_EQ(b0.normal_offset_m, 0.02);
+    const raster::Technique back = parse_technique(t.to_json(), "round trip");
+    EXPECT_EQ(back.to_json(), t.to_json());
+    EXPECT_EQ(back.lights, t.lights);
+    EXPECT_EQ(t.to_json()["bias"]["caster"]["normal_factor"], "one_minus_ndotl");
+    EXPECT_EQ(t.to_json()["reversed_z"], true);
+
+    EXPECT_THAT(error_of({{"bias", {{"caster", {{"normal_factor", "cos"}}}}}}),
+                HasSubstr("s.json: technique.bias.caster.normal_factor: \"cos\" is not one of \"none\", "
+                          "\"one_minus_ndotl\", \"sin\""));
+    EXPECT_THAT(error_of({{"bias", {{"normal_factor", 1}}}}), HasSubstr("technique.bias.normal_factor"));
+    EXPECT_THAT(error_of({{"bias", {{"world_depth_range", -0.1}}}}), HasSubstr("technique.bias.world_depth_range"));
+    EXPECT_THAT(error_of({{"bias", {{"caster", {{"wrold", 1}}}}}}),
+                HasSubstr("technique.bias.caster.wrold: unknown key"));
+    EXPECT_THAT(error_of({{"bias", {{"caster", 1}}}}), HasSubstr("technique.bias.caster"));
+    EXPECT_THAT(error_of({{"bias", {{"caster", {{"depth", 2}}}}}}), HasSubstr("technique.bias.caster.depth"));
+    EXPECT_THAT(error_of({{"reversed_z", "yes"}}), HasSubstr("technique.reversed_z"));
+    EXPECT_THAT(error_of({{"lights", {{{"bias", {{"caster", {{"normal_texels", "x"}}}}}}}}}),
+                HasSubstr("technique.lights[0].bias.caster.normal_texels"));
+}
+
 TEST(Technique, OverridesSetOneKeyAndParseJsonValues) {
     nlohmann::json j = {{"bias", {{"slope", 1.0}}}};
     raster::apply_override(j, "bias.slope=1.5");
