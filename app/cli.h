@@ -133,5 +133,6 @@ Subcommand add_stress_command(CLI::App& parent);
 Subcommand add_init_command(CLI::App& parent);
 Subcommand add_diff_command(CLI::App& parent);
 Subcommand add_cache_command(CLI::App& parent);
+Subcommand add_units_command(CLI::App& parent);
 
 }  // namespace penumbra::cli

@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
         cli::add_devices_command(app), cli::add_tune_command(app),   cli::add_compare_command(app),
         cli::add_camera_command(app),  cli::add_sweep_command(app),  cli::add_merge_command(app),
         cli::add_stress_command(app),  cli::add_init_command(app),   cli::add_diff_command(app),
-        cli::add_cache_command(app),
+        cli::add_cache_command(app),   cli::add_units_command(app),
     };
 
     set_command_line(argc, argv);  // shown in the reports a run writes

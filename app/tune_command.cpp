@@ -3,12 +3,15 @@
 #include <fmt/format.h>
 
 #include <memory>
+#include <optional>
+#include <span>
 
 #include "app/cli.h"
 #include "common/errors.h"
 #include "common/json_reader.h"
 #include "common/output_files.h"
 #include "common/stopwatch.h"
+#include "engines/engine_units.h"
 #include "metrics/metric_table.h"
 #include "raster/vulkan_context.h"
 #include "tune/tune_files.h"
@@ -34,7 +37,66 @@ struct TuneArgs {
     bool gate = false;
     bool visibility_only = false;
     bool shared_bias = false;
+    std::string units;  // --units ENGINE: the recommendation in that engine's parameters too
 };
+
+// What `--units ENGINE` converts at, per scenario and light: the reference receiver and the maps
+// (penumbra's fit of the technique; tune moves the bias only, so the start's maps are the
+// recommendation's).
+struct EngineUnitsPlan {
+    std::string engine;
+    std::vector<std::vector<std::vector<engines::MapContext>>> maps;  // [scenario][light][map]
+};
+
+EngineUnitsPlan plan_engine_units(const std::string& engine, std::span<const Scenario> scenarios,
+                                  const raster::Technique& t) {
+    if (engines::engine_info(engine, "--units").name == "penumbra")
+        throw InputError(
+            "--units: penumbra's own keys are technique.json; give an engine (bevy, godot, unity-urp, "
+            "unreal, three, filament, babylon)");
+    EngineUnitsPlan plan{engine, {}};
+    for (const Scenario& s : scenarios) {
+        auto& per_light = plan.maps.emplace_back();
+        for (std::size_t li = 0; li < s.lights.size(); ++li)
+            per_light.push_back(
+                engines::map_contexts(s, t, li, engines::reference_receiver(s, s.lights[li], std::nullopt)));
+    }
+    return plan;
+}
+
+// The recommended bias of each light in the plan's engine: at the first map (split 0: the
+// nearest cascade, where acne shows most), with every cascade's values alongside. An engine that
+// cannot carry the bias at the reference angle gets an "error" instead of its parameters.
+void add_engine_units(const EngineUnitsPlan& plan, const raster::Technique& recommended,
+                      std::vector<tune::ApiBias>& units) {
+    for (tune::ApiBias& u : units) {
+        const auto& maps = plan.maps.at(u.scenario).at(u.light);
+        const engines::EngineBias from = engines::penumbra_bias(recommended.bias_for(u.light));
+        nlohmann::json per_map = nlohmann::json::array();
+        for (const engines::MapContext& m : maps) {
+            nlohmann::json j = engines::to_json(m);
+            try {
+                const engines::EngineBias b = engines::convert(from, plan.engine, m);
+                j["parameters"] = b.values;
+                j["engine_assumptions"] = b.assumptions;
+            } catch (const InputError& e) {
+                j["error"] = e.what();
+            }
+            per_map.push_back(j);
+        }
+        if (per_map.empty()) continue;
+        const nlohmann::json& first = per_map.front();
+        nlohmann::json assumptions = first.value("engine_assumptions", nlohmann::json::object());
+        assumptions["reference_angle_deg"] = first["reference_angle_deg"];
+        assumptions["split"] = first["cascade"];
+        assumptions["reference_receiver"] = "the scene's largest plane";
+        u.engine = {{"name", plan.engine}, {"assumptions", assumptions}, {"map", first}, {"maps", per_map}};
+        if (first.contains("parameters"))
+            u.engine["parameters"] = first["parameters"];
+        else
+            u.engine["error"] = first["error"];
+    }
+}
 
 int run_tune_command(const TuneArgs& a) {
     const auto t0 = SteadyClock::now();
@@ -59,6 +121,8 @@ int run_tune_command(const TuneArgs& a) {
     const raster::Technique start = resolve_technique(scenarios.front(), a.technique);
     if (a.knobs.empty()) options.knobs = tune::parse_knobs(tune::default_knobs(start), "--knobs");
     tune::check_family_knobs(start, options.knobs, "--knobs");
+    std::optional<EngineUnitsPlan> engine_units;
+    if (!a.units.empty()) engine_units = plan_engine_units(a.units, scenarios, start);
     for (const auto* list : {&scenarios, &holdout})
         for (const Scenario& s : *list) {
             raster::check_technique_lights(start, s.lights, s.label + ": technique");
@@ -91,6 +155,7 @@ int run_tune_command(const TuneArgs& a) {
     report.tuned = tune::revalidate_never_worse(evaluator, start, report.result, options, report.scenario_files);
     report.holdout = tune::revalidate(holdout, start, res.recommended, options.validate, ctx);
     report.units = tune::api_units(report.tuned);
+    if (engine_units) add_engine_units(*engine_units, res.recommended, report.units);
     report.seconds = seconds_since(t0);
 
     OutputTransaction out(c.out);
@@ -136,6 +201,18 @@ int run_tune_command(const TuneArgs& a) {
                 raster::to_string(res.recommended.depth_format), u.vk_constant, u.vk_slope, u.vk_clamp,
                 u.d3d12_depth_bias_d24, u.d3d12_depth_bias_d32, u.d3d12_slope, u.d3d12_clamp, u.gl_factor, u.gl_units,
                 u.constant_m, u.world_m, u.normal_offset_texels, u.normal_offset_m);
+            if (!u.engine.is_null()) {
+                std::string values;
+                const nlohmann::json params = u.engine.value("parameters", nlohmann::json::object());
+                for (auto it = params.begin(); it != params.end(); ++it)
+                    values += fmt::format("{}{} = {:.6g}", values.empty() ? "" : ", ", it.key(), it->get<double>());
+                if (u.engine.contains("error")) values = u.engine["error"].get<std::string>();
+                fmt::print(
+                    "  {}: {} (split {}, reference angle {:.1f} deg; tune.json has every cascade and the "
+                    "assumptions)\n",
+                    a.units, values, u.engine["assumptions"]["split"].dump(),
+                    u.engine["assumptions"]["reference_angle_deg"].get<double>());
+            }
         }
         for (const tune::Revalidation& rv : report.tuned)
             for (std::size_t li = 0; li < rv.after.score.lights.size(); ++li) {
@@ -195,6 +272,10 @@ Subcommand add_tune_command(CLI::App& parent) {
                   "Evaluate from V alone, classified from the oracle's geometry (faster on GPUs; docs/tune.md)");
     cmd->add_flag("--shared-bias", a->shared_bias,
                   "One bias for every light (default: each light's own, in technique.json's \"lights\")");
+    cmd->add_option("--units", a->units,
+                    "Also give the recommendation in an engine's parameters: bevy, godot, unity-urp, unreal, three, "
+                    "filament, babylon (docs/units.md)")
+        ->check(kUserName);
     cmd->add_flag("--gate", a->gate, "Exit 1 when no setting meets --max-acne (on some light)");
     add_verdict_options(cmd, a->verdict);
     describe_outputs(

@@ -7,7 +7,7 @@ include(CMakePackageConfigHelpers)
 
 set(penumbra_modules penumbra_common penumbra_tinygltf penumbra_image_io penumbra_oracle penumbra_raster
   penumbra_metrics penumbra_metrics_gpu penumbra_report penumbra_report_files penumbra_pipeline penumbra_pipeline_files
-  penumbra_stress penumbra_stress_files penumbra_tune penumbra_tune_files penumbra_sweep penumbra_sweep_files)
+  penumbra_stress penumbra_stress_files penumbra_tune penumbra_tune_files penumbra_sweep penumbra_sweep_files penumbra_engines)
 add_library(penumbra_library SHARED)
 foreach(module ${penumbra_modules})
   target_sources(penumbra_library PRIVATE $<TARGET_OBJECTS:${module}>)

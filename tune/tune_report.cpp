@@ -212,7 +212,7 @@ nlohmann::json tune_json(const TuneReport& r) {
     nlohmann::json evaluations = nlohmann::json::array();
     for (const auto& e : res.evaluations) evaluations.push_back(evaluation_json(e, knobs));
     nlohmann::json units = nlohmann::json::array();
-    for (const ApiBias& b : r.units)
+    for (const ApiBias& b : r.units) {
         units.push_back({{"scenario", b.scenario},
                          {"light", b.light},
                          {"median_depth", b.median_depth},
@@ -233,6 +233,8 @@ nlohmann::json tune_json(const TuneReport& r) {
                            {"world_bias_m", b.world_m},
                            {"normal_offset_texels", b.normal_offset_texels},
                            {"normal_offset_m", b.normal_offset_m}}}});
+        if (!b.engine.is_null()) units.back()["engine"] = b.engine;
+    }
     nlohmann::json front = nlohmann::json::array();
     for (std::size_t i : res.front) front.push_back(i);
     const std::size_t chosen = res.chosen();

@@ -26,6 +26,9 @@ struct ApiBias {
     double d3d12_slope = 0, d3d12_clamp = 0;                       // SlopeScaledDepthBias, DepthBiasClamp
     double gl_factor = 0, gl_units = 0;                            // glPolygonOffset(factor, units), chosen format
     double constant_m = 0, world_m = 0, normal_offset_texels = 0, normal_offset_m = 0;
+    // `tune --units ENGINE`: the bias in that engine's parameters with the assumptions they hold
+    // under (docs/units.md); null without --units.
+    nlohmann::json engine;
 };
 
 // The re-validation of one technique on one scenario (full validate: lookups and pictures).
