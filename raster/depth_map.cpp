@@ -99,6 +99,7 @@ gpu::uint filter_kind(FilterType f) {
         case FilterType::pcf: return gpu::kFilterPcf;
         case FilterType::poisson: return gpu::kFilterPoisson;
         case FilterType::pcss: return gpu::kFilterPcss;
+        case FilterType::vogel: return gpu::kFilterVogel;
     }
     return gpu::kFilterNone;
 }
@@ -300,7 +301,8 @@ void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
                                            ctx_.info().name, to_string(t.depth_format)));
     bool wants_bilinear =
         t.filter.type == FilterType::hw2x2 ||
-        (t.filter.bilinear_taps && (t.filter.type == FilterType::pcf || t.filter.type == FilterType::poisson));
+        (t.filter.bilinear_taps && (t.filter.type == FilterType::pcf || t.filter.type == FilterType::poisson ||
+                                    t.filter.type == FilterType::vogel));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
 }
@@ -907,7 +909,7 @@ FamilyEntry depth_map_family_entry() {
     e.name = "depth_map";
     e.description =
         "one depth map per light (six cube faces for point lights), hardware and shader biases, filters none, "
-        "hw2x2, pcf, poisson, pcss";
+        "hw2x2, pcf, poisson, pcss, vogel";
     e.parse = [](JsonObject& o, Technique& t) {
         parse_depth_map_keys(o, t);
         t.depth_layer = pick_enum(o, "depth_layer", DepthLayer::first,

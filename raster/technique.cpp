@@ -54,14 +54,15 @@ double filter_reach_texels(const Filter& f) {
         case FilterType::none: return 1.0;
         case FilterType::hw2x2: return 1.0;
         case FilterType::pcf: return std::max(1.0, 0.5 * f.size + bilinear);
-        case FilterType::poisson: return std::max(1.0, f.radius_texels + bilinear);
+        case FilterType::poisson:
+        case FilterType::vogel: return std::max(1.0, f.radius_texels + bilinear);
         case FilterType::pcss: return std::max(1.0, f.max_radius_texels);
     }
     return 1.0;
 }
 
 const char* to_string(FilterType f) {
-    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson", "pcss"};
+    static const char* const kNames[] = {"none", "hw2x2", "pcf", "poisson", "pcss", "vogel"};
     return kNames[static_cast<int>(f)];
 }
 
@@ -132,6 +133,145 @@ const std::vector<Preset>& presets() {
          "scene's largest upward plane by the light's projection matrix, drawn once per pixel through a stencil; "
          "only that plane receives shadow",
          json{{"family", "planar_projection"}}},
+        // Engines' defaults for a sun (docs/engines.md has every value's source and conversion).
+        // A preset does not know the scene, so spot and point lights get the sun's keys; where an
+        // engine differs for them, docs/engines.md says what the preset draws instead.
+        {"bevy",
+         "bevy 0.19 (main 4805ca7): 4 cascades, geometric far bounds from 10 m to 150 m, 20% overlap blended, "
+         "2048^2 per cascade, Depth32Float reverse-Z, shadow_depth_bias 0.02 m along L and shadow_normal_bias 1.8 "
+         "texels x sqrt2 along the normal (no N.L term); Gaussian filter approximated by 5x5 bilinear PCF",
+         json{{"family", "cascaded"},
+              {"resolution", 2048},
+              {"depth_format", "d32"},
+              {"reversed_z", true},
+              {"cull", "back"},
+              {"bias", {{"constant", 0}, {"slope", 0}, {"world", 0.02}, {"normal_offset", 1.8 * 1.4142135623730951}}},
+              {"cascades",
+               {{"count", 4},
+                {"split", "geometric"},
+                {"first_far", 10.0},
+                {"max_distance", 150.0},
+                {"overlap", 0.2},
+                {"fit", "sphere"},
+                {"stabilize", true}}},
+              {"filter", {{"type", "pcf"}, {"size", 5}, {"bilinear_taps", true}}}}},
+        {"godot",
+         "Godot 4 Forward+: PSSM 4 splits at 0.1/0.2/0.5 of 100 m, 2048^2 per split (half the 4096 atlas), 16-bit "
+         "depth, shadow_bias 0.1 -> 0.002 x each split's depth range (x blur 1 x Soft Low radius 2), normal bias 2 "
+         "texels x (1 - N.L) without its component along L; Soft Low filter approximated by 4 Poisson taps of radius "
+         "2 texels",
+         json{{"family", "cascaded"},
+              {"resolution", 2048},
+              {"depth_format", "d16"},
+              {"cull", "back"},
+              {"bias",
+               {{"constant", 0},
+                {"slope", 0},
+                {"world_depth_range", 0.002},
+                {"normal_offset", 2.0},
+                {"normal_factor", "one_minus_ndotl"},
+                {"normal_perpendicular", true}}},
+              {"cascades",
+               {{"split", "fractions"},
+                {"fractions", {0.1, 0.2, 0.5}},
+                {"max_distance", 100.0},
+                {"fit", "sphere"},
+                {"stabilize", true}}},
+              {"filter", {{"type", "poisson"}, {"taps", 4}, {"radius_texels", 2.0}, {"bilinear_taps", true}}}}},
+        {"unity-urp",
+         "Unity URP (new asset): one cascade over a 50 m shadow distance, 2048^2, 16-bit, sphere fit; casters "
+         "moved 1 texel away from the light and 1 texel x (1 - N.L) inward while the map is drawn, hardware "
+         "bias (1.0, 2.5); soft shadows off: one bilinear compare",
+         json{{"family", "cascaded"},
+              {"resolution", 2048},
+              {"depth_format", "d16"},
+              {"cull", "back"},
+              {"bias",
+               {{"constant", 1.0},
+                {"slope", 2.5},
+                {"caster", {{"world_texels", 1.0}, {"normal_texels", 1.0}, {"normal_factor", "one_minus_ndotl"}}}}},
+              {"cascades", {{"count", 1}, {"max_distance", 50.0}, {"fit", "sphere"}, {"stabilize", true}}},
+              {"filter", {{"type", "hw2x2"}}}}},
+        {"unreal-csm",
+         "Unreal Engine 5 cascaded shadow maps (not the default virtual shadow maps): 3 cascades, distribution "
+         "exponent 3 over 200 m (far bounds 1/13, 4/13, 1), 2048^2, caster depth bias 10 cm x ShadowBias 0.5 and "
+         "slope 3 x 0.5 (unverified: Epic's source was not read); filter approximated by 3x3 bilinear PCF",
+         json{{"family", "cascaded"},
+              {"resolution", 2048},
+              {"depth_format", "d16"},
+              {"cull", "back"},
+              {"bias", {{"constant", 0}, {"slope", 1.5}, {"caster", {{"world", 0.05}}}}},
+              {"cascades",
+               {{"split", "fractions"},
+                {"fractions", {1.0 / 13.0, 4.0 / 13.0}},
+                {"max_distance", 200.0},
+                {"fit", "sphere"},
+                {"stabilize", true}}},
+              {"filter", {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}}}},
+        {"three",
+         "three.js r187: 512^2, 24-bit, no cascades; the fixed +-5 m shadow camera (which scenes always replace) "
+         "fitted to the scene's bounding sphere; a FrontSide material's back faces drawn into the map (shadowSide), "
+         "bias 0, normalBias 0; PCFShadowMap: 5 bilinear compares on a Vogel disk of radius 1 texel turned per "
+         "pixel by interleaved gradient noise",
+         json{{"family", "depth_map"},
+              {"resolution", 512},
+              {"depth_format", "d24"},
+              {"fit", "scene_sphere"},
+              {"depth_layer", "second"},
+              {"bias", {{"constant", 0}, {"slope", 0}, {"shader_depth", 0}, {"normal_offset_m", 0}}},
+              {"filter", {{"type", "vogel"}, {"taps", 5}, {"radius_texels", 1.0}, {"bilinear_taps", true}}}}},
+        {"three-csm",
+         "three.js r187 CSM addon: 3 cascades, practical split lambda 0.5 to the camera's far plane, 2048^2, "
+         "24-bit, diagonal fit snapped to texels, back faces drawn (shadowSide), shadowBias 1e-6 added to the "
+         "receiver's depth, the renderer's 5-tap Vogel PCF",
+         json{{"family", "cascaded"},
+              {"resolution", 2048},
+              {"depth_format", "d24"},
+              {"cull", "front"},
+              {"bias", {{"constant", 0}, {"slope", 0}, {"shader_depth", -1e-6}}},
+              {"cascades",
+               {{"count", 3}, {"split", "practical"}, {"lambda", 0.5}, {"fit", "sphere"}, {"stabilize", true}}},
+              {"filter", {{"type", "vogel"}, {"taps", 5}, {"radius_texels", 1.0}, {"bilinear_taps", true}}}}},
+        {"filament",
+         "Filament (LightManager::ShadowOptions): one 1024^2 map fitted to the view, constantBias 1 mm towards "
+         "the light, normalBias 1 -> 0.5 texel x sin(theta) along the normal, polygon offset 0.5/2.0, PCF "
+         "approximated by 2x2 bilinear taps (a 3x3 footprint); LiSPSM not modelled",
+         json{{"family", "depth_map"},
+              {"resolution", 1024},
+              {"depth_format", "d32"},
+              {"fit", "camera_frustum"},
+              {"cull", "back"},
+              {"bias",
+               {{"constant", 0.5}, {"slope", 2.0}, {"world", 0.001}, {"normal_offset", 0.5}, {"normal_factor", "sin"}}},
+              {"filter", {{"type", "pcf"}, {"size", 2}, {"bilinear_taps", true}}}}},
+        {"babylon",
+         "Babylon.js 9.28 ShadowGenerator: 1024^2 (the docs' choice: the size is a constructor argument), light "
+         "frustum fitted to the casters, bias 0.00005 of the map's depth range added to the casters' depth, "
+         "normalBias 0, filter none",
+         json{{"family", "depth_map"},
+              {"resolution", 1024},
+              {"depth_format", "d32"},
+              {"fit", "scene_bounds"},
+              {"cull", "back"},
+              {"bias", {{"constant", 0}, {"slope", 0}, {"caster", {{"depth", 0.00005}, {"normal", 0}}}}},
+              {"filter", {{"type", "none"}}}}},
+        {"babylon-csm",
+         "Babylon.js 9.28 CascadedShadowGenerator: 4 cascades, practical split lambda 0.5, 10% blend, tight "
+         "(unstabilised) fit, depth clamp, 1024^2, caster depth bias 0.00005, PCF (high quality approximated "
+         "by 5x5 bilinear PCF)",
+         json{{"family", "cascaded"},
+              {"resolution", 1024},
+              {"depth_format", "d32"},
+              {"cull", "back"},
+              {"bias", {{"constant", 0}, {"slope", 0}, {"caster", {{"depth", 0.00005}, {"normal", 0}}}}},
+              {"cascades",
+               {{"count", 4},
+                {"split", "practical"},
+                {"lambda", 0.5},
+                {"overlap", 0.1},
+                {"fit", "bounds"},
+                {"stabilize", false}}},
+              {"filter", {{"type", "pcf"}, {"size", 5}, {"bilinear_taps", true}}}}},
     };
     return kPresets;
 }
@@ -327,9 +467,9 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
     }
     if (o.has("filter")) {
         JsonObject f = o.object("filter");
-        t.filter.type =
-            pick_enum(f, "type", FilterType::none,
-                      {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson, FilterType::pcss});
+        t.filter.type = pick_enum(f, "type", FilterType::none,
+                                  {FilterType::none, FilterType::hw2x2, FilterType::pcf, FilterType::poisson,
+                                   FilterType::pcss, FilterType::vogel});
         t.filter.size = static_cast<int>(f.integer("size", 3, 1, 15));
         t.filter.taps = static_cast<int>(f.integer("taps", 16, 1, 64));
         t.filter.radius_texels = f.number_in("radius_texels", 1.5, 0.0, 64.0, "texels in [0, 64]");

@@ -19,7 +19,9 @@ namespace penumbra::raster {
 enum class Fit { scene_sphere, scene_bounds, camera_frustum };
 enum class DepthFormat { d16, d24, d32 };
 enum class Cull { none, back, front };
-enum class FilterType { none, hw2x2, pcf, poisson, pcss };
+// vogel: `taps` taps on a Vogel (golden-angle) disk of `radius_texels`, rotated per pixel by
+// interleaved gradient noise (Jimenez 2014): three.js r18x's PCFShadowMap (5 taps, radius 1).
+enum class FilterType { none, hw2x2, pcf, poisson, pcss, vogel };
 // Which depth the map stores (docs/raster.md, "Midpoint and second depth"): the nearest surface
 // (first), Woo's midpoint between the nearest and the next surface behind it (Graphics Gems III,
 // 1992), or the back faces alone (second: Wang & Molnar's second-depth shadow mapping, 1994).
@@ -89,9 +91,9 @@ struct LightOverride {
 struct Filter {
     FilterType type = FilterType::none;
     int size = 3;                // pcf: taps per side
-    int taps = 16;               // poisson: number of taps
-    double radius_texels = 1.5;  // poisson: disk radius
-    bool bilinear_taps = false;  // pcf, poisson: each tap a 2x2 bilinear compare (reference 000)
+    int taps = 16;               // poisson, vogel: number of taps
+    double radius_texels = 1.5;  // poisson, vogel: disk radius
+    bool bilinear_taps = false;  // pcf, poisson, vogel: each tap a 2x2 bilinear compare (reference 000)
     // pcss (Fernando 2005): `taps` Poisson taps for the blocker search and again for the
     // filter, neither wider than this many texels.
     double max_radius_texels = 32;

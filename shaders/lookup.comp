@@ -155,6 +155,21 @@ float pixel_angle(uvec2 pix) {
     return float(h & 0xFFFFu) * (6.28318530718 / 65536.0);
 }
 
+// Interleaved gradient noise (Jimenez, "Next Generation Post Processing in Call of Duty: Advanced
+// Warfare", SIGGRAPH 2014) at the pixel centre, as three.js evaluates it at gl_FragCoord.xy.
+float interleaved_gradient_noise(uvec2 pix) {
+    vec2 c = vec2(pix) + 0.5;
+    return fract(52.9829189 * fract(dot(c, vec2(0.06711056, 0.00583715))));
+}
+
+// Tap k of n on a Vogel disk (golden-angle spiral, unit radius) turned by phi: three.js r18x's
+// vogelDiskSample (shadowmap_pars_fragment.glsl.js).
+vec2 vogel_tap(uint k, uint n, float phi) {
+    float r = sqrt((float(k) + 0.5) / float(n));
+    float theta = float(k) * 2.399963229728653 + phi;
+    return vec2(cos(theta), sin(theta)) * r;
+}
+
 vec2 poisson_tap(uint k) {
     vec4 pair = p.poisson[k >> 1];
     return (k & 1u) == 0u ? pair.xy : pair.zw;
@@ -359,7 +374,7 @@ float moment_visibility(vec3 m, uint layer) {
 }
 
 float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) {
-    if (kFilterType >= kFilterVsm) return moment_visibility(m, layer);
+    if (kFilterType >= kFilterVsm && kFilterType <= kFilterMsm) return moment_visibility(m, layer);
     if (kFilterType == kFilterPcss) return pcss_visibility(pix, layer, m, dz, z_receiver);
     if (kFilterType == kFilterHw2x2) return tap_bilinear(m.xy, layer, m, dz);
     if (kFilterType == kFilterPcf) {
@@ -375,6 +390,13 @@ float filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver
         mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a));
         float sum = 0.0;
         for (uint k = 0u; k < kPoissonTapCount; ++k) sum += grid_tap(m.xy + rot * poisson_tap(k) * p.map.z, layer, m, dz);
+        return sum / float(kPoissonTapCount);
+    }
+    if (kFilterType == kFilterVogel) {
+        float phi = interleaved_gradient_noise(pix) * 6.28318530718;
+        float sum = 0.0;
+        for (uint k = 0u; k < kPoissonTapCount; ++k)
+            sum += grid_tap(m.xy + vogel_tap(k, kPoissonTapCount, phi) * p.map.z, layer, m, dz);
         return sum / float(kPoissonTapCount);
     }
     return tap_at(m.xy, layer, m, dz);

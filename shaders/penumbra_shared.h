@@ -63,6 +63,8 @@ PENUMBRA_CONST uint kFilterEsm = 6;
 PENUMBRA_CONST uint kFilterEvsm2 = 7;
 PENUMBRA_CONST uint kFilterEvsm4 = 8;
 PENUMBRA_CONST uint kFilterMsm = 9;  // moments: moment bias, unused, variant (1 hausdorff), storage bits
+// After the moment families: a rotated Vogel disk of kSpecPoissonTaps taps (three.js's PCF).
+PENUMBRA_CONST uint kFilterVogel = 10;
 
 PENUMBRA_CONST uint kModeLookup = 0;      // write LookupTexel per pixel
 PENUMBRA_CONST uint kModeFaceMask = 1;    // only mark the cube faces receivers would sample

@@ -275,6 +275,45 @@ TEST_F(Raster, PoissonFilterIsBoundedBySymmetricAboutTheEdge) {
     EXPECT_NEAR((left + right) / n, 1.0, 0.05);  // V(-x) + V(x) = 1 on average
 }
 
+// three.js's PCF (docs/engines.md, "The vogel filter"): N point taps on a Vogel disk turned per
+// pixel by interleaved gradient noise. Every V is a multiple of 1/N, the band is as wide as the
+// disk, the noise gives neighbouring pixels different values, and the edge stays in place.
+TEST_F(Raster, VogelFilterTurnsItsDiskPerPixelAndStaysCentredOnTheEdge) {
+    test::SceneBuilder sb;
+    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
+    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
+    const int W = 256, H = 64, res = 64, taps = 5;
+    const double texel = 16.0 / res, radius = 2.0;
+    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1.5, 0.375, {0, 0, -1}),
+                                      {test::directional({0, -1, 0})}, W, H);
+    raster::RasterResult r = render(sc, {{"resolution", res},
+                                         {"cull", "none"},
+                                         {"bias", {{"world", 0.05}}},
+                                         {"filter", {{"type", "vogel"}, {"taps", taps}, {"radius_texels", radius}}}});
+    double left = 0, right = 0;
+    std::size_t n = 0, fractional = 0, differs_from_neighbour = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W / 2; ++x) {
+            double wx = -1.5 + (x + 0.5) * (3.0 / W);  // mirror pixel: W - 1 - x
+            double vl = r.frame.lights[0].V[static_cast<std::size_t>(y) * W + x];
+            double vr = r.frame.lights[0].V[static_cast<std::size_t>(y) * W + (W - 1 - x)];
+            EXPECT_NEAR(vl * taps, std::round(vl * taps), 1e-4) << "x " << x << " y " << y;
+            if (-wx > (radius + 1) * texel) {
+                EXPECT_EQ(vl, 0.0);
+                EXPECT_EQ(vr, 1.0);
+            }
+            if (vl > 0 && vl < 1) ++fractional;
+            if (y > 0 && vl != r.frame.lights[0].V[static_cast<std::size_t>(y - 1) * W + x]) ++differs_from_neighbour;
+            left += vl;
+            right += vr;
+            ++n;
+        }
+    EXPECT_GT(fractional, 0u);
+    // Along the edge (constant x) the map is the same, so only the per-pixel turn changes V.
+    EXPECT_GT(differs_from_neighbour, fractional / 4);
+    EXPECT_NEAR((left + right) / n, 1.0, 0.05);  // V(-x) + V(x) = 1 on average
+}
+
 // Winding conventions: single-sided surfaces seen from behind are culled for the camera, and
 // "back"/"front" culling in the shadow pass drop the faces turned from/towards the light.
 TEST_F(Raster, CullingFollowsTheWindingAsSeenFromCameraAndLight) {

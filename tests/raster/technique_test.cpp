@@ -5,7 +5,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <glm/mat4x4.hpp>
+#include <string>
+#include <vector>
 
 #include "common/errors.h"
 #include "raster/light_projection.h"
@@ -149,6 +152,7 @@ TEST(Technique, FilterReachAndDepthResolutionForTheMetrics) {
     EXPECT_EQ(reach({{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}), 2.0);
     EXPECT_EQ(reach({{"type", "poisson"}, {"radius_texels", 3.0}}), 3.0);
     EXPECT_EQ(reach({{"type", "poisson"}, {"radius_texels", 0.25}}), 1.0);
+    EXPECT_EQ(reach({{"type", "vogel"}, {"radius_texels", 1.0}, {"bilinear_taps", true}}), 1.5);
     EXPECT_EQ(raster::depth_resolution(raster::DepthFormat::d16), std::ldexp(1.0, -16));
     EXPECT_EQ(raster::depth_resolution(raster::DepthFormat::d32), 0.0);
 }
@@ -192,6 +196,56 @@ TEST(Technique, PresetsReproduceTheReferenceConfigurations) {
     t = parse_technique({{"preset", "d3d12-textbook"}, {"bias", {{"slope", 2.5}}}}, "x");
     EXPECT_EQ(t.bias.slope, 2.5);
     EXPECT_EQ(t.bias.constant, 100000.0);
+}
+
+// The engines' presets (docs/engines.md): each parses, writes back what it read, and carries the
+// values docs/engines.md cites.
+TEST(Technique, EnginePresetsParseAndRoundTrip) {
+    const std::vector<std::string> engines = {"bevy",      "godot",    "unity-urp", "unreal-csm", "three",
+                                              "three-csm", "filament", "babylon",   "babylon-csm"};
+    for (const std::string& name : engines) {
+        SCOPED_TRACE(name);
+        const raster::Technique t = parse_technique({{"preset", name}}, "s.json: technique");
+        const nlohmann::json written = t.to_json();
+        EXPECT_EQ(written.at("preset"), name);
+        EXPECT_EQ(parse_technique(written, "raster.json: technique").to_json(), written);
+    }
+    raster::Technique t = parse_technique({{"preset", "three"}}, "x");
+    EXPECT_EQ(t.resolution, 512);
+    EXPECT_EQ(t.fit, raster::Fit::scene_sphere);
+    EXPECT_EQ(t.depth_layer, raster::DepthLayer::second);
+    EXPECT_EQ(t.cull, raster::Cull::front);
+    EXPECT_EQ(t.filter.type, raster::FilterType::vogel);
+    EXPECT_EQ(t.filter.taps, 5);
+    EXPECT_EQ(t.filter.radius_texels, 1.0);
+    EXPECT_TRUE(t.filter.bilinear_taps);
+
+    t = parse_technique({{"preset", "bevy"}}, "x");
+    EXPECT_EQ(t.family, "cascaded");
+    EXPECT_EQ(t.bias.world, 0.02);
+    EXPECT_NEAR(t.bias.normal_offset, 1.8 * std::sqrt(2.0), 1e-12);
+
+    t = parse_technique({{"preset", "filament"}}, "x");
+    EXPECT_EQ(t.resolution, 1024);
+    EXPECT_EQ(t.bias.constant, 0.5);
+    EXPECT_EQ(t.bias.slope, 2.0);
+    EXPECT_EQ(t.bias.world, 0.001);
+
+    // The user's keys still win over an engine preset's.
+    t = parse_technique({{"preset", "godot"}, {"resolution", 1024}}, "x");
+    EXPECT_EQ(t.resolution, 1024);
+    EXPECT_EQ(t.depth_format, raster::DepthFormat::d16);
+}
+
+TEST(Technique, VogelFilterParsesAndWritesItsKeys) {
+    const raster::Technique t =
+        parse_technique({{"filter", {{"type", "vogel"}, {"taps", 7}, {"radius_texels", 2.5}}}}, "s.json: technique");
+    EXPECT_EQ(t.filter.type, raster::FilterType::vogel);
+    const nlohmann::json f = t.to_json().at("filter");
+    EXPECT_EQ(f.at("type"), "vogel");
+    EXPECT_EQ(f.at("taps"), 7);
+    EXPECT_EQ(f.at("radius_texels"), 2.5);
+    EXPECT_THAT(error_of({{"filter", {{"type", "gaussian"}}}}), HasSubstr("\"vogel\""));
 }
 
 // The engine bias keys (issue 38): off by default, parsed with their key paths in errors, per

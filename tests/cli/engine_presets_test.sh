@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Every engine preset (docs/engines.md) validates data/default end to end at 240 x 136: exit 0,
+# a report with a verdict for each of the three lights, and raster.json naming the preset.
+# Usage: engine_presets_test.sh PENUMBRA SOURCE_DIR
+source "$(dirname "$0")/harness.sh"
+fail_detail() { echo "(rc $rc: $(head -c 400 <<<"$err"))"; }
+export PENUMBRA_CACHE_DIR="$tmp/cache"  # one oracle, traced once, for all nine
+sed -e 's/"width": 1280/"width": 240/' -e 's/"height": 720/"height": 136/' \
+    -e 's#"scene.glb"#"'"$src"'/data/default/scene.glb"#' "$src/data/default/scenario.json" >"$tmp/a.json"
+for preset in bevy godot unity-urp unreal-csm three three-csm filament babylon babylon-csm; do
+    run validate "$tmp/a.json" --out "$tmp/$preset" --preset "$preset" -q
+    check "$preset: validate exits 0" test "$rc" -eq 0
+    check "$preset: report.json has a verdict for each light" python3 -c "
+import json, sys
+r = json.load(open('$tmp/$preset/report.json'))
+assert len(r['lights']) == 3, len(r['lights'])
+for l in r['lights']:
+    assert 0 <= l['wrong_fraction'] <= 1 and l['pixels']['scored'] > 0, l"
+    check "$preset: raster.json names the preset" python3 -c "
+import json
+assert json.load(open('$tmp/$preset/raster.json'))['technique']['preset'] == '$preset'"
+done
+run validate "$tmp/a.json" --out "$tmp/bad" --preset unity
+check "an engine's bare name is not a preset (exit 2, the presets listed)" test "$rc" -eq 2
+check "the error lists unity-urp" grep -q '"unity-urp"' <<<"$err"
+finish
