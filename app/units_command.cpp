@@ -8,6 +8,7 @@
 #include "app/cli.h"
 #include "common/errors.h"
 #include "engines/engine_units.h"
+#include "raster/cascades.h"
 
 namespace penumbra::cli {
 namespace {
@@ -58,6 +59,10 @@ int run_units_command(const UnitsArgs& a) {
         notes.push_back(
             "a spot or point light: the engines' directional formulas are applied to penumbra's map (texel and depth "
             "at the reference receiver); their own spot/point factors are not modelled");
+    if (const raster::Cascades* cascades = raster::cascades_of(t); cascades && cascades->sdsm)
+        notes.push_back(
+            "cascades.sdsm: the splits follow the visible samples, a GPU reduction; these cascades are the camera "
+            "range's");
     if (engines::engine_info(a.from).unverified || engines::engine_info(a.to).unverified)
         notes.push_back("unreal: formulas from a third-party copy of the engine, defaults unverified");
 
