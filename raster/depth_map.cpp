@@ -27,6 +27,8 @@
 #include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
+#include "caster_geom.h"
+#include "caster_vert.h"
 #include "lookup_comp.h"
 #include "peel_frag.h"
 #include "sdsm_comp.h"
@@ -104,6 +106,32 @@ gpu::uint filter_kind(FilterType f) {
     return gpu::kFilterNone;
 }
 
+gpu::uint normal_factor_kind(NormalFactor f) {
+    switch (f) {
+        case NormalFactor::none: return gpu::kNormalFactorNone;
+        case NormalFactor::one_minus_ndotl: return gpu::kNormalFactorOneMinusNdotL;
+        case NormalFactor::sin: return gpu::kNormalFactorSin;
+    }
+    return gpu::kNormalFactorNone;
+}
+
+// A layer's matrix as the map is drawn and read: reversed_z maps depth z to 1 - z (clip z to
+// w - z), as an engine's reverse-Z projection does, so the stored depths keep float's finer
+// steps near 0 for the far end.
+glm::dmat4 map_view_proj(const Technique& t, const glm::dmat4& view_proj) {
+    if (!t.reversed_z) return view_proj;
+    glm::dmat4 flip(1.0);
+    flip[2][2] = -1.0;  // z' = w - z: column 2 row 2 is -1, column 3 row 2 is 1
+    flip[3][2] = 1.0;
+    return flip * view_proj;
+}
+
+// The caster offsets a technique draws its map with (shadow_bias.geom), all zero by default.
+bool has_caster_offsets(const Bias& b) {
+    const CasterBias& c = b.caster;
+    return c.world != 0 || c.world_texels != 0 || c.normal != 0 || c.normal_texels != 0 || c.depth != 0;
+}
+
 using SpecData = std::array<std::uint32_t, 8>;  // indexed by gpu::kSpec*
 
 UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const SpecData& spec) {
@@ -158,6 +186,8 @@ struct MapContent {
     double constant = 0, slope = 0, clamp = 0;
     DepthLayer depth_layer = DepthLayer::first;
     bool texel_scaled_bias = false;  // each cascade's constant scaled by its texel
+    bool reversed_z = false;
+    CasterBias caster;
     bool operator==(const MapContent&) const = default;
 };
 
@@ -226,7 +256,9 @@ class DepthMapFamily final : public TechniqueFamily {
     VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
     VkPipeline peel_pipeline(const Technique& t);
     VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
-    VkSampler compare_sampler(bool linear, bool clamp_to_border);
+    VkSampler compare_sampler(bool linear, bool clamp_to_border, bool reversed_z);
+    gpu::ShadowPush caster_push(const Technique& t, const Light& light, const LightProjection& projection,
+                                std::uint32_t layer) const;
     void ensure_maps(const Technique& t, std::span<const Light> lights);
     std::size_t map_of_index(std::size_t li) const { return maps_.size() == 1 ? 0 : li; }
     LightMap& map_of(std::size_t li) { return maps_[map_of_index(li)]; }
@@ -252,12 +284,13 @@ class DepthMapFamily final : public TechniqueFamily {
     bool direct_readback_ = false;  // the device shares host memory: the lookup writes where the CPU reads
 
     DescriptorSets sets_, peel_sets_;
-    UniquePipelineLayout shadow_layout_, lookup_layout_, peel_layout_;
+    UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_, peel_layout_;
     std::map<std::pair<VkFormat, Cull>, UniquePipeline> peel_pipelines_;
     bool maps_midpoint_ = false;  // maps_ have their first-layer images
-    std::map<std::tuple<VkFormat, Cull, bool, bool>, UniquePipeline> shadow_pipelines_;
+    // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets.
+    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool>, UniquePipeline> shadow_pipelines_;
     std::map<SpecData, UniquePipeline> lookup_pipelines_;
-    std::map<std::pair<bool, bool>, UniqueSampler> compare_samplers_;
+    std::map<std::tuple<bool, bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
 
     // Each arena before what is bound to it: destroyed after it.
@@ -285,6 +318,7 @@ DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
       peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT),
       sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
+    caster_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(gpu::ShadowPush), VK_SHADER_STAGE_GEOMETRY_BIT);
     lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
     peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
                                         VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
@@ -382,10 +416,12 @@ std::optional<glm::dvec2> DepthMapFamily::reduce_view_depth(RasterStats& stats) 
 
 // With triangle ids: a fragment shader writes each texel's triangle into the R32_UINT target.
 // Without: no fragment shader and no colour target, the depth pass an engine draws. Both share
-// the vertex shader, depth bias, clamp and culling, so they store the same depths.
+// the vertex shader, depth bias, clamp and culling, so they store the same depths. Caster
+// offsets add a geometry shader (caster.geom); reversed Z keeps the nearest surface with GREATER.
 VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids) {
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
-    auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias, triangle_ids);
+    const bool caster = has_caster_offsets(t.bias);
+    auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias, triangle_ids, t.reversed_z, caster);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
         // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from
@@ -393,10 +429,21 @@ VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids
         VkCullModeFlags cull = t.cull == Cull::none   ? VK_CULL_MODE_NONE
                                : t.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
                                                       : VK_CULL_MODE_FRONT_BIT;
-        p = make_graphics_pipeline(ctx_, shadow_layout_.get(),
-                                   {kShadowVert, sizeof(kShadowVert), triangle_ids ? kShadowFrag : nullptr,
-                                    triangle_ids ? sizeof(kShadowFrag) : 0, vk_format(t.depth_format),
-                                    VK_COMPARE_OP_LESS, cull, VK_FRONT_FACE_CLOCKWISE, true, bias});
+        GraphicsSetup g{caster ? kCasterVert : kShadowVert,
+                        caster ? sizeof(kCasterVert) : sizeof(kShadowVert),
+                        triangle_ids ? kShadowFrag : nullptr,
+                        triangle_ids ? sizeof(kShadowFrag) : 0,
+                        vk_format(t.depth_format),
+                        t.reversed_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS,
+                        cull,
+                        VK_FRONT_FACE_CLOCKWISE,
+                        true,
+                        bias};
+        if (caster) {
+            g.geom = kCasterGeom;
+            g.geom_bytes = sizeof(kCasterGeom);
+        }
+        p = make_graphics_pipeline(ctx_, caster ? caster_layout_.get() : shadow_layout_.get(), g);
     }
     return p.get();
 }
@@ -431,10 +478,33 @@ VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, g
     return p.get();
 }
 
-VkSampler DepthMapFamily::compare_sampler(bool linear, bool clamp_to_border) {
-    UniqueSampler& s = compare_samplers_[{linear, clamp_to_border}];
-    if (!s) s = make_sampler(ctx_, true, linear, clamp_to_border);
+VkSampler DepthMapFamily::compare_sampler(bool linear, bool clamp_to_border, bool reversed_z) {
+    UniqueSampler& s = compare_samplers_[{linear, clamp_to_border, reversed_z}];
+    if (!s) s = make_sampler(ctx_, true, linear, clamp_to_border, reversed_z);
     return s.get();
+}
+
+gpu::ShadowPush DepthMapFamily::caster_push(const Technique& t, const Light& light, const LightProjection& projection,
+                                            std::uint32_t layer) const {
+    gpu::ShadowPush push{};
+    push.view_proj = glm::mat4(map_view_proj(t, projection.view_proj[layer]));
+    const bool positional = light.type != LightType::directional;
+    if (positional) {
+        const glm::dvec3 light_world =
+            t.precision == Precision::world_float32 ? glm::dvec3(glm::vec3(light.position)) : light.position;
+        push.light = glm::vec4(glm::vec3(light_world - s_.origin), 1.0f);
+        push.texel = glm::vec4(glm::vec3(projection.axis[layer]), projection.metres_per_texel_per_metre);
+    } else {
+        push.light = glm::vec4(glm::vec3(light.direction), 0.0f);
+        const double texel =
+            layer < projection.cascade_texel.size() ? projection.cascade_texel[layer] : projection.metres_per_texel;
+        push.texel = glm::vec4(0.0f, 0.0f, 0.0f, static_cast<float>(texel));
+    }
+    const CasterBias& c = t.bias.caster;
+    push.offsets = glm::vec4(c.world, c.world_texels, c.normal, c.normal_texels);
+    push.caster =
+        glm::vec4(static_cast<float>(normal_factor_kind(c.normal_factor)), c.depth, 0.0f, t.reversed_z ? 1.0f : 0.0f);
+    return push;
 }
 
 void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> lights) {
@@ -564,6 +634,12 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.light_dir = glm::vec4(glm::vec3(light.direction), static_cast<float>(std::cos(light.outer_cone_rad)));
     p.bias = glm::vec4(t.bias.world, t.bias.normal_offset, t.bias.shader_depth, t.bias.constant);
     p.bias2 = glm::vec4(t.bias.slope, t.bias.clamp, depth_resolution(t.depth_format), 0.0f);
+    const CasterBias& c = t.bias.caster;
+    p.bias3 = glm::vec4(t.bias.normal_offset_m, static_cast<float>(normal_factor_kind(t.bias.normal_factor)),
+                        t.bias.normal_perpendicular ? 1.0f : 0.0f, t.bias.world_depth_range);
+    p.caster = glm::vec4(c.world, c.world_texels, c.normal, c.normal_texels);
+    p.caster2 =
+        glm::vec4(static_cast<float>(normal_factor_kind(c.normal_factor)), c.depth, t.reversed_z ? 1.0f : 0.0f, 0.0f);
     p.map = glm::vec4(t.resolution, 1.0f / t.resolution, t.filter.radius_texels,
                       static_cast<float>(projection.view_proj.size()));
     p.footprint = glm::vec4(projection.metres_per_texel, projection.metres_per_texel_per_metre, 0.0f, 0.0f);
@@ -585,7 +661,7 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.pcss = glm::vec4(light_size, projection.near, projection.far, t.filter.max_radius_texels);
     if (const MomentParameters* m = moment_parameters(t)) p.moments = moment_uniform(*m);
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
-        p.view_proj[l] = glm::mat4(projection.view_proj[l]);
+        p.view_proj[l] = glm::mat4(map_view_proj(t, projection.view_proj[l]));
         p.light_axis[l] = glm::vec4(glm::vec3(projection.axis[l]), 0.0f);
     }
     for (std::size_t k = 0; k < disk_.size(); ++k) {
@@ -625,8 +701,18 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
     const Cascades* cascades = cascaded(t, light) ? cascades_of(t) : nullptr;
     const bool texel_scaled = cascades && cascades->texel_scaled_bias;
-    MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
-                       t.bias.constant,         t.bias.slope,      t.bias.clamp, t.depth_layer,  texel_scaled};
+    MapContent content{ls.projection.view_proj,
+                       ls.layers_sampled,
+                       t.resolution,
+                       t.depth_format,
+                       t.cull,
+                       t.bias.constant,
+                       t.bias.slope,
+                       t.bias.clamp,
+                       t.depth_layer,
+                       texel_scaled,
+                       t.reversed_z,
+                       t.bias.caster};
     LightMap& map = map_of(li);
     // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
     // ids serves it too, but a depth-only map must be drawn again for the lookups.
@@ -661,14 +747,23 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
+            // Reversed Z clears to 0, the far plane.
             begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE, first_views[layer].get(),
-                            res, res, 1.0f);
+                            res, res, t.reversed_z ? 0.0f : 1.0f);
             // texel_scaled_bias: each cascade's constant scaled as its texel (cascade_bias_scale).
+            // Reversed Z: away from the light is towards 0, so the hardware bias changes sign (as
+            // engines with reverse-Z negate theirs).
+            const double sign = t.reversed_z ? -1.0 : 1.0;
             const double constant = t.bias.constant * cascade_bias_scale(ls.projection, layer, texel_scaled).y;
-            vkCmdSetDepthBias(cmd, static_cast<float>(constant), static_cast<float>(t.bias.clamp),
-                              static_cast<float>(t.bias.slope));
-            glm::mat4 vp = glm::mat4(ls.projection.view_proj[layer]);
-            vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+            vkCmdSetDepthBias(cmd, static_cast<float>(sign * constant), static_cast<float>(sign * t.bias.clamp),
+                              static_cast<float>(sign * t.bias.slope));
+            if (has_caster_offsets(t.bias)) {
+                const gpu::ShadowPush push = caster_push(t, light, ls.projection, layer);
+                vkCmdPushConstants(cmd, caster_layout_.get(), VK_SHADER_STAGE_GEOMETRY_BIT, 0, sizeof(push), &push);
+            } else {
+                glm::mat4 vp = glm::mat4(map_view_proj(t, ls.projection.view_proj[layer]));
+                vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+            }
             if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
             vkCmdEndRendering(cmd);
             ++ls.layers_rendered;
@@ -833,7 +928,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         // Each light its own compare sampler: a cube face clamps to its edge, a 2D map reads a
         // lit border (one sampler for all lights made a sun's lookup outside its map read the
         // edge texel wherever a point light was drawn too, on devices that filter depth).
-        const VkSampler compare = compare_sampler(hardware_compare_, light.type != LightType::point);
+        const VkSampler compare = compare_sampler(hardware_compare_, light.type != LightType::point, t.reversed_z);
         r[5].image = {compare, map.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         r[6].buffer = {slot.params.buffer.get(), 0, slot.params.size};
         // One output, bound to both: the lookup writes the one its mode names.
@@ -916,6 +1011,9 @@ FamilyEntry depth_map_family_entry() {
                                   {DepthLayer::first, DepthLayer::midpoint, DepthLayer::second});
         // Second-depth shadow mapping is the map of back faces alone: what `cull: front` draws.
         if (t.depth_layer == DepthLayer::second) t.cull = Cull::front;
+        // The midpoint pass peels and stores forward depths (shaders/peel.frag).
+        if (t.depth_layer == DepthLayer::midpoint && t.reversed_z)
+            o.fail("reversed_z", "depth_layer \"midpoint\" stores forward depth; reversed_z must be false with it");
         // Written by to_json as 0 (raster.json readers find it there); more is another family's.
         if (o.has("area_samples") && o.integer("area_samples", 0, 256) > 0)
             o.fail("area_samples", "only the averaged_area family draws area samples (\"family\": \"averaged_area\")");

@@ -71,14 +71,20 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     const bool colour = g.frag != nullptr;
     UniqueShaderModule vs = make_module(ctx, g.vert, g.vert_bytes);
     UniqueShaderModule fs = colour ? make_module(ctx, g.frag, g.frag_bytes) : UniqueShaderModule();
-    VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
+    UniqueShaderModule gs = g.geom ? make_module(ctx, g.geom, g.geom_bytes) : UniqueShaderModule();
+    VkPipelineShaderStageCreateInfo stages[3] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
+                                                 {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
                                                  {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
-    stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-    stages[0].module = vs.get();
-    stages[0].pName = "main";
-    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-    stages[1].module = fs.get();
-    stages[1].pName = "main";
+    std::uint32_t stage_count = 0;
+    auto add_stage = [&](VkShaderStageFlagBits stage, VkShaderModule module) {
+        stages[stage_count].stage = stage;
+        stages[stage_count].module = module;
+        stages[stage_count].pName = "main";
+        ++stage_count;
+    };
+    add_stage(VK_SHADER_STAGE_VERTEX_BIT, vs.get());
+    if (g.geom) add_stage(VK_SHADER_STAGE_GEOMETRY_BIT, gs.get());
+    if (colour) add_stage(VK_SHADER_STAGE_FRAGMENT_BIT, fs.get());
 
     VkVertexInputBindingDescription binding{0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
     VkVertexInputAttributeDescription attribute{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
@@ -122,7 +128,7 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
 
     VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
     ci.pNext = &ri;
-    ci.stageCount = colour ? 2 : 1;
+    ci.stageCount = stage_count;
     ci.pStages = stages;
     ci.pVertexInputState = &vi;
     ci.pInputAssemblyState = &ia;
@@ -151,15 +157,16 @@ UniquePipelineLayout make_pipeline_layout(const VulkanContext& ctx, VkDescriptor
     return UniquePipelineLayout(ctx.device(), l);
 }
 
-UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border) {
+UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border, bool reversed_z) {
     VkSamplerCreateInfo ci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
     ci.magFilter = ci.minFilter = linear ? VK_FILTER_LINEAR : VK_FILTER_NEAREST;
     ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
     ci.addressModeU = ci.addressModeV = ci.addressModeW =
         clamp_to_border ? VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER : VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;  // outside the map reads as lit
+    // Outside the map reads as lit: the far plane, 1 (0 with reversed Z, compared greater-or-equal).
+    ci.borderColor = reversed_z ? VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK : VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
     ci.compareEnable = compare;
-    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    ci.compareOp = reversed_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
     ci.maxLod = 0.0f;
     VkSampler s;
     VK_CHECK(vkCreateSampler(ctx.device(), &ci, nullptr, &s));

@@ -43,11 +43,17 @@ struct GraphicsSetup {
     VkFrontFace front_face;
     bool depth_clamp;
     bool depth_bias;
+    // A geometry shader between the two (null: none), e.g. the shadow pass's caster offsets.
+    const std::uint32_t* geom = nullptr;
+    std::size_t geom_bytes = 0;
 };
 UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g);
 UniquePipelineLayout make_pipeline_layout(const VulkanContext& ctx, VkDescriptorSetLayout set_layout,
                                           std::uint32_t push_bytes, VkShaderStageFlags push_stages);
-UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border);
+// A compare sampler compares LESS_OR_EQUAL against a border of 1, GREATER_OR_EQUAL against 0 when
+// `reversed_z` (the map stores 1 - z).
+UniqueSampler make_sampler(const VulkanContext& ctx, bool compare, bool linear, bool clamp_to_border,
+                           bool reversed_z = false);
 
 void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h);
 // Clears the R32_UINT colour target to "no primitive" and the depth target to `depth_clear`.

@@ -56,6 +56,21 @@ float constant_bias(uint layer) {
     uint i = min(layer, cascade_count() - 1u);
     return p.bias.w * p.cascade_constant_scale[i >> 2][i & 3u];
 }
+// reversed_z: the map and every depth a layer's view_proj gives are 1 - z; compares flip.
+bool reversed_z() { return p.caster2.z > 0.5; }
+// A map depth in the forward convention (what LookupTexel reports and the metrics read).
+float forward_depth(float d) { return reversed_z() ? 1.0 - d : d; }
+// 1 = lit: the reference at or in front of the stored depth (LESS_OR_EQUAL; GREATER_OR_EQUAL reversed).
+bool lit_against(float ref, float stored) { return reversed_z() ? ref >= stored : ref <= stored; }
+
+// How a normal offset scales with the angle to the light (kNormalFactor*): Godot and Unity URP
+// take 1 - N.L, Filament and Babylon sin(theta).
+float normal_factor(uint kind, float ndotl) {
+    if (kind == kNormalFactorOneMinusNdotL) return 1.0 - max(ndotl, 0.0);
+    if (kind == kNormalFactorSin) return sqrt(max(1.0 - ndotl * ndotl, 0.0));
+    return 1.0;
+}
+
 // View depth of a camera-relative point (the eye is the origin for both projections).
 float camera_depth(vec3 P) { return dot(P, p.cam_forward.xyz); }
 
@@ -105,7 +120,7 @@ float tap_point(ivec2 t, uint layer, float ref) {
         return 1.0;  // outside the map: the border is lit
     }
     float stored = texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r;
-    return depth_units_ref(ref) <= stored ? 1.0 : 0.0;
+    return lit_against(depth_units_ref(ref), stored) ? 1.0 : 0.0;
 }
 
 // Reference depth at texel t: the receiver plane extrapolated to the texel centre when
@@ -188,6 +203,12 @@ float ortho_metres_per_depth(uint layer) {
     return 1.0 / length(vec3(vp[0][2], vp[1][2], vp[2][2]));
 }
 
+// Metres of light depth a layer's [0, 1] depth covers (far - near): its own for each cascade.
+float depth_range_m(uint layer) {
+    if (kDirectional) return ortho_metres_per_depth(min(layer, max(uint(p.map.w), 1u) - 1u));
+    return p.pcss.z - p.pcss.y;
+}
+
 // Percentage-closer soft shadows (Fernando 2005; reference 001): the average depth of the
 // blockers inside the light's footprint seen from the receiver sets the penumbra width, and a
 // Poisson PCF of that width filters. Radii are texels of the layer; a texel subtends
@@ -205,14 +226,15 @@ float pcss_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) 
     // A sun's texels of radius per depth unit between blocker and receiver.
     float sun_texels = kDirectional ? ortho_metres_per_depth(layer) * light_r / layer_footprint(vec3(0.0), layer) : 0.0;
     // 1. blockers: the light seen from the receiver, projected onto the near plane.
-    float search = kDirectional ? clamp(m.z * sun_texels, 1.0, max_r)
+    float search = kDirectional ? clamp(forward_depth(m.z) * sun_texels, 1.0, max_r)
                                 : clamp(light_r * (z_receiver - near) / (z_receiver * near * per_texel), 1.0, max_r);
     float blocker_sum = 0.0;
     uint blockers = 0u;
     for (uint k = 0u; k < kPoissonTapCount; ++k) {
         ivec2 t = clamp(ivec2(floor(m.xy + rot * poisson_tap(k) * search)), ivec2(0), ivec2(res - 1));
         float stored = texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r;
-        if (depth_units_ref(ref_at(t, m, dz)) > stored) {
+        if (!lit_against(depth_units_ref(ref_at(t, m, dz)), stored)) {
+            stored = forward_depth(stored);
             blocker_sum += kDirectional ? stored : view_depth(stored);
             ++blockers;
         }
@@ -221,7 +243,7 @@ float pcss_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) 
     float z_blocker = blocker_sum / float(blockers);
     // 2. the penumbra: the light seen from the receiver, at the blockers' depth.
     float radius = kDirectional
-                       ? clamp((m.z - z_blocker) * sun_texels, 1.0, max_r)
+                       ? clamp((forward_depth(m.z) - z_blocker) * sun_texels, 1.0, max_r)
                        : clamp(light_r * (z_receiver - z_blocker) / (z_receiver * z_blocker * per_texel), 1.0, max_r);
     // 3. PCF over it.
     float sum = 0.0;
@@ -287,7 +309,7 @@ vec4 filtered_moments(vec2 uv, uint layer) {
             float wx = ((1.0 - f.x) * gauss(i) + f.x * gauss(i - 1)) / norm;
             // The map's edge texels repeat beyond it, as a clamp-to-edge sampler reads them.
             ivec2 t = clamp(ivec2(base) + ivec2(i, j), ivec2(0), ivec2(res - 1));
-            sum += wx * wy * warp(texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r);
+            sum += wx * wy * warp(forward_depth(texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r));
         }
     }
     return sum;
@@ -350,7 +372,7 @@ float moment_visibility(vec3 m, uint layer) {
     bool in_map = all(greaterThanEqual(centre, ivec2(0))) && all(lessThan(centre, ivec2(res)));
     if (!in_map && kLightKind != kLightPoint) return 1.0;  // outside a 2D map: lit, as a depth tap there
     vec4 mo = filtered_moments(m.xy, layer);
-    float t = depth_units_ref(m.z);
+    float t = forward_depth(depth_units_ref(m.z));
     if (kFilterType == kFilterVsm) return reduce_bleeding(chebyshev(mo.xy, t, p.moments.x));
     if (kFilterType == kFilterMsm) {
         // A blurred 16-bit map is rounded again when the blur pass stores it.
@@ -429,7 +451,7 @@ float blend_cascades(uvec2 pix, uint layer, vec3 Pb, vec3 n, float h, float v) {
     uint next = layer + 1u;
     vec3 m = to_map(Pb, next);
     vec2 dz = plane_gradient(Pb, n, h, next, m);
-    m.z -= p.bias.z;
+    m.z -= reversed_z() ? -p.bias.z : p.bias.z;
     return mix(v, filter_visibility(pix, next, m, dz, 0.0), w);
 }
 
@@ -484,9 +506,13 @@ void main() {
     // Shadow-map texel size at the receiver, before any offset.
     uint layer = select_layer(P);
     float footprint = layer_footprint(P, layer);
-    // Receiver biases: towards the light by metres, along the normal by texel footprints.
-    float world = world_bias(layer);
-    vec3 Pb = P + to_light * world + n * (p.bias.y * footprint);
+    // Receiver biases: towards the light by metres (and by a fraction of the layer's depth
+    // range), along the normal by texel footprints and metres, scaled by the normal factor and
+    // without its component along L when normal_perpendicular is on (Godot).
+    float world = world_bias(layer) + (p.bias3.w != 0.0 ? p.bias3.w * depth_range_m(layer) : 0.0);
+    float normal_m = (p.bias.y * footprint + p.bias3.x) * normal_factor(uint(p.bias3.y), dot(n, to_light));
+    vec3 normal_dir = p.bias3.z > 0.5 ? n - to_light * dot(n, to_light) : n;
+    vec3 Pb = P + to_light * world + normal_dir * normal_m;
     layer = select_layer(Pb);
     if (kMode == kModeFaceMask) {
         atomicOr(face_mask, 1u << layer);
@@ -511,7 +537,7 @@ void main() {
     // Depth gradient of the receiver plane in texel units, from two tangent steps of one
     // footprint: the receiver-plane bias needs it, and so do the diagnostics.
     vec2 dz = plane_gradient(Pb, n, h, layer, m);
-    m.z -= p.bias.z;  // shader-side constant bias, depth units
+    m.z -= reversed_z() ? -p.bias.z : p.bias.z;  // shader-side constant bias, depth units
     float z_receiver = kDirectional ? 0.0 : dot(Pb - p.light_pos.xyz, p.light_axis[layer].xyz);
     if (kMode == kModeVisibility) {
         o.V = blend_cascades(pix, layer, Pb, n, h, filter_visibility(pix, layer, m, dz, z_receiver));
@@ -520,14 +546,19 @@ void main() {
     }
 
     // Everything expressed as metres along the light ray, for the peter-panning rule.
-    float z_toward = to_map(Pb + to_light * h, layer).z - p.bias.z;
+    float z_toward = to_map(Pb + to_light * h, layer).z - (reversed_z() ? -p.bias.z : p.bias.z);
     float metres_per_depth = abs(m.z - z_toward) > 0.0 ? h / abs(m.z - z_toward) : 0.0;
     float max_slope = max(abs(dz.x), abs(dz.y));
     float r = p.bias2.z > 0.0 ? p.bias2.z : exp2(float(int(floor(log2(max(m.z, 1e-30)))) - 23));
     float hw = constant_bias(layer) * r + p.bias2.x * max_slope;
     if (p.bias2.y > 0.0) hw = min(hw, p.bias2.y);
     if (p.bias2.y < 0.0) hw = max(hw, p.bias2.y);
-    o.bias_m = world + p.bias.y * footprint + (hw + p.bias.z) * metres_per_depth;
+    // The caster offsets move the stored surface away from the light by the metres a receiver
+    // offset would move the receiver towards it (the caster's normal factor taken at this
+    // surface, which is its own caster where acne forms).
+    float caster_normal = (p.caster.z + p.caster.w * footprint) * normal_factor(uint(p.caster2.x), dot(n, to_light));
+    float caster_m = p.caster.x + p.caster.y * footprint + caster_normal + p.caster2.y * metres_per_depth;
+    o.bias_m = world + (p.bias3.z > 0.5 ? normal_m * length(normal_dir) : normal_m) + (hw + p.bias.z) * metres_per_depth + caster_m;
 
     ivec2 centre = ivec2(floor(m.xy));
     int res = int(p.map.x);
@@ -535,10 +566,10 @@ void main() {
     o.footprint_m = footprint;
     o.depth_to_m = metres_per_depth;
     o.texel_slope = 0.5 * (abs(dz.x) + abs(dz.y));
-    o.ref_depth = ref_at(centre, m, dz);
+    o.ref_depth = forward_depth(ref_at(centre, m, dz));
     if (inside || kLightKind == kLightPoint) {
         ivec3 c = ivec3(clamp(centre, ivec2(0), ivec2(res - 1)), int(layer));
-        o.stored_depth = texelFetch(shadow_depth, c, 0).r;
+        o.stored_depth = forward_depth(texelFetch(shadow_depth, c, 0).r);
         o.stored_prim = texelFetch(shadow_prim, c, 0).r;
     } else {
         o.stored_depth = 1.0 / 0.0;

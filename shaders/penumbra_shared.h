@@ -108,6 +108,28 @@ struct LookupParams {
     // first cascade's (the constant also by the first's depth range over its own).
     vec4 cascade_world_scale[kMaxLayers / 4];
     vec4 cascade_constant_scale[kMaxLayers / 4];
+    // Engine bias terms (docs/raster.md, "Bias as engines apply it"). Receiver: normal offset in
+    // metres, normal factor (kNormalFactor*), 1 = normal offset perpendicular to L, world offset
+    // as a fraction of the layer's depth range.
+    vec4 bias3;
+    // Caster (for the peter-panning rule's reach): world metres, world texels, normal metres,
+    // normal texels.
+    vec4 caster;
+    vec4 caster2;  // caster normal factor (kNormalFactor*), caster depth (depth units), 1 = reversed Z, unused
+};
+
+PENUMBRA_CONST uint kNormalFactorNone = 0;
+PENUMBRA_CONST uint kNormalFactorOneMinusNdotL = 1;
+PENUMBRA_CONST uint kNormalFactorSin = 2;
+
+// The shadow pass's push constants when it applies caster offsets or reversed Z (shadow_bias.geom).
+struct ShadowPush {
+    mat4 view_proj;  // the layer's, reversed when caster.w says so
+    vec4 light;      // xyz: unit direction light travels (w = 0), or camera-relative position (w = 1)
+    vec4 texel;      // xyz: the layer's unit forward axis (positional lights); w: metres per texel (orthographic)
+                     // or per texel per metre of depth along the axis (perspective)
+    vec4 offsets;    // caster world metres, world texels, normal metres, normal texels
+    vec4 caster;     // normal factor (kNormalFactor*), depth (depth units, forward), unused, 1 = reversed Z
 };
 
 // SDSM's reduction: the camera as LookupParams gives it (push constants).

@@ -303,6 +303,13 @@ TEST(Technique, EngineBiasKeysParseValidateAndRoundTrip) {
     EXPECT_THAT(error_of({{"bias", {{"caster", 1}}}}), HasSubstr("technique.bias.caster"));
     EXPECT_THAT(error_of({{"bias", {{"caster", {{"depth", 2}}}}}}), HasSubstr("technique.bias.caster.depth"));
     EXPECT_THAT(error_of({{"reversed_z", "yes"}}), HasSubstr("technique.reversed_z"));
+    // The midpoint pass peels forward depths: refused with reversed Z, not drawn wrong.
+    EXPECT_THAT(error_of({{"reversed_z", true}, {"depth_layer", "midpoint"}}),
+                HasSubstr("technique.reversed_z: depth_layer \"midpoint\" stores forward depth"));
+    // Families without a depth map have no bias or reversed_z keys.
+    EXPECT_THAT(error_of({{"family", "shadow_volume"}, {"reversed_z", true}}), HasSubstr("technique.reversed_z"));
+    EXPECT_THAT(error_of({{"family", "planar_projection"}, {"bias", {{"caster", {{"world", 1}}}}}}),
+                HasSubstr("technique.bias"));
     EXPECT_THAT(error_of({{"lights", {{{"bias", {{"caster", {{"normal_texels", "x"}}}}}}}}}),
                 HasSubstr("technique.lights[0].bias.caster.normal_texels"));
 }
