@@ -220,6 +220,21 @@ TEST(EngineUnits, EveryPairRoundTrips) {
     EXPECT_EQ(pairs, 4 * 8 * 8);
 }
 
+// --to penumbra's keys are a technique's (issue #38's contract): a technique parsed from them gives
+// back, through its resolved bias (Technique::to_json), the engine's clearance.
+TEST(EngineUnits, PenumbraKeysAreTechniqueKeysWithTheEnginesClearance) {
+    const MapContext m = hand_map();
+    for (const std::string& e : engines::engine_names()) {
+        SCOPED_TRACE(e);
+        const json keys = engines::nested_bias(engines::penumbra_keys(sample(e), m));
+        const raster::Technique t = technique({{"bias", keys}});
+        const EngineBias b = engines::penumbra_bias(t.bias_for(0));
+        const engines::Clearance want = engines::clearance(sample(e), m), got = engines::clearance(b, m);
+        EXPECT_TRUE(close(want.constant_m, got.constant_m)) << want.constant_m << " " << got.constant_m;
+        EXPECT_TRUE(close(want.angular_m, got.angular_m)) << want.angular_m << " " << got.angular_m;
+    }
+}
+
 TEST(EngineUnits, BadEnginesKeysAndValuesAreRefusedByName) {
     auto message = [](auto f) {
         try {
