@@ -16,7 +16,7 @@
 # three.js's bias and normalBias per light; applied inside three.js, the engine's own visible
 # acne + peter-panning (report.json's rates_visible) must fall below its defaults'.
 # Skipped (exit 77) only when node or chromium is missing, and never in CI (as engines_test.sh).
-# Usage: presets_test.sh PENUMBRA SOURCE_DIR
+# Usage: presets_test.sh PENUMBRA SOURCE_DIR (KEEP=1: keep the frames and reports in the mktemp folder)
 set -uo pipefail
 bin=$1 src=$2
 here=$src/tests/engines
