@@ -3,7 +3,9 @@
 // writes the engine's shadow term and its linear view depth for `penumbra compare`.
 // Usage: node render.mjs ENGINE CAMERA_JSON SCENE_GLB CONFIGS_JSON OUT_DIR
 //   CONFIGS_JSON: [{"name": "...", "light": 0, "mapSize": 1024, ...engine settings}]
-//   writes OUT_DIR/<name>.shadow.pfm and OUT_DIR/<name>.depth.pfm (float, one channel)
+//   writes OUT_DIR/<name>.shadow.pfm and OUT_DIR/<name>.depth.pfm (float, one channel) and
+//   OUT_DIR/<name>.json ({"note": what was drawn, "bias_m": the biases as metres along the light,
+//   "texel_m": a directional map's texel in metres})
 import fs from 'node:fs';
 import http from 'node:http';
 import path from 'node:path';
@@ -60,6 +62,10 @@ try {
         const r = await page.evaluate((k, c) => window.renderFrame(k, '/scene.glb', c), kit, cfg);
         writePfm(path.join(outDir, `${cfg.name}.shadow.pfm`), r.width, r.height, r.shadow);
         writePfm(path.join(outDir, `${cfg.name}.depth.pfm`), r.width, r.height, r.depth);
+        // What the page says it drew, its biases as metres along the light (compare's --bias-m)
+        // and, for a directional light, its map's texel in metres (--texel-m).
+        fs.writeFileSync(path.join(outDir, `${cfg.name}.json`),
+                         JSON.stringify({ note: r.note, bias_m: r.biasM, texel_m: r.texelM }));
         console.log(`${engine}: ${cfg.name}: ${r.width}x${r.height}, ${r.note}`);
     }
 } catch (e) {
