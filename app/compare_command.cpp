@@ -29,6 +29,7 @@ struct CompareArgs {
     double bias_m = -1;
     int shadow_map = 0;
     double filter_reach = 1.0;
+    bool moments = false;
     int band_px = 1;
     std::filesystem::path gate_file;
     std::filesystem::path junit_file;
@@ -74,6 +75,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
     if (a.shadow_map > 0) options.shadow_map_resolution = a.shadow_map;
     if (a.bias_m >= 0) options.bias_reach_m = static_cast<float>(a.bias_m);
     options.filter_reach_texels = static_cast<float>(a.filter_reach);
+    options.moments = a.moments;
     options.silhouette_band_px = a.band_px;
     const ValidateResult r = compare(scenario, frame, options, gate);
 
@@ -146,6 +148,9 @@ Subcommand add_compare_command(CLI::App& parent) {
         ->check(range(0.0, 1e6));
     cmd->add_option("--filter-reach", v.filter_reach, "The engine's filter reach in texels (aliasing band, default 1)")
         ->check(range(0.0, 64.0));
+    cmd->add_flag("--moments", v.moments,
+                  "The engine filters moments (VSM, ESM, EVSM, MSM): light in a true umbra beyond the filter's reach "
+                  "is light_bleeding");
     cmd->add_option("--silhouette-band", v.band_px,
                     "Without --depth: pixels this close to the oracle's silhouettes are not scored (default 1)")
         ->check(CLI::Range(0, 16));

@@ -315,6 +315,7 @@ ValidateResult compare(const Scenario& sc, const EngineFrame& f, const CompareOp
     so.tolerance = static_cast<float>(opt.validate.tolerance);
     so.visible_threshold = static_cast<float>(opt.validate.visible_threshold);
     so.filter_reach_texels = opt.filter_reach_texels;
+    so.light_bleeding = opt.moments;
     so.depth_quantum = 0.0f;
     r.scoring.assign(sc.lights.size(), so);
     for (std::size_t li = 0; li < sc.lights.size(); ++li) {

@@ -40,6 +40,9 @@ struct CompareOptions {
     std::optional<int> shadow_map_resolution;  // or its map's texels per side: the footprint is derived
     std::optional<float> bias_reach_m;         // the engine's biases together, metres along the light ray
     float filter_reach_texels = 1.0f;          // the engine's filter reach (aliasing band), texels
+    // The engine filters moments (VSM, ESM, EVSM, MSM): light in a true umbra beyond the filter's
+    // reach is light_bleeding, as for penumbra's moment families (docs/metrics.md).
+    bool moments = false;
     // Without depth: oracle pixels within this many pixels of a silhouette are left unscored.
     int silhouette_band_px = 1;
     // With depth: the engine saw the oracle's surface where the view depths agree to this fraction.

@@ -30,6 +30,7 @@
 #include "caster_geom.h"
 #include "caster_vert.h"
 #include "lookup_comp.h"
+#include "moments_comp.h"
 #include "peel_frag.h"
 #include "sdsm_comp.h"
 #include "shadow_frag.h"
@@ -152,7 +153,7 @@ UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout l
 }
 
 // The lookup set, declared once: the layout, the pool and the writes come from this table.
-constexpr std::array<BindingDecl, 10> kLookupBindings = {{
+constexpr std::array<BindingDecl, 11> kLookupBindings = {{
     {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
     {gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingIndices, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
@@ -163,7 +164,48 @@ constexpr std::array<BindingDecl, 10> kLookupBindings = {{
     {gpu::kBindingLookupOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingFaceMask, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingVisibilityOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingMoments, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
 }};
+
+// The moment families' passes (shaders/moments.comp): what they read, what they write.
+constexpr std::array<BindingDecl, 2> kMomentBindings = {{
+    {gpu::kBindingMomentSource, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+    {gpu::kBindingMomentTarget, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+}};
+// Per map, three sets: depth -> moments, moments -> scratch (blur along x), scratch -> moments (along y).
+constexpr std::size_t kMomentSetsPerMap = 3;
+constexpr const char* kMomentsPass =
+    "compute pass per drawn map layer: the family's moments of every depth texel (vsm d, d^2; esm exp(c d); evsm "
+    "the warped moments; msm d..d^4, optimised and rounded to 16 bits with msm.storage 16) into a texture of the "
+    "family's format";
+constexpr const char* kBlurPass =
+    "two compute passes per drawn map layer: the separable Gaussian of radius `blur` texels (sigma = blur / 2) "
+    "over the moments, along x into a scratch texture and along y back";
+constexpr const char* kMipmapPass =
+    "the moment texture's mip chain, each level a linear blit of the one above (vkCmdBlitImage), after the blur";
+
+// The moment texture's format: the family's moments in float32, or msm's 16-bit storage.
+VkFormat moment_format(const MomentParameters& m) {
+    switch (m.kind) {
+        case MomentKind::esm: return VK_FORMAT_R32_SFLOAT;
+        case MomentKind::vsm:
+        case MomentKind::evsm2: return VK_FORMAT_R32G32_SFLOAT;
+        case MomentKind::evsm4: return VK_FORMAT_R32G32B32A32_SFLOAT;
+        case MomentKind::msm:
+            return m.storage_bits == 16 ? VK_FORMAT_R16G16B16A16_UNORM : VK_FORMAT_R32G32B32A32_SFLOAT;
+    }
+    return VK_FORMAT_R32G32B32A32_SFLOAT;
+}
+
+// Levels of a full mip chain down to 1x1.
+std::uint32_t mip_levels(std::uint32_t res) {
+    std::uint32_t levels = 1;
+    while (res > 1) {
+        res /= 2;
+        ++levels;
+    }
+    return levels;
+}
 
 // SDSM's reduction (shaders/sdsm.comp): the camera pass's triangles and the scene, and the range.
 constexpr std::array<BindingDecl, 4> kSdsmBindings = {{
@@ -211,8 +253,9 @@ constexpr const char* kSecondDepth =
     "layer discarded, the rest writing the midpoint between the first layer and themselves (depth test less)";
 
 // Timestamps per light: before the shadow pass, after it, after the second-depth pass (midpoint
-// only, else at once), after the lookup.
-constexpr std::uint32_t kQueriesPerLight = 4;
+// only, else at once), after the moments pass, after the blur, after the mip chain (the last three
+// moment families only, else at once), after the lookup.
+constexpr std::uint32_t kQueriesPerLight = 7;
 
 // The midpoint pass's set: the first depth layer, read by texelFetch.
 constexpr std::array<BindingDecl, 1> kPeelBindings = {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER}}};
@@ -247,8 +290,13 @@ class DepthMapFamily final : public TechniqueFamily {
         GpuImage first, second_prim;
         std::vector<UniqueImageView> first_layers, second_prim_layers;
         std::optional<MapContent> content;  // set: drawn, in SHADER_READ_ONLY_OPTIMAL
-        bool triangle_ids = false;          // `prim` holds the triangle ids of `content` (else stale)
-        bool read_only = false;             // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
+        // Moment families: the filtered moments (level 0, then the mip chain) and the blur's
+        // scratch, both kept in GENERAL; `moments_of` is what they hold (content and parameters).
+        GpuImage moments, moments_scratch;
+        UniqueImageView moments_target, scratch_target;  // level 0, every layer: the storage views
+        std::optional<std::pair<MapContent, std::array<double, 6>>> moments_of;
+        bool triangle_ids = false;  // `prim` holds the triangle ids of `content` (else stale)
+        bool read_only = false;     // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
     };
 
     void check_supported(const Technique& t, RasterStats& stats);
@@ -259,6 +307,9 @@ class DepthMapFamily final : public TechniqueFamily {
     VkSampler compare_sampler(bool linear, bool clamp_to_border, bool reversed_z);
     gpu::ShadowPush caster_push(const Technique& t, const Light& light, const LightProjection& projection,
                                 std::uint32_t layer) const;
+    VkPipeline moment_pipeline(const MomentParameters& m, gpu::uint pass);
+    void record_moments(VkCommandBuffer cmd, const MomentParameters& m, bool reversed_z, std::size_t map_index,
+                        const RasterLightStats& ls, std::uint32_t q);
     void ensure_maps(const Technique& t, std::span<const Light> lights);
     std::size_t map_of_index(std::size_t li) const { return maps_.size() == 1 ? 0 : li; }
     LightMap& map_of(std::size_t li) { return maps_[map_of_index(li)]; }
@@ -283,8 +334,13 @@ class DepthMapFamily final : public TechniqueFamily {
     bool hardware_compare_ = false;
     bool direct_readback_ = false;  // the device shares host memory: the lookup writes where the CPU reads
 
-    DescriptorSets sets_, peel_sets_;
-    UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_, peel_layout_;
+    DescriptorSets sets_, peel_sets_, moment_sets_;
+    UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_, peel_layout_, moment_layout_;
+    std::map<std::array<std::uint32_t, 3>, UniquePipeline> moment_pipelines_;
+    // The maps' moment textures: their format (UNDEFINED: none) and mip levels.
+    VkFormat maps_moment_format_ = VK_FORMAT_UNDEFINED;
+    std::uint32_t maps_moment_levels_ = 0;
+    UniqueSampler moment_sampler_;
     std::map<std::pair<VkFormat, Cull>, UniquePipeline> peel_pipelines_;
     bool maps_midpoint_ = false;  // maps_ have their first-layer images
     // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets.
@@ -316,6 +372,7 @@ DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
       direct_readback_(scene.ctx.info().type == "cpu" || scene.ctx.info().type == "integrated-gpu"),
       sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT),
       peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT),
+      moment_sets_(scene.ctx, kMomentBindings, VK_SHADER_STAGE_COMPUTE_BIT),
       sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     caster_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(gpu::ShadowPush), VK_SHADER_STAGE_GEOMETRY_BIT);
@@ -323,6 +380,18 @@ DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
     peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
                                         VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
     nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
+    moment_layout_ =
+        make_pipeline_layout(ctx_, moment_sets_.layout(), sizeof(gpu::MomentPassParams), VK_SHADER_STAGE_COMPUTE_BIT);
+    // The lookup samples moments as engines do: bilinear, trilinear across the mip levels, the
+    // map's edge texels repeated beyond it.
+    VkSamplerCreateInfo ci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    ci.magFilter = ci.minFilter = VK_FILTER_LINEAR;
+    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+    ci.addressModeU = ci.addressModeV = ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    ci.maxLod = VK_LOD_CLAMP_NONE;
+    VkSampler sampler;
+    VK_CHECK(vkCreateSampler(ctx_.device(), &ci, nullptr, &sampler));
+    moment_sampler_ = UniqueSampler(ctx_.device(), sampler);
 }
 
 void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
@@ -339,6 +408,18 @@ void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
                                     t.filter.type == FilterType::vogel));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
+    if (const MomentParameters* m = moment_parameters(t)) {
+        // The moment passes write one shader into each family's format, and the lookup filters it.
+        VkFormatFeatureFlags need = VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
+                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
+        if (m->mipmaps) need |= VK_FORMAT_FEATURE_BLIT_SRC_BIT | VK_FORMAT_FEATURE_BLIT_DST_BIT;
+        if (!ctx_.storage_write_without_format() || !ctx_.supports_format_features(moment_format(*m), need))
+            throw EnvironmentError(
+                fmt::format("Vulkan device '{}' cannot store, filter{} the {} family's moments (format {}, "
+                            "shaderStorageImageWriteWithoutFormat {})",
+                            ctx_.info().name, m->mipmaps ? " and blit" : " and", to_string(m->kind),
+                            static_cast<int>(moment_format(*m)), ctx_.storage_write_without_format() ? "on" : "off"));
+    }
 }
 
 // SDSM (Lauritzen, Salvi and Lefohn, I3D 2011): one compute pass over the camera pass's pixels
@@ -467,7 +548,7 @@ VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, g
     const MomentParameters* moments = moment_parameters(t);
     SpecData spec = {kind,
                      moments ? gpu::kFilterVsm + static_cast<std::uint32_t>(moments->kind) : filter_kind(t.filter.type),
-                     static_cast<std::uint32_t>(moments ? moments->blur : t.filter.size),
+                     static_cast<std::uint32_t>(moments ? 0 : t.filter.size),  // the blur is its own pass
                      static_cast<std::uint32_t>(t.filter.taps),
                      t.filter.bilinear_taps ? 1u : 0u,
                      t.bias.receiver_plane ? 1u : 0u,
@@ -475,6 +556,29 @@ VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, g
                      mode};
     UniquePipeline& p = lookup_pipelines_[spec];
     if (!p) p = make_lookup_pipeline(ctx_, lookup_layout_.get(), spec);
+    return p.get();
+}
+
+VkPipeline DepthMapFamily::moment_pipeline(const MomentParameters& m, gpu::uint pass) {
+    const std::array<std::uint32_t, 3> spec = {gpu::kFilterVsm + static_cast<std::uint32_t>(m.kind), pass,
+                                               static_cast<std::uint32_t>(m.blur)};
+    UniquePipeline& p = moment_pipelines_[spec];
+    if (!p) {
+        UniqueShaderModule cs = make_module(ctx_, kMomentsComp, sizeof(kMomentsComp));
+        std::array<VkSpecializationMapEntry, 3> entries;
+        for (std::uint32_t i = 0; i < 3; ++i) entries[i] = {i, i * 4, 4};
+        VkSpecializationInfo si{3, entries.data(), sizeof(spec), spec.data()};
+        VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+        ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+        ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+        ci.stage.module = cs.get();
+        ci.stage.pName = "main";
+        ci.stage.pSpecializationInfo = &si;
+        ci.layout = moment_layout_.get();
+        VkPipeline pipeline;
+        VK_CHECK(vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
+        p = UniquePipeline(ctx_.device(), pipeline);
+    }
     return p.get();
 }
 
@@ -528,7 +632,11 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
         for (const Light& l : lights) most = std::max(most, layers_of(l));
         wanted = {most};  // one map for all
     }
-    bool same = maps_.size() == wanted.size() && maps_midpoint_ == midpoint;
+    const MomentParameters* moments = moment_parameters(t);
+    const VkFormat mformat = moments ? moment_format(*moments) : VK_FORMAT_UNDEFINED;
+    const std::uint32_t mlevels = !moments ? 0 : moments->mipmaps ? mip_levels(res) : 1;
+    bool same = maps_.size() == wanted.size() && maps_midpoint_ == midpoint && maps_moment_format_ == mformat &&
+                maps_moment_levels_ == mlevels;
     for (std::size_t i = 0; same && i < wanted.size(); ++i)
         same = maps_[i].depth.format == format && maps_[i].depth.width == res && maps_[i].depth.layers == wanted[i];
     if (same) return;
@@ -542,6 +650,14 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
         maps_arena_.add(maps_[i].prim, kPrimFormat, res, res, wanted[i],
                         VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
                         true);
+        if (moments) {
+            const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+            maps_arena_.add(maps_[i].moments, mformat, res, res, wanted[i],
+                            usage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                            VK_IMAGE_ASPECT_COLOR_BIT, true, mlevels);
+            maps_arena_.add(maps_[i].moments_scratch, mformat, res, res, wanted[i], usage, VK_IMAGE_ASPECT_COLOR_BIT,
+                            true);
+        }
         if (!midpoint) continue;
         maps_arena_.add(maps_[i].first, format, res, res, wanted[i],
                         VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
@@ -551,6 +667,26 @@ void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> ligh
     }
     maps_arena_.commit();
     maps_midpoint_ = midpoint;
+    maps_moment_format_ = mformat;
+    maps_moment_levels_ = mlevels;
+    if (moments) {
+        moment_sets_.reserve(kMomentSetsPerMap * maps_.size());
+        for (std::size_t i = 0; i < maps_.size(); ++i) {
+            LightMap& m = maps_[i];
+            m.moments_target = create_level_view(ctx_, m.moments, 0, VK_IMAGE_ASPECT_COLOR_BIT);
+            m.scratch_target = create_level_view(ctx_, m.moments_scratch, 0, VK_IMAGE_ASPECT_COLOR_BIT);
+            std::array<DescriptorResource, kMomentBindings.size()> r{};
+            r[0].image = {nearest_.get(), m.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+            r[1].image = {VK_NULL_HANDLE, m.moments_target.get(), VK_IMAGE_LAYOUT_GENERAL};
+            moment_sets_.write(kMomentSetsPerMap * i, r);
+            r[0].image = {nearest_.get(), m.moments.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+            r[1].image = {VK_NULL_HANDLE, m.scratch_target.get(), VK_IMAGE_LAYOUT_GENERAL};
+            moment_sets_.write(kMomentSetsPerMap * i + 1, r);
+            r[0].image = {nearest_.get(), m.moments_scratch.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+            r[1].image = {VK_NULL_HANDLE, m.moments_target.get(), VK_IMAGE_LAYOUT_GENERAL};
+            moment_sets_.write(kMomentSetsPerMap * i + 2, r);
+        }
+    }
     for (LightMap& m : maps_)
         for (std::uint32_t l = 0; l < m.depth.layers; ++l) {
             m.depth_layers.push_back(create_layer_view(ctx_, m.depth, l, VK_IMAGE_ASPECT_DEPTH_BIT));
@@ -579,6 +715,12 @@ void DepthMapFamily::record_map_layouts(VkCommandBuffer cmd) {
         image_barrier(cmd, m.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, m.prim.layers, VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        // The moment textures live in GENERAL: written by the passes, blitted, sampled.
+        for (GpuImage* img : {&m.moments, &m.moments_scratch})
+            if (img->image)
+                image_barrier(cmd, img->image.get(), VK_IMAGE_ASPECT_COLOR_BIT, img->layers, VK_IMAGE_LAYOUT_UNDEFINED,
+                              VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
         m.read_only = true;
     }
 }
@@ -659,7 +801,12 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     const double light_size =
         light.type == LightType::directional ? std::tan(0.5 * light.angular_diameter_rad) : light.radius;
     p.pcss = glm::vec4(light_size, projection.near, projection.far, t.filter.max_radius_texels);
-    if (const MomentParameters* m = moment_parameters(t)) p.moments = moment_uniform(*m);
+    if (const MomentParameters* m = moment_parameters(t)) {
+        p.moments = moment_uniform(*m);
+        p.moment_map =
+            glm::vec4(static_cast<float>(m->mipmaps ? mip_levels(static_cast<std::uint32_t>(t.resolution)) : 1),
+                      m->kind == MomentKind::msm && m->storage_bits == 16 ? 1.0f : 0.0f, 0.0f, 0.0f);
+    }
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
         p.view_proj[l] = glm::mat4(map_view_proj(t, projection.view_proj[l]));
         p.light_axis[l] = glm::vec4(glm::vec3(projection.axis[l]), 0.0f);
@@ -693,6 +840,71 @@ void DepthMapFamily::record_masks(VkCommandBuffer cmd, std::span<const Light> li
                    VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 
+// The moment families' passes over the map just drawn (or reused with other parameters): the
+// moments of every sampled layer, the separable blur, the mip chain; timestamps q + 3, 4, 5.
+// Every pass reads what the one before wrote: a memory barrier between them (the textures stay
+// in GENERAL).
+void DepthMapFamily::record_moments(VkCommandBuffer cmd, const MomentParameters& m, bool reversed_z,
+                                    std::size_t map_index, const RasterLightStats& ls, std::uint32_t q) {
+    LightMap& map = maps_[map_index];
+    const auto res = map.depth.width;
+    const std::uint32_t layer_count = static_cast<std::uint32_t>(ls.projection.view_proj.size());
+    const gpu::MomentPassParams base{glm::vec4(static_cast<float>(m.exponent), static_cast<float>(m.negative_exponent),
+                                               m.kind == MomentKind::msm && m.storage_bits == 16 ? 1.0f : 0.0f, 0.0f),
+                                     glm::uvec4(0u, res, reversed_z ? 1u : 0u, 0u)};  // moments of forward depth
+    auto dispatch = [&](gpu::uint pass, std::size_t set_index) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, moment_pipeline(m, pass));
+        VkDescriptorSet set = moment_sets_[kMomentSetsPerMap * map_index + set_index];
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, moment_layout_.get(), 0, 1, &set, 0, nullptr);
+        for (std::uint32_t layer = 0; layer < layer_count; ++layer) {
+            if (!(ls.layers_sampled & (1u << layer))) continue;
+            gpu::MomentPassParams push = base;
+            push.layer.x = layer;
+            vkCmdPushConstants(cmd, moment_layout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+            vkCmdDispatch(cmd, (res + 7) / 8, (res + 7) / 8, 1);
+        }
+    };
+    auto compute_to_compute = [&] {
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    };
+    // The previous light's or render's lookup and blits may still read the textures.
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
+                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+                   VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+    dispatch(gpu::kMomentPassWarp, 0);
+    compute_to_compute();
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 3);
+    if (m.blur > 0) {
+        dispatch(gpu::kMomentPassBlurX, 1);
+        compute_to_compute();
+        dispatch(gpu::kMomentPassBlurY, 2);
+        compute_to_compute();
+    }
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 4);
+    if (map.moments.levels > 1) {
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+        for (std::uint32_t level = 1; level < map.moments.levels; ++level) {
+            const auto from = static_cast<std::int32_t>(std::max(res >> (level - 1), 1u));
+            const auto to = static_cast<std::int32_t>(std::max(res >> level, 1u));
+            VkImageBlit blit{};
+            blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, map.moments.layers};
+            blit.srcOffsets[1] = {from, from, 1};
+            blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, map.moments.layers};
+            blit.dstOffsets[1] = {to, to, 1};
+            vkCmdBlitImage(cmd, map.moments.image.get(), VK_IMAGE_LAYOUT_GENERAL, map.moments.image.get(),
+                           VK_IMAGE_LAYOUT_GENERAL, 1, &blit, VK_FILTER_LINEAR);
+            memory_barrier(cmd, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                           VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+        }
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    }
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 5);
+}
+
 void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li,
                                   RasterLightStats& ls, const RenderOptions& options) {
     const auto q = static_cast<std::uint32_t>(2 + kQueriesPerLight * li);
@@ -723,6 +935,7 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
         // A lookup may have read these images (a previous render, or the previous light of a
         // shared map); their contents are not needed again.
         map.content.reset();
+        map.moments_of.reset();
         image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
@@ -786,13 +999,32 @@ void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const
     if (ls.layers_sampled == 0 || ls.map_reused)
         vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
     vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 2);
+    const MomentParameters* moments = moment_parameters(t);
+    bool moments_drawn = false;
+    if (moments && ls.layers_sampled != 0) {
+        // The moments follow the map and the family's parameters: a reused map with the same
+        // parameters keeps them.
+        const std::pair<MapContent, std::array<double, 6>> of = {
+            content,
+            {static_cast<double>(moments->kind), moments->exponent, moments->negative_exponent,
+             static_cast<double>(moments->storage_bits), static_cast<double>(moments->blur),
+             moments->mipmaps ? 1.0 : 0.0}};
+        if (map.moments_of != of) {
+            record_moments(cmd, *moments, t.reversed_z, map_of_index(li), ls, q);
+            map.moments_of = of;
+            moments_drawn = true;
+        }
+    }
+    if (!moments_drawn)  // no moment pass: their timestamps at once
+        for (std::uint32_t k = 3; k <= 5; ++k)
+            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + k);
     vkCmdBindPipeline(
         cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
         lookup_pipeline(t, light_kind(t, light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
     VkDescriptorSet set = sets_[li];
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 3);
+    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 6);
     const Slot& slot = slots_[li];
     if (direct_readback_ || !options.read_back) {
         memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
@@ -935,6 +1167,11 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         r[7].buffer = {slot.output.buffer.get(), 0, slot.output.size};
         r[8].buffer = {slot.mask.buffer.get(), 0, slot.mask.size};
         r[9].buffer = {slot.output.buffer.get(), 0, slot.output.size};
+        // The other families never read it: the depth map stands in.
+        if (moment_parameters(t))
+            r[10].image = {moment_sampler_.get(), map.moments.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+        else
+            r[10].image = {nearest_.get(), map.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
         sets_.write(li, r);
     }
     stats.setup_s += seconds_since(t0);
@@ -979,7 +1216,12 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         RasterLightStats& ls = stats.lights[li];
         ls.gpu_ms.add("shadow", ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
         if (t.depth_layer == DepthLayer::midpoint) ls.gpu_ms.add("second_depth", ms(q + 1, q + 2), kSecondDepth);
-        ls.gpu_ms.add("lookup", ms(q + 2, q + 3), options.lookups ? kLookupDiagnostic : kLookupV);
+        if (const MomentParameters* m = moment_parameters(t)) {
+            ls.gpu_ms.add("moments", ms(q + 2, q + 3), kMomentsPass);
+            if (m->blur > 0) ls.gpu_ms.add("blur", ms(q + 3, q + 4), kBlurPass);
+            if (m->mipmaps) ls.gpu_ms.add("mipmaps", ms(q + 4, q + 5), kMipmapPass);
+        }
+        ls.gpu_ms.add("lookup", ms(q + 5, q + 6), options.lookups ? kLookupDiagnostic : kLookupV);
         stats.gpu_ms.add(ls.gpu_ms);
         if (options.read_back) {
             frame.lights.push_back(read_back(li, options.lookups));

@@ -2,9 +2,9 @@
 // (Donnelly & Lauritzen 2006), exponential shadow maps (Annen et al. 2008) and exponential
 // variance shadow maps (Lauritzen & McCool 2008), with two or four moments, and moment shadow
 // maps (Peters & Klein 2015), with four. They share the
-// depth-map family's map and keys (resolution, format, fit, cull, bias, lights), and its lookup
-// gathers the moments of the map's depths under a separable Gaussian and a bilinear tap, which
-// is what sampling a blurred moment map with hardware bilinear filtering gives.
+// depth-map family's map and keys (resolution, format, fit, cull, bias, lights); a moments pass,
+// a separable Gaussian blur and optionally a mip chain follow the map (raster/depth_map.cpp,
+// shaders/moments.comp), and the lookup samples the filtered moments bilinearly or trilinearly.
 #include "raster/filterable.h"
 
 #include <fmt/format.h>
@@ -131,8 +131,7 @@ void parse_moment_keys(MomentKind kind, JsonObject& o, Technique& t) {
     auto p = std::make_shared<MomentParameters>();
     p->kind = kind;
     p->blur = static_cast<int>(o.integer("blur", 0, 0, 32));
-    if (o.boolean("mipmaps", false))
-        o.fail("mipmaps", "mip-mapped moments are not implemented yet (false is the only value)");
+    p->mipmaps = o.boolean("mipmaps", false);
     if (kind == MomentKind::vsm) {
         if (o.has("vsm")) {
             JsonObject v = o.object("vsm");
@@ -200,7 +199,7 @@ nlohmann::json moment_keys_json(const Technique& t) {
     const MomentParameters& p = parameters_of(t);
     nlohmann::json j = depth_map_keys_json(t);
     j["blur"] = p.blur;
-    j["mipmaps"] = false;
+    j["mipmaps"] = p.mipmaps;
     switch (p.kind) {
         case MomentKind::vsm: j["vsm"] = {{"min_variance", p.min_variance}, {"light_bleed", p.light_bleed}}; break;
         case MomentKind::esm: j["esm"] = {{"exponent", p.exponent}}; break;
@@ -233,15 +232,33 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
     };
     e.describe_light = [](const Technique& t, const Light&, const RasterLightStats&) {
         const MomentParameters& p = parameters_of(t);
-        return nlohmann::json{{"moments",
-                               {{"kind", to_string(p.kind)},
-                                {"count", p.kind == MomentKind::esm                                  ? 1
-                                          : p.kind == MomentKind::evsm4 || p.kind == MomentKind::msm ? 4
-                                                                                                     : 2},
-                                {"blur_texels", p.blur},
-                                {"gathered_in_lookup", true}}}};
+        return nlohmann::json{
+            {"moments",
+             {{"kind", to_string(p.kind)},
+              {"count", p.kind == MomentKind::esm                                  ? 1
+                        : p.kind == MomentKind::evsm4 || p.kind == MomentKind::msm ? 4
+                                                                                   : 2},
+              {"blur_texels", p.blur},
+              {"format", p.kind == MomentKind::msm && p.storage_bits == 16          ? "rgba16_unorm"
+                         : p.kind == MomentKind::esm                                ? "r32_sfloat"
+                         : p.kind == MomentKind::vsm || p.kind == MomentKind::evsm2 ? "rg32_sfloat"
+                                                                                    : "rgba32_sfloat"},
+              {"sampled", p.mipmaps ? "trilinear" : "bilinear"},
+              {"gathered_in_lookup", false}}}};
     };
-    for (const char* k : {"blur"}) e.sweep_keys.push_back(k);
+    for (const char* k : {"blur", "mipmaps"}) e.sweep_keys.push_back(k);
+    e.memory = [](const Technique& t) {
+        // The depth map, and the moment texture with the blur's scratch (a third more with the
+        // mip chain), counted as bytes of a map texel.
+        const MomentParameters& p = parameters_of(t);
+        RasterMemory m = depth_map_family_entry().memory(t);
+        const int texel = p.kind == MomentKind::esm                                  ? 4
+                          : p.kind == MomentKind::vsm || p.kind == MomentKind::evsm2 ? 8
+                          : p.kind == MomentKind::msm && p.storage_bits == 16        ? 8
+                                                                                     : 16;
+        m.depth_bytes += texel + (p.mipmaps ? (texel * 4 + 2) / 3 : texel);
+        return m;
+    };
     const std::string own = kind == MomentKind::vsm   ? "vsm"
                             : kind == MomentKind::esm ? "esm"
                             : kind == MomentKind::msm ? "msm"

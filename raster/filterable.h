@@ -26,6 +26,7 @@ const char* to_string(MsmVariant v);
 struct MomentParameters final : FamilyParameters {
     MomentKind kind = MomentKind::vsm;
     int blur = 0;                  // separable Gaussian radius in texels (sigma = radius / 2), 0 = none
+    bool mipmaps = false;          // the moments' mip chain after the blur, sampled trilinearly
     double min_variance = 1e-6;    // vsm, evsm: the variance floor, squared depth units of the map
     double light_bleed = 0.15;     // vsm, evsm: linstep(light_bleed, 1, p) on Chebyshev's bound
     double exponent = 80;          // esm: c of exp(c d); evsm: the positive exponent

@@ -158,8 +158,8 @@ const std::vector<Preset>& presets() {
         {"godot",
          "Godot 4 Forward+: PSSM 4 splits at 0.1/0.2/0.5 of 100 m, 2048^2 per split (half the 4096 atlas), 16-bit "
          "depth, shadow_bias 0.1 -> 0.002 x each split's depth range (x blur 1 x Soft Low radius 2), normal bias 2 "
-         "texels x (1 - N.L) without its component along L; Soft Low filter approximated by 4 Poisson taps of radius "
-         "2 texels",
+         "texels along the normal without its component along L (BIAS_FUNC's 1 - max(0, dot(L, -N)) is 1 on every "
+         "lit receiver); Soft Low filter approximated by 4 Poisson taps of radius 2 texels",
          json{{"family", "cascaded"},
               {"resolution", 2048},
               {"depth_format", "d16"},
@@ -169,7 +169,7 @@ const std::vector<Preset>& presets() {
                 {"slope", 0},
                 {"world_depth_range", 0.002},
                 {"normal_offset", 2.0},
-                {"normal_factor", "one_minus_ndotl"},
+                {"normal_factor", "none"},
                 {"normal_perpendicular", true}}},
               {"cascades",
                {{"split", "fractions"},

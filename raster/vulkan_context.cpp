@@ -324,6 +324,9 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
         // Optional: the GPU scorer sums errors in double, in the CPU's order (metrics/gpu_classification.h).
         features.features.shaderFloat64 = supported.shaderFloat64;
         shader_float64_ = supported.shaderFloat64 == VK_TRUE;
+        // Optional: the moment families' passes need it (raster/depth_map.cpp refuses them without).
+        features.features.shaderStorageImageWriteWithoutFormat = supported.shaderStorageImageWriteWithoutFormat;
+        storage_write_without_format_ = supported.shaderStorageImageWriteWithoutFormat == VK_TRUE;
 
         float priority = 1.0f;
         VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -417,6 +420,12 @@ bool VulkanContext::supports_depth_attachment(VkFormat format) const {
     return (p.optimalTilingFeatures & need) == need;
 }
 
+bool VulkanContext::supports_format_features(VkFormat format, VkFormatFeatureFlags features) const {
+    VkFormatProperties p;
+    vkGetPhysicalDeviceFormatProperties(physical_, format, &p);
+    return (p.optimalTilingFeatures & features) == features;
+}
+
 void VulkanContext::submit_and_wait(const std::function<void(VkCommandBuffer)>& record) const {
     VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
     ai.commandPool = command_pool_.get();
@@ -500,12 +509,12 @@ UniqueBuffer make_buffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUs
 }
 
 UniqueImage make_image(const VulkanContext& ctx, VkFormat format, std::uint32_t width, std::uint32_t height,
-                       std::uint32_t layers, VkImageUsageFlags usage) {
+                       std::uint32_t layers, VkImageUsageFlags usage, std::uint32_t levels = 1) {
     VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
     ci.imageType = VK_IMAGE_TYPE_2D;
     ci.format = format;
     ci.extent = {width, height, 1};
-    ci.mipLevels = 1;
+    ci.mipLevels = levels;
     ci.arrayLayers = layers;
     ci.samples = VK_SAMPLE_COUNT_1_BIT;
     ci.tiling = VK_IMAGE_TILING_OPTIMAL;
@@ -571,12 +580,13 @@ void MemoryArena::add(GpuBuffer& buffer, VkDeviceSize size, VkBufferUsageFlags u
 }
 
 void MemoryArena::add(GpuImage& image, VkFormat format, std::uint32_t width, std::uint32_t height, std::uint32_t layers,
-                      VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array) {
+                      VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array, std::uint32_t levels) {
     image.format = format;
     image.width = width;
     image.height = height;
     image.layers = layers;
-    image.image = make_image(*ctx_, format, width, height, layers, usage);
+    image.levels = levels;
+    image.image = make_image(*ctx_, format, width, height, layers, usage, levels);
     Pending p;
     p.image = &image;
     p.aspect = aspect;
@@ -631,7 +641,7 @@ void MemoryArena::commit() {
                 VK_CHECK(vkBindImageMemory(ctx_->device(), img.image.get(), memory.get(), offset));
                 img.view = create_view(*ctx_, img.image.get(), img.format,
                                        p.array ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
-                                       {p.aspect, 0, 1, 0, img.layers});
+                                       {p.aspect, 0, img.levels, 0, img.layers});
             }
         }
         blocks_.push_back(std::move(memory));
@@ -642,6 +652,12 @@ void MemoryArena::commit() {
 UniqueImageView create_layer_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t layer,
                                   VkImageAspectFlags aspect) {
     return create_view(ctx, image.image.get(), image.format, VK_IMAGE_VIEW_TYPE_2D, {aspect, 0, 1, layer, 1});
+}
+
+UniqueImageView create_level_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t level,
+                                  VkImageAspectFlags aspect) {
+    return create_view(ctx, image.image.get(), image.format, VK_IMAGE_VIEW_TYPE_2D_ARRAY,
+                       {aspect, level, 1, 0, image.layers});
 }
 
 }  // namespace penumbra::raster

@@ -66,6 +66,11 @@ class VulkanContext {
     bool has_memory_type(std::uint32_t type_bits, VkMemoryPropertyFlags wanted) const;
     bool supports_linear_depth_compare(VkFormat format) const;
     bool supports_depth_attachment(VkFormat format) const;
+    // Every bit of `features` among the format's optimal-tiling features.
+    bool supports_format_features(VkFormat format, VkFormatFeatureFlags features) const;
+    // shaderStorageImageWriteWithoutFormat is on (the device offers it): the moment families'
+    // passes write one shader into R32F, RG32F, RGBA32F or RGBA16 images.
+    bool storage_write_without_format() const { return storage_write_without_format_; }
 
     // Records with `record` into a one-time command buffer, submits and waits.
     void submit_and_wait(const std::function<void(VkCommandBuffer)>& record) const;
@@ -94,6 +99,7 @@ class VulkanContext {
     VkPhysicalDeviceMemoryProperties memory_{};
     bool validation_ = false;
     bool shader_float64_ = false;
+    bool storage_write_without_format_ = false;
     std::vector<std::string> messages_;
     UniqueCommandPool command_pool_;
     mutable std::atomic<std::uint64_t> allocations_{0};
@@ -115,6 +121,7 @@ struct GpuImage {
     UniqueImageView view;
     VkFormat format = VK_FORMAT_UNDEFINED;
     std::uint32_t width = 0, height = 0, layers = 1;
+    std::uint32_t levels = 1;  // mip levels; `view` covers them all
 };
 GpuImage create_image(const VulkanContext& ctx, VkFormat format, std::uint32_t width, std::uint32_t height,
                       std::uint32_t layers, VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array);
@@ -129,9 +136,9 @@ class MemoryArena {
     explicit MemoryArena(const VulkanContext& ctx) : ctx_(&ctx) {}
     // As create_buffer, unbound until commit (`mapped` is set then).
     void add(GpuBuffer& buffer, VkDeviceSize size, VkBufferUsageFlags usage, bool host_visible);
-    // As create_image, unbound and without its view until commit.
+    // As create_image, unbound and without its view until commit; `levels` mip levels.
     void add(GpuImage& image, VkFormat format, std::uint32_t width, std::uint32_t height, std::uint32_t layers,
-             VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array);
+             VkImageUsageFlags usage, VkImageAspectFlags aspect, bool array, std::uint32_t levels = 1);
     void commit();
 
   private:
@@ -151,6 +158,9 @@ class MemoryArena {
 
 // A view of one layer, for rendering into it.
 UniqueImageView create_layer_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t layer,
+                                  VkImageAspectFlags aspect);
+// A 2D-array view of every layer of one mip level (a storage image's view has one level).
+UniqueImageView create_level_view(const VulkanContext& ctx, const GpuImage& image, std::uint32_t level,
                                   VkImageAspectFlags aspect);
 
 }  // namespace penumbra::raster

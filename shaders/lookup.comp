@@ -29,6 +29,7 @@ layout(std140, binding = kBindingLookupParams) uniform Params { LookupParams p; 
 layout(std430, binding = kBindingLookupOut) writeonly buffer Out { LookupTexel texels[]; };
 layout(std430, binding = kBindingFaceMask) buffer FaceMask { uint face_mask; };
 layout(std430, binding = kBindingVisibilityOut) writeonly buffer VisibilityOut { float visibility[]; };
+layout(binding = kBindingMoments) uniform sampler2DArray moment_map;
 
 // The verdict of pixel `i`: with every lookup behind it, or V alone.
 void store(uint i, LookupTexel o) {
@@ -251,30 +252,12 @@ float pcss_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) 
     return sum / float(kPoissonTapCount);
 }
 
-// Moment families (raster/filterable.h). The moments of the map's depths under a separable
-// Gaussian of radius kPcfSize texels (sigma = radius / 2) and a bilinear tap at uv, gathered
-// here: the weights of texel (i, j) are the bilinear weights convolved with the Gaussian's, so
-// this is what a blurred moment map sampled with hardware bilinear filtering returns.
-float gauss(int k) {
-    int r = int(kPcfSize);
-    if (k < -r || k > r) return 0.0;
-    if (r == 0) return 1.0;
-    float sigma = 0.5 * float(r);
-    return exp(-0.5 * float(k * k) / (sigma * sigma));
-}
-
-// Moment shadow maps' optimised 16-bit quantisation (Peters & Klein 2015, section 4.3): the four
-// moments mapped affinely onto [0, 1]^4 before rounding, and back after filtering (the paper's
-// matrices; raster/filterable.cpp has the same numbers, and the tests compare the two).
-bool msm16() { return kFilterType == kFilterMsm && p.moments.w < 24.0; }
-vec4 unorm16(vec4 q) { return round(clamp(q, 0.0, 1.0) * 65535.0) / 65535.0; }
-vec4 msm_optimise(vec4 b) {
-    const mat4 a = mat4(-2.07224649, 13.7948857237, 0.105877704, 9.7924062118,  // column 1
-                        32.23703778, -59.4683975703, -1.9077466311, -33.7652110555,
-                        -68.571074599, 82.0359750338, 9.3496555107, 47.9456096605,
-                        39.3703274134, -35.364903257, -6.6543490743, -23.9728048165);
-    return a * b + vec4(0.035955884801, 0.0, 0.0, 0.0);
-}
+// Moment families (raster/filterable.h). Their moments pass and blur passes
+// (shaders/moments.comp) filled kBindingMoments; the lookup samples it as an engine does:
+// bilinearly, or trilinearly between its mip levels when it has them.
+// Moment shadow maps' 16-bit moments were mapped onto [0, 1]^4 by Peters & Klein's optimised
+// quantisation (section 4.3) before the store rounded them; this maps them back (the paper's
+// matrix; raster/filterable.cpp has the same numbers, and the tests compare the two).
 vec4 msm_unoptimise(vec4 q) {
     const mat4 inv = mat4(0.2227744146, 0.1549679261, 0.1451988946, 0.163127443,  // column 1
                           0.0771972861, 0.1394629426, 0.2120202157, 0.2591432266,
@@ -283,36 +266,34 @@ vec4 msm_unoptimise(vec4 q) {
     return inv * (q - vec4(0.035955884801, 0.0, 0.0, 0.0));
 }
 
-vec4 warp(float d) {
-    if (kFilterType == kFilterVsm) return vec4(d, d * d, 0.0, 0.0);
-    if (kFilterType == kFilterMsm) {
-        vec4 b = vec4(d, d * d, d * d * d, d * d * d * d);
-        return msm16() ? unorm16(msm_optimise(b)) : b;  // the moment pass's 16-bit target
-    }
-    if (kFilterType == kFilterEsm) return vec4(exp(p.moments.z * d), 0.0, 0.0, 0.0);
-    float w = 2.0 * d - 1.0;  // EVSM warps depth remapped to [-1, 1]
-    float pos = exp(p.moments.z * w), neg = -exp(-p.moments.w * w);
-    return vec4(pos, pos * pos, neg, neg * neg);
+// The pixel and the receiver's plane main() found, for the mip level: compute shaders have no
+// derivatives, so the lookup traces the neighbouring pixels' rays itself.
+uvec2 g_pix;
+vec3 g_plane_point, g_plane_normal;
+
+// The camera ray through image point `pixel` (pixels, y down) against the receiver's plane.
+vec3 on_receiver_plane(vec2 pixel) {
+    vec2 ndc = vec2(pixel.x * 2.0 * p.image.z - 1.0, 1.0 - pixel.y * 2.0 * p.image.w);
+    vec3 lateral = ndc.x * p.cam_right.w * p.cam_right.xyz + ndc.y * p.cam_up.w * p.cam_up.xyz;
+    bool perspective = p.cam_forward.w > 0.5;
+    vec3 ray_o = perspective ? vec3(0.0) : lateral;
+    vec3 ray_d = perspective ? p.cam_forward.xyz + lateral : p.cam_forward.xyz;
+    float denom = dot(ray_d, g_plane_normal);
+    return abs(denom) > 1e-30 ? ray_o + ray_d * (dot(g_plane_point - ray_o, g_plane_normal) / denom) : g_plane_point;
 }
 
-vec4 filtered_moments(vec2 uv, uint layer) {
-    int r = int(kPcfSize), res = int(p.map.x);
-    vec2 st = uv - 0.5;
-    vec2 base = floor(st);
-    vec2 f = st - base;
-    float norm = 0.0;
-    for (int k = -r; k <= r; ++k) norm += gauss(k);
-    vec4 sum = vec4(0.0);
-    for (int j = -r; j <= r + 1; ++j) {
-        float wy = ((1.0 - f.y) * gauss(j) + f.y * gauss(j - 1)) / norm;
-        for (int i = -r; i <= r + 1; ++i) {
-            float wx = ((1.0 - f.x) * gauss(i) + f.x * gauss(i - 1)) / norm;
-            // The map's edge texels repeat beyond it, as a clamp-to-edge sampler reads them.
-            ivec2 t = clamp(ivec2(base) + ivec2(i, j), ivec2(0), ivec2(res - 1));
-            sum += wx * wy * warp(forward_depth(texelFetch(shadow_depth, ivec3(t, int(layer)), 0).r));
-        }
-    }
-    return sum;
+// The mip level of the moment texture for this pixel: log2 of the longer of the pixel's two
+// steps across the map, in texels (the level a fragment shader's derivatives would give). 0, the
+// full-resolution map, where a pixel covers less than a texel.
+float moment_lod(uint layer) {
+    if (p.moment_map.x <= 1.0) return 0.0;
+    vec2 c = vec2(g_pix) + 0.5;
+    vec2 m = to_map(on_receiver_plane(c), layer).xy;
+    vec2 dx = to_map(on_receiver_plane(c + vec2(1.0, 0.0)), layer).xy - m;
+    vec2 dy = to_map(on_receiver_plane(c + vec2(0.0, 1.0)), layer).xy - m;
+    float rho = max(length(dx), length(dy));
+    if (isnan(rho) || isinf(rho)) return p.moment_map.x - 1.0;  // a neighbour's ray misses the plane
+    return clamp(log2(max(rho, 1e-30)), 0.0, p.moment_map.x - 1.0);
 }
 
 // One-tailed Chebyshev bound on P(depth >= t) with a variance floor (Donnelly & Lauritzen 2006).
@@ -371,12 +352,11 @@ float moment_visibility(vec3 m, uint layer) {
     ivec2 centre = ivec2(floor(m.xy));
     bool in_map = all(greaterThanEqual(centre, ivec2(0))) && all(lessThan(centre, ivec2(res)));
     if (!in_map && kLightKind != kLightPoint) return 1.0;  // outside a 2D map: lit, as a depth tap there
-    vec4 mo = filtered_moments(m.xy, layer);
+    vec4 mo = textureLod(moment_map, vec3(m.xy * p.map.y, float(layer)), moment_lod(layer));
     float t = forward_depth(depth_units_ref(m.z));
     if (kFilterType == kFilterVsm) return reduce_bleeding(chebyshev(mo.xy, t, p.moments.x));
     if (kFilterType == kFilterMsm) {
-        // A blurred 16-bit map is rounded again when the blur pass stores it.
-        if (msm16()) mo = msm_unoptimise(kPcfSize > 0u ? unorm16(mo) : mo);
+        if (p.moment_map.y > 0.5) mo = msm_unoptimise(mo);
         return msm_visibility(mo, t);
     }
     if (kFilterType == kFilterEsm) {
@@ -490,6 +470,9 @@ void main() {
     float denom = dot(ray_d, n);
     vec3 P = abs(denom) > 1e-30 ? ray_o + ray_d * (dot(v0 - ray_o, n) / denom) : (v0 + v1 + v2) / 3.0;
     if (denom > 0.0) n = -n;  // the side the camera sees
+    g_pix = pix;
+    g_plane_point = v0;
+    g_plane_normal = n;
 
     vec3 to_light = kDirectional ? -p.light_dir.xyz : normalize(p.light_pos.xyz - P);
     if (dot(n, to_light) <= 0.0) {

@@ -34,6 +34,9 @@ PENUMBRA_CONST uint kBindingLookupParams = 6;   // uniform LookupParams
 PENUMBRA_CONST uint kBindingLookupOut = 7;      // LookupTexel[pixels]
 PENUMBRA_CONST uint kBindingFaceMask = 8;       // uint: bit f = cube face f is sampled
 PENUMBRA_CONST uint kBindingVisibilityOut = 9;  // float[pixels]: V alone (kModeVisibility)
+// sampler2DArray, linear (trilinear with mipmaps), clamp to edge: a moment family's filtered
+// moments (the depth map, never read, for the other families)
+PENUMBRA_CONST uint kBindingMoments = 10;
 // SDSM's reduction (sdsm.comp) binds the first three above and this.
 PENUMBRA_CONST uint kBindingSdsmRange = 3;  // uint[2]: least, greatest view depth (order-preserving bits)
 
@@ -57,7 +60,7 @@ PENUMBRA_CONST uint kFilterHw2x2 = 1;
 PENUMBRA_CONST uint kFilterPcf = 2;
 PENUMBRA_CONST uint kFilterPoisson = 3;
 PENUMBRA_CONST uint kFilterPcss = 4;
-// Moment families (raster/filterable.h): kSpecPcfSize is their blur radius in texels.
+// Moment families (raster/filterable.h): the lookup samples their filtered moments (kBindingMoments).
 PENUMBRA_CONST uint kFilterVsm = 5;
 PENUMBRA_CONST uint kFilterEsm = 6;
 PENUMBRA_CONST uint kFilterEvsm2 = 7;
@@ -65,6 +68,17 @@ PENUMBRA_CONST uint kFilterEvsm4 = 8;
 PENUMBRA_CONST uint kFilterMsm = 9;  // moments: moment bias, unused, variant (1 hausdorff), storage bits
 // After the moment families: a rotated Vogel disk of kSpecPoissonTaps taps (three.js's PCF).
 PENUMBRA_CONST uint kFilterVogel = 10;
+
+// The moment families' passes (shaders/moments.comp): the source texture, read by texelFetch
+// (the depth map, or moments to blur), and the storage image they write.
+PENUMBRA_CONST uint kBindingMomentSource = 0;
+PENUMBRA_CONST uint kBindingMomentTarget = 1;
+PENUMBRA_CONST uint kSpecMomentFilter = 0;  // kFilterVsm ... kFilterMsm
+PENUMBRA_CONST uint kSpecMomentPass = 1;    // kMomentPass*
+PENUMBRA_CONST uint kSpecMomentRadius = 2;  // the blur's radius, texels
+PENUMBRA_CONST uint kMomentPassWarp = 0;    // depth -> the family's moments
+PENUMBRA_CONST uint kMomentPassBlurX = 1;   // separable Gaussian along x
+PENUMBRA_CONST uint kMomentPassBlurY = 2;   // and along y
 
 PENUMBRA_CONST uint kModeLookup = 0;      // write LookupTexel per pixel
 PENUMBRA_CONST uint kModeFaceMask = 1;    // only mark the cube faces receivers would sample
@@ -102,7 +116,8 @@ struct LookupParams {
     vec4 cascade;
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
-    vec4 moments;  // min variance, light-bleed reduction, exponent, negative exponent (msm: kFilterMsm)
+    vec4 moments;     // min variance, light-bleed reduction, exponent, negative exponent (msm: kFilterMsm)
+    vec4 moment_map;  // x: mip levels of the moment texture (1: bilinear, more: trilinear), y: 1 msm 16-bit
     // kLightCascade: per cascade (4 a vec4) the factor its world bias (metres) and hardware
     // constant bias are multiplied by: 1, or with cascades.texel_scaled_bias its texel over the
     // first cascade's (the constant also by the first's depth range over its own).
@@ -130,6 +145,13 @@ struct ShadowPush {
                      // or per texel per metre of depth along the axis (perspective)
     vec4 offsets;    // caster world metres, world texels, normal metres, normal texels
     vec4 caster;     // normal factor (kNormalFactor*), depth (depth units, forward), unused, 1 = reversed Z
+};
+
+// The moment passes' push constants: x exponent, y negative exponent (esm, evsm), z 1 for
+// msm's 16-bit optimised quantisation; `layer` x the map layer, y the resolution.
+struct MomentPassParams {
+    vec4 warp;
+    uvec4 layer;  // layer, resolution, 1 = the map holds reversed Z, unused
 };
 
 // SDSM's reduction: the camera as LookupParams gives it (push constants).

@@ -8,12 +8,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <glm/glm.hpp>
 #include <memory>
 
 #include "common/camera.h"
 #include "common/errors.h"
 #include "raster/raster.h"
+#include "raster/raster_output.h"
 #include "raster/technique_family.h"
 #include "tests/raster/technique_errors.h"
 #include "tests/test_support.h"
@@ -114,7 +116,7 @@ TEST(Filterable, BadKeysAreInputErrorsNamingTheKeyPathAndTheReason) {
     EXPECT_THAT(error_of({{"family", "vsm"}, {"filter", {{"type", "pcf"}}}}),
                 AllOf(HasSubstr("technique.filter"), HasSubstr("moments")));
     EXPECT_THAT(error_of({{"family", "vsm"}, {"blur", -1}}), HasSubstr("technique.blur"));
-    EXPECT_THAT(error_of({{"family", "vsm"}, {"mipmaps", true}}), HasSubstr("technique.mipmaps"));
+    EXPECT_THAT(error_of({{"family", "vsm"}, {"mipmaps", 1}}), HasSubstr("technique.mipmaps"));
     EXPECT_THAT(error_of({{"blur", 2}}), HasSubstr("blur"));  // not a depth-map key
 }
 
@@ -205,6 +207,121 @@ TEST(FilterableOnDevice, VsmAcrossABlurredEdgeIsTheFilteredLitFraction) {
                                 << in_transition;
     EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages()[0];
 }
+// The moment families draw what an engine draws (docs/raster.md, "Filterable shadow maps"): a
+// moments pass over the map, a separable blur of two passes when `blur` > 0, the mip chain with
+// `mipmaps`, each timed under its name in gpu_ms (raster.json) and so counted in a production
+// render's time (sweep's production_ms is gpu_ms.total()). A point light's moments cover the
+// cube faces some receiver samples, as its depth passes do.
+TEST(FilterableOnDevice, MomentBlurAndMipPassesAreTimedAndCountedInProductionTime) {
+    raster::ContextOptions co;
+    co.validation = true;
+    raster::VulkanContext ctx(co);
+    test::SceneBuilder b;
+    b.quad({-4, 0, -4}, {-4, 0, 4}, {4, 0, 4}, {4, 0, -4});
+    b.box({-0.5, 0, -0.5}, {0.5, 1, 0.5});
+    const Scenario sc = test::make_scenario(b.build(), test::look_at({4, 4, 4}, {0, 0, 0}, 50),
+                                            {test::directional({0.3, -1, 0.2}), test::point({1.5, 2.5, 1})}, 160, 120);
+    raster::RasterSession session(sc, ctx);
+    raster::RenderOptions production;
+    production.lookups = false;
+    production.reuse_maps = false;
+    auto has = [](const raster::PassTimes& t, const char* name) {
+        return std::any_of(t.entries.begin(), t.entries.end(), [&](const auto& e) { return e.first == name; });
+    };
+    for (const char* family : {"vsm", "esm", "evsm4", "msm"}) {
+        const nlohmann::json tj = {{"family", family}, {"resolution", 256}, {"blur", 2}};
+        const raster::Technique t = parse_technique(tj, "t");
+        const raster::RasterResult r = session.render(t, production);
+        for (const raster::RasterLightStats& ls : r.stats.lights) {
+            EXPECT_GT(ls.gpu_ms["moments"], 0.0) << family;
+            EXPECT_GT(ls.gpu_ms["blur"], 0.0) << family;
+            EXPECT_FALSE(has(ls.gpu_ms, "mipmaps")) << family;
+        }
+        const raster::PassTimes& all = r.stats.gpu_ms;
+        // The per-pass times of docs/raster.md's table ("Filterable shadow maps").
+        std::printf("%s on %s: shadow %.3f moments %.3f blur %.3f lookup %.3f ms\n", family, ctx.info().name.c_str(),
+                    all["shadow"], all["moments"], all["blur"], all["lookup"]);
+        EXPECT_THAT(std::string(all.what("blur")), HasSubstr("separable Gaussian"));
+        EXPECT_NEAR(all.total(), all["shadow"] + all["moments"] + all["blur"] + all["lookup"] + all["layer_mask"], 1e-9)
+            << family;
+        const nlohmann::json j = raster::raster_json(sc, t, session.render(t), {});
+        EXPECT_TRUE(j.at("gpu_ms").contains("moments") && j.at("gpu_ms").contains("blur")) << family;
+        EXPECT_EQ(j.at("lights")[0].at("moments").at("gathered_in_lookup"), false);
+    }
+    // No blur: no blur pass. Mip-mapped: the chain is a pass of its own.
+    const raster::RasterResult sharp =
+        session.render(parse_technique({{"family", "vsm"}, {"resolution", 256}}, "t"), production);
+    EXPECT_GT(sharp.stats.gpu_ms["moments"], 0.0);
+    EXPECT_FALSE(has(sharp.stats.gpu_ms, "blur"));
+    const raster::RasterResult mipped = session.render(
+        parse_technique({{"family", "msm"}, {"resolution", 256}, {"blur", 1}, {"mipmaps", true}}, "t"), production);
+    EXPECT_GT(mipped.stats.gpu_ms["mipmaps"], 0.0);
+    EXPECT_THAT(std::string(mipped.stats.gpu_ms.what("mipmaps")), HasSubstr("blit"));
+    EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages()[0];
+}
+
+// Mip-mapped moments (docs/raster.md, "Filterable shadow maps"): the sun straight down through a
+// grating of slats (0.125 m wide, 0.25 m apart, about three texels of the 256² map the fit
+// gives) onto a long ground,
+// seen from under the slats. Far away a pixel covers many slats: sampled bilinearly the shadow
+// is a 0-or-1 moire; with the mip chain its LOD (the pixel's step across the map, from the
+// camera geometry) averages the slats, and V comes close to the open fraction, 0.5, the
+// pixel-averaged truth. Near the camera a pixel is smaller than a texel: LOD 0, the same V.
+TEST(FilterableOnDevice, MipmappedMomentsSmoothAFarGratingAndLeaveNearReceiversAlone) {
+    raster::ContextOptions co;
+    co.validation = true;
+    raster::VulkanContext ctx(co);
+    test::SceneBuilder b;
+    b.quad({-3, 0, 2}, {3, 0, 2}, {3, 0, -60}, {-3, 0, -60});  // the ground: triangles 0, 1
+    for (double z = 2; z > -60; z -= 0.25) b.quad({-3, 1, z}, {-3, 1, z - 0.125}, {3, 1, z - 0.125}, {3, 1, z});
+    const Scenario sc = test::make_scenario(b.build(), test::look_at({0, 0.9, 2}, {0, 0, -6}, 50),
+                                            {test::directional({0, -1, 0})}, 160, 120);
+    raster::RasterSession session(sc, ctx);
+    auto render = [&](bool mipmaps) {
+        // No culling: the slats face down, away from the sun.
+        return session.render(parse_technique({{"family", "vsm"},
+                                               {"resolution", 256},
+                                               {"cull", "none"},
+                                               {"mipmaps", mipmaps},
+                                               {"vsm", {{"light_bleed", 0.0}}}},
+                                              "t"));
+    };
+    const raster::RasterResult plain = render(false), mipped = render(true);
+    double far_plain = 0, far_mipped = 0, near_change = 0;
+    std::size_t far = 0, near = 0;
+    const glm::dvec2 plane = ndc_to_image_plane(sc.camera, sc.width, sc.height);
+    for (std::size_t i = 0; i < plain.frame.pixel_count(); ++i) {
+        if (plain.frame.prim[i] > 1) continue;  // the ground only
+        // The view depth of the ground seen through the pixel's centre.
+        const int x = static_cast<int>(i % sc.width), y = static_cast<int>(i / sc.width);
+        const glm::dvec2 ndc((x + 0.5) * 2.0 / sc.width - 1.0, 1.0 - (y + 0.5) * 2.0 / sc.height);
+        const glm::dvec3 d = sc.camera.forward + ndc.x * plane.x * sc.camera.right + ndc.y * plane.y * sc.camera.up;
+        const double depth = -sc.camera.eye.y / d.y;  // d's forward component is 1
+        const double vp = plain.frame.lights[0].V[i], vm = mipped.frame.lights[0].V[i];
+        if (depth > 12) {
+            ++far;
+            far_plain += std::abs(vp - 0.5);
+            far_mipped += std::abs(vm - 0.5);
+        } else if (depth < 1.8) {
+            ++near;
+            near_change = std::max(near_change, std::abs(vm - vp));
+        }
+    }
+    ASSERT_GT(far, 250u);
+    ASSERT_GT(near, 500u);
+    far_plain /= static_cast<double>(far);
+    far_mipped /= static_cast<double>(far);
+    std::printf(
+        "beyond 12 m (%zu pixels): mean |V - 0.5| %.3f bilinear, %.3f trilinear; within 1.8 m (%zu) the "
+        "largest change %.2g\n",
+        far, far_plain, far_mipped, near, near_change);
+    EXPECT_GT(far_plain, 0.3) << "bilinear moments alias far away";
+    EXPECT_LT(far_mipped, far_plain / 2) << "trilinear moments average the slats there: " << far_mipped << " against "
+                                         << far_plain;
+    EXPECT_LT(near_change, 1e-6) << "a near receiver samples level 0";
+    EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages()[0];
+}
+
 // The four moments of a distribution of depths (depth, weight).
 std::array<double, 4> moments_of(std::initializer_list<std::pair<double, double>> depths) {
     std::array<double, 4> b{};
