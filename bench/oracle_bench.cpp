@@ -285,7 +285,8 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
     r.write = sec.at("write");
     r.boundary_parts = j.value("boundary_seconds", json::object());
     // oracle.exr's and oracle.png's own times (written side by side), where the binary writes them.
-    for (const auto& [k, v] : j.value("write_seconds", json::object()).items()) r.boundary_parts["write_" + k] = v;
+    const json write_parts = j.value("write_seconds", json::object());  // items() must not outlive it
+    for (const auto& [k, v] : write_parts.items()) r.boundary_parts["write_" + k] = v;
     r.primary = j.at("rays").at("primary");
     r.shadow = j.at("rays").at("shadow");
     r.retraced = j.at("rays").at("verified_retraces");
