@@ -249,7 +249,7 @@ BenchScene make_scene(const fs::path& dir, const std::string& name, int size, bo
 
 struct OracleRun {
     double wall = 0, load = 0, build = 0, frame = 0, trace = 0, boundary = 0, write = 0;
-    json boundary_parts;  // oracle.json's boundary_seconds, where the binary writes it
+    json boundary_parts;  // oracle.json's boundary_seconds and write_seconds (as write_exr, write_png)
     double peak_mib = 0;
     double cpu = 0;  // user + system seconds of the child: on a shared machine, steadier than its wall time
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
@@ -284,6 +284,9 @@ OracleRun run_penumbra(const std::string& penumbra, const BenchScene& s, const f
     r.boundary = sec.at("boundary");
     r.write = sec.at("write");
     r.boundary_parts = j.value("boundary_seconds", json::object());
+    // oracle.exr's and oracle.png's own times (written side by side), where the binary writes them.
+    const json write_parts = j.value("write_seconds", json::object());  // items() must not outlive it
+    for (const auto& [k, v] : write_parts.items()) r.boundary_parts["write_" + k] = v;
     r.primary = j.at("rays").at("primary");
     r.shadow = j.at("rays").at("shadow");
     r.retraced = j.at("rays").at("verified_retraces");
@@ -569,7 +572,7 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
                         one / row.wall.median(), row.cpu.median());
         }
         if (!rows[b][0].parts.empty()) {
-            std::printf("\nboundary parts (s):\n\n| threads |");
+            std::printf("\nboundary and write parts (s):\n\n| threads |");
             for (const auto& [k, v] : rows[b][0].parts) std::printf(" %s |", k.c_str());
             std::printf("\n| --- |");
             for (std::size_t k = 0; k < rows[b][0].parts.size(); ++k) std::printf(" --- |");

@@ -51,9 +51,14 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const std::vector<float>& rgb);
 // Fills row y (0 at the top) of linear RGB: `width` pixels, 3 floats each.
 using PngRowSource = std::function<void(int y, float* rgb)>;
+// How write_png asks for rows: `serial`, each once, top to bottom, on the calling thread;
+// `parallel`, each once, a block of rows at a time on the command's threads (tbb), so the source
+// must be safe to call for different rows at once. The file's bytes are the same either way.
+enum class PngRows { serial, parallel };
 // The same, one row at a time: for large previews, whose whole float image would be fresh
 // memory (50 MB at 2048^2) that the kernel must fault in and zero (docs/oracle.md section 9).
-void write_png(OutputTransaction& out, const std::string& name, int width, int height, const PngRowSource& rows);
+void write_png(OutputTransaction& out, const std::string& name, int width, int height, const PngRowSource& rows,
+               PngRows order = PngRows::serial);
 
 // An image as read from a file: every channel as float, row 0 at the top. Integer formats are
 // normalised to [0, 1] by OpenImageIO (an 8-bit 255 reads as 1.0).

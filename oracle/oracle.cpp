@@ -10,6 +10,8 @@
 #include <atomic>
 #include <cstdio>
 #include <functional>
+#include <future>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -69,7 +71,8 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     tbb::task_group frame_task;
     frame_task.run([&] { allocate_frame(frame, scenario); });
     auto t0 = SteadyClock::now();
-    Tracer tracer(scenario, settings.embree_isa);
+    auto owned = std::make_unique<Tracer>(scenario, settings.embree_isa);
+    Tracer& tracer = *owned;
     stats.embree_version = tracer.device().version();
     tracer.build();
     stats.build_s = seconds_since(t0);
@@ -78,6 +81,7 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     frame_task.wait();
     stats.frame_s = seconds_since(t0);
     trace_frame(tracer, settings, result);
+    result.tracer_released = std::async(std::launch::async, [t = std::move(owned)]() mutable { t.reset(); }).share();
     return result;
 }
 

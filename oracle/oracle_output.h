@@ -12,6 +12,8 @@ namespace penumbra {
 struct OracleTimings {
     double load_s = 0;   // scenario + glTF
     double write_s = 0;  // oracle.exr and oracle.png
+    // The two files are written side by side; each one's own time (oracle.json's write_seconds).
+    double write_exr_s = 0, write_png_s = 0;
 };
 
 // oracle.json's content.

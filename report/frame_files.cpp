@@ -72,23 +72,34 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 
 }  // namespace
 
-double write_oracle_images(OutputTransaction& out, const OracleFrame& f) {
+double write_oracle_images(OutputTransaction& out, const OracleFrame& f, OracleTimings* parts) {
     auto t0 = SteadyClock::now();
     // Uncompressed: zip costs ~3 CPU-seconds for a 2048^2 frame, more than tracing it (docs/oracle.md section 9).
-    // The preview is encoded (zlib, one thread) while the EXR is written.
+    // The preview is encoded (zlib, one thread) while the EXR is written; its rows are made on
+    // the command's threads.
+    double png_s = 0;
     auto png = std::async(std::launch::async, [&] {
         const VisibilityPreview preview = oracle_preview(f);
-        write_png(out, "oracle.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); });
+        write_png(
+            out, "oracle.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); }, PngRows::parallel);
+        png_s = seconds_since(t0);
     });
     write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
+    const double exr_s = seconds_since(t0);
     png.get();
-    return seconds_since(t0);
+    const double total = seconds_since(t0);
+    if (parts) {
+        parts->write_s = total;
+        parts->write_exr_s = exr_s;
+        parts->write_png_s = png_s;
+    }
+    return total;
 }
 
 void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
                           const OracleTimings& timings) {
     OracleTimings t = timings;
-    t.write_s = write_oracle_images(out, result.frame);
+    write_oracle_images(out, result.frame, &t);
     out.write_json("oracle.json", oracle_json(scenario, result, t));
 }
 
@@ -99,7 +110,8 @@ void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, cons
     write_exr(out, "raster.exr", f.width, f.height, raster_channels(f));
     VisibilityPreview preview{f.width, &f.A, nullptr, {}};
     for (const auto& l : f.lights) preview.lights.push_back({&l.V, nullptr});
-    write_png(out, "raster.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); });
+    write_png(
+        out, "raster.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); }, PngRows::parallel);
     nlohmann::json j = raster_json(scenario, technique, result, timings);
     j["seconds"]["write"] = seconds_since(t0);
     out.write_json("raster.json", j);

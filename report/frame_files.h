@@ -12,8 +12,9 @@
 
 namespace penumbra::report {
 
-// oracle.exr and oracle.png; returns the seconds they took.
-double write_oracle_images(OutputTransaction& out, const OracleFrame& frame);
+// oracle.exr and oracle.png; returns the seconds they took, and each file's own in `parts`
+// (write_s, write_exr_s, write_png_s) where it is given.
+double write_oracle_images(OutputTransaction& out, const OracleFrame& frame, OracleTimings* parts = nullptr);
 
 // Adds oracle.exr, oracle.png and oracle.json to the transaction (nothing is visible until it
 // commits).

@@ -16,6 +16,7 @@ check "oracle.json counts the rays that locate shadow boundaries" grep -q -E '"b
 run oracle "$src/data/default/scenario.json" --out "$tmp/b" --threads 2 -q
 check "two threads exit 0" test "$rc" -eq 0
 check "oracle.exr is bit-identical across thread counts" cmp -s "$tmp/a/oracle.exr" "$tmp/b/oracle.exr"
+check "oracle.png is bit-identical across thread counts" cmp -s "$tmp/a/oracle.png" "$tmp/b/oracle.png"
 
 # Bad scenario: exit 2, the JSON path named, nothing written.
 cp "$src/data/default/scene.glb" "$tmp/"

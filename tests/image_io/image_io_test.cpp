@@ -3,12 +3,15 @@
 // OpenEXR itself.
 #include "image_io/image_io.h"
 
+#include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -168,6 +171,71 @@ TEST(ImageIoPng, RowSourceRowsLandInOrder) {
             for (int x = 0; x < kW; x += 9)
                 ASSERT_EQ(std::lround(img.channels[c][static_cast<std::size_t>(y) * kW + x] * 255.0f), y)
                     << "row " << y << " x " << x << " channel " << c;
+}
+
+std::vector<char> file_bytes(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Rows made on several threads (PngRows::parallel, 4 threads) give the serial writer's bytes,
+// and every row is asked for exactly once (issue #39: the preview's rows no longer on one thread).
+TEST(ImageIoPng, ParallelRowsGiveTheSerialBytes) {
+    constexpr int kWide = 301, kTall = 211;  // not multiples of the writer's blocks of rows
+    auto pattern = [](int y, float* rgb) {
+        for (int i = 0; i < 3 * kWide; ++i) rgb[i] = static_cast<float>((y * 7 + i * 13) % 257) / 256.0f;
+    };
+    std::vector<std::atomic<int>> asked(kTall);
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_png(out, "serial.png", kWide, kTall, pattern);
+        tbb::task_arena(4).execute([&] {
+            write_png(
+                out, "parallel.png", kWide, kTall,
+                [&](int y, float* rgb) {
+                    ++asked[static_cast<std::size_t>(y)];
+                    pattern(y, rgb);
+                },
+                PngRows::parallel);
+        });
+        out.commit();
+    }
+    for (int y = 0; y < kTall; ++y) ASSERT_EQ(asked[static_cast<std::size_t>(y)].load(), 1) << "row " << y;
+    const std::vector<char> serial = file_bytes(dir / "serial.png");
+    ASSERT_GT(serial.size(), 100u);
+    EXPECT_EQ(file_bytes(dir / "parallel.png"), serial);
+}
+
+// Half channels, converted on the command's threads, give the same file whatever their number.
+TEST(ImageIoExr, HalfChannelsGiveTheSameBytesOnOneThreadAndOnFour) {
+    constexpr int kWide = 53, kTall = 150;  // three strips of the writer's 64 rows, the last short
+    const std::size_t n = static_cast<std::size_t>(kWide) * kTall;
+    std::vector<float> flags(2 * n), depth(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        flags[2 * i] = static_cast<float>(i % 3) * 0.5f;
+        flags[2 * i + 1] = static_cast<float>((i * 2654435761u) % 1000) / 7.0f;  // rounded to half
+        depth[i] = 0.25f * static_cast<float>(i);
+    }
+    const std::vector<ExrChannelView> channels = {{"a", ExrStorage::half, flags.data(), 2},
+                                                  {"b", ExrStorage::half, flags.data() + 1, 2},
+                                                  {"depth", ExrStorage::f32, depth.data(), 1}};
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        tbb::task_arena(1).execute([&] { write_exr(out, "one.exr", kWide, kTall, channels, ExrCompression::none); });
+        tbb::task_arena(4).execute([&] { write_exr(out, "four.exr", kWide, kTall, channels, ExrCompression::none); });
+        out.commit();
+    }
+    const std::vector<char> one = file_bytes(dir / "one.exr");
+    ASSERT_GT(one.size(), n * 8);
+    EXPECT_EQ(file_bytes(dir / "four.exr"), one);
+    const ImageFile img = read_image(dir / "four.exr");
+    const auto& b = channel(img, "b");
+    ASSERT_EQ(b.size(), n);
+    for (std::size_t i = 0; i < n; i += 17) ASSERT_EQ(b[i], static_cast<float>(Imath::half(flags[2 * i + 1]))) << i;
 }
 
 // read_image(file) throws an InputError whose message names the file.

@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <functional>
+#include <future>
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/mat4x4.hpp>
@@ -699,6 +701,17 @@ TEST(Oracle, IsBitIdenticalWhateverTheThreadCount) {
             EXPECT_TRUE(same(a.frame.lights[li].boundary_m, b.frame.lights[li].boundary_m));
         }
     }
+}
+
+// run_oracle hands its BVH back on a thread of its own (so that the caller's write hides it,
+// #39): the result carries that release, which finishes, and copies of the result share it.
+TEST(Oracle, ReleasesItsBvhOnAThreadOfItsOwn) {
+    Scenario sc = invariance_scene();
+    OracleResult a = run_oracle(sc);
+    ASSERT_TRUE(a.tracer_released.valid());
+    const OracleResult copy = a;
+    EXPECT_EQ(copy.tracer_released.wait_for(std::chrono::seconds(60)), std::future_status::ready);
+    EXPECT_EQ(a.tracer_released.wait_for(std::chrono::seconds(0)), std::future_status::ready);
 }
 
 // The distance transform's sweeps run in bands of rows side by side, one per thread allowed, each
