@@ -16,21 +16,7 @@
 # `npm ci` in this folder (scripts/install-deps.sh). Usage: engines_test.sh PENUMBRA SOURCE_DIR
 set -uo pipefail
 bin=$1 src=$2
-here=$src/tests/engines
-# Optional outside CI (README); in CI (CI set) a missing tool is a failure, not a skip.
-skip() {
-    [[ -n ${CI:-} ]] && { echo "FAIL: $1 (CI must run this test; scripts/install-deps.sh installs it)"; exit 1; }
-    echo "SKIP: $1 (optional outside CI; scripts/install-deps.sh installs it)"
-    exit 77
-}
-command -v node >/dev/null || skip "node is not installed"
-chromium=${CHROMIUM:-/usr/bin/chromium}
-[[ -x $chromium ]] || skip "no chromium at $chromium"
-[[ -d $here/node_modules/three && -d $here/node_modules/puppeteer-core ]] ||
-    { echo "FAIL: tests/engines/node_modules is missing: run scripts/install-deps.sh (npm ci in tests/engines)"; exit 1; }
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-export PENUMBRA_CACHE_DIR=$tmp/cache
+source "$src/tests/engines/setup.sh"  # here, skip, the tools, tmp
 sed "s#\"scene.glb\"#\"$src/data/default/scene.glb\"#; s/\"width\": 1280, \"height\": 720/\"width\": 320, \"height\": 180/" \
     "$src/data/default/scenario.json" >"$tmp/scenario.json"
 "$bin" camera "$tmp/scenario.json" --convention gl >"$tmp/camera.json" || { echo "FAIL: penumbra camera"; exit 1; }

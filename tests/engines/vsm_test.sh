@@ -7,20 +7,7 @@
 # Usage: vsm_test.sh PENUMBRA SOURCE_DIR
 set -uo pipefail
 bin=$1 src=$2
-here=$src/tests/engines
-skip() {
-    [[ -n ${CI:-} ]] && { echo "FAIL: $1 (CI must run this test; scripts/install-deps.sh installs it)"; exit 1; }
-    echo "SKIP: $1 (optional outside CI; scripts/install-deps.sh installs it)"
-    exit 77
-}
-command -v node >/dev/null || skip "node is not installed"
-chromium=${CHROMIUM:-/usr/bin/chromium}
-[[ -x $chromium ]] || skip "no chromium at $chromium"
-[[ -d $here/node_modules/three && -d $here/node_modules/puppeteer-core ]] ||
-    { echo "FAIL: tests/engines/node_modules is missing: run scripts/install-deps.sh (npm ci in tests/engines)"; exit 1; }
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-export PENUMBRA_CACHE_DIR=$tmp/cache
+source "$src/tests/engines/setup.sh"  # here, skip, the tools, tmp
 python3 "$here/make_vsm_scene.py" "$tmp" || { echo "FAIL: make_vsm_scene.py"; exit 1; }
 "$bin" camera "$tmp/scenario.json" --convention gl >"$tmp/camera.json" || { echo "FAIL: penumbra camera"; exit 1; }
 # VSM's blur: 8 texels (three's shadow.radius) of a 1024 map; PCF for the contrast.
