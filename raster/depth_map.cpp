@@ -15,6 +15,7 @@
 #include <cstring>
 #include <map>
 #include <optional>
+#include <span>
 #include <tuple>
 
 #include "common/camera.h"
@@ -135,17 +136,19 @@ bool has_caster_offsets(const Bias& b) {
 
 using SpecData = std::array<std::uint32_t, 8>;  // indexed by gpu::kSpec*
 
-UniquePipeline make_lookup_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const SpecData& spec) {
-    UniqueShaderModule cs = make_module(ctx, kLookupComp, sizeof(kLookupComp));
-    std::array<VkSpecializationMapEntry, 8> entries;
-    for (std::uint32_t i = 0; i < 8; ++i) entries[i] = {i, i * 4, 4};
-    VkSpecializationInfo si{8, entries.data(), sizeof(spec), spec.data()};
+// A compute pipeline of `code` whose specialisation constants 0, 1, ... take `spec` in order.
+UniquePipeline make_compute_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const std::uint32_t* code,
+                                     std::size_t bytes, std::span<const std::uint32_t> spec) {
+    UniqueShaderModule cs = make_module(ctx, code, bytes);
+    std::vector<VkSpecializationMapEntry> entries(spec.size());
+    for (std::uint32_t i = 0; i < spec.size(); ++i) entries[i] = {i, i * 4, 4};
+    VkSpecializationInfo si{static_cast<std::uint32_t>(entries.size()), entries.data(), spec.size_bytes(), spec.data()};
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = cs.get();
     ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = &si;
+    ci.stage.pSpecializationInfo = spec.empty() ? nullptr : &si;
     ci.layout = layout;
     VkPipeline p;
     VK_CHECK(vkCreateComputePipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
@@ -438,16 +441,7 @@ std::optional<glm::dvec2> DepthMapFamily::reduce_view_depth(RasterStats& stats) 
         sdsm_sets_.write(0, r);
         sdsm_layout_ =
             make_pipeline_layout(ctx_, sdsm_sets_.layout(), sizeof(gpu::SdsmParams), VK_SHADER_STAGE_COMPUTE_BIT);
-        UniqueShaderModule cs = make_module(ctx_, kSdsmComp, sizeof(kSdsmComp));
-        VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-        ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-        ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-        ci.stage.module = cs.get();
-        ci.stage.pName = "main";
-        ci.layout = sdsm_layout_.get();
-        VkPipeline p;
-        VK_CHECK(vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
-        sdsm_pipeline_ = UniquePipeline(ctx_.device(), p);
+        sdsm_pipeline_ = make_compute_pipeline(ctx_, sdsm_layout_.get(), kSdsmComp, sizeof(kSdsmComp), {});
         VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
         qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
         qi.queryCount = 2;
@@ -555,7 +549,7 @@ VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, g
                      hardware_compare_ ? 1u : 0u,
                      mode};
     UniquePipeline& p = lookup_pipelines_[spec];
-    if (!p) p = make_lookup_pipeline(ctx_, lookup_layout_.get(), spec);
+    if (!p) p = make_compute_pipeline(ctx_, lookup_layout_.get(), kLookupComp, sizeof(kLookupComp), spec);
     return p.get();
 }
 
@@ -563,22 +557,7 @@ VkPipeline DepthMapFamily::moment_pipeline(const MomentParameters& m, gpu::uint 
     const std::array<std::uint32_t, 3> spec = {gpu::kFilterVsm + static_cast<std::uint32_t>(m.kind), pass,
                                                static_cast<std::uint32_t>(m.blur)};
     UniquePipeline& p = moment_pipelines_[spec];
-    if (!p) {
-        UniqueShaderModule cs = make_module(ctx_, kMomentsComp, sizeof(kMomentsComp));
-        std::array<VkSpecializationMapEntry, 3> entries;
-        for (std::uint32_t i = 0; i < 3; ++i) entries[i] = {i, i * 4, 4};
-        VkSpecializationInfo si{3, entries.data(), sizeof(spec), spec.data()};
-        VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-        ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-        ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-        ci.stage.module = cs.get();
-        ci.stage.pName = "main";
-        ci.stage.pSpecializationInfo = &si;
-        ci.layout = moment_layout_.get();
-        VkPipeline pipeline;
-        VK_CHECK(vkCreateComputePipelines(ctx_.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
-        p = UniquePipeline(ctx_.device(), pipeline);
-    }
+    if (!p) p = make_compute_pipeline(ctx_, moment_layout_.get(), kMomentsComp, sizeof(kMomentsComp), spec);
     return p.get();
 }
 
