@@ -94,6 +94,30 @@ TEST(EngineBias, ReceiverNormalOffsetTimesItsFactorCuresAcneBeyondTheThreshold) 
     EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().size() << " validation messages";
 }
 
+// At an oblique sun each factor has its exact value: the bias reach grows by the metres times
+// sin(theta), 1 - cos(theta) or 1, on every pixel of the plane (theta = 60 degrees here).
+TEST(EngineBias, NormalFactorsTakeTheirExactValueAtAnObliqueSun) {
+    raster::VulkanContext ctx(with_validation());
+    const double theta = 60.0 * M_PI / 180.0;
+    const Scenario sc = tilted_sun_plane(60.0);
+    const raster::RasterResult base = render(sc, no_bias(nullptr), ctx);
+    const DepthMapLookups& b = *base.frame.lights[0].lookups;
+    const std::vector<std::pair<const char*, double>> factors = {
+        {"none", 1.0}, {"sin", std::sin(theta)}, {"one_minus_ndotl", 1.0 - std::cos(theta)}};
+    for (const auto& [factor, value] : factors) {
+        const raster::RasterResult r = render(sc, no_bias({{"normal_offset_m", 0.1}, {"normal_factor", factor}}), ctx);
+        const DepthMapLookups& lk = *r.frame.lights[0].lookups;
+        std::size_t checked = 0;
+        for (std::size_t i = 0; i < r.frame.pixel_count(); ++i) {
+            if (lk.flags[i] != kRasterSurface || b.flags[i] != kRasterSurface) continue;
+            ASSERT_NEAR(lk.bias_m[i] - b.bias_m[i], 0.1 * value, 1e-5) << factor << ", pixel " << i;
+            ++checked;
+        }
+        EXPECT_GT(checked, 10000u) << factor;
+    }
+    EXPECT_TRUE(ctx.validation_messages().empty()) << ctx.validation_messages().size() << " validation messages";
+}
+
 TEST(EngineBias, WorldDepthRangeMovesTheReceiverByAFractionOfTheMapsDepthRange) {
     raster::VulkanContext ctx(with_validation());
     const Scenario sc = tilted_sun_plane(30.0);
