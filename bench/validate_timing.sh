@@ -3,11 +3,11 @@
 # runs it: the bundled scene at 1280x720 with a 2048^2 map, once with its first (directional)
 # light only and once with all three lights. Prints the median of N runs per phase, from
 # report.json's timing. A measurement, not a test.
-# Usage: bench/validate_timing.sh [RUNS=5]   (after scripts/build.sh)
+# Usage: bench/validate_timing.sh [RUNS=5]   (after scripts/build.sh; PENUMBRA_BIN=... times another build)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 runs=${1:-5}
-bin="$root/build/app/penumbra"
+bin="${PENUMBRA_BIN:-$root/build/app/penumbra}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 export PENUMBRA_CACHE_DIR="$work/cache"
