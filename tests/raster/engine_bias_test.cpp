@@ -11,20 +11,14 @@
 #include <cmath>
 
 #include "raster/raster.h"
+#include "tests/raster/validated_render.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
 namespace {
 
-raster::ContextOptions with_validation() {
-    raster::ContextOptions options;
-    options.validation = true;
-    return options;
-}
-
-raster::RasterResult render(const Scenario& sc, const nlohmann::json& technique, raster::VulkanContext& ctx) {
-    return raster::run_raster(sc, raster::parse_technique(technique, "test: technique"), ctx);
-}
+using test::render;
+using test::with_validation;
 
 // A plane under a sun `theta_deg` from its normal, in the x-y plane, its z extent chosen so that
 // its box in light space is square and so are the texels.

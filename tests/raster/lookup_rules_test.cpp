@@ -13,21 +13,14 @@
 #include <cmath>
 
 #include "raster/raster.h"
+#include "tests/raster/validated_render.h"
 #include "tests/test_support.h"
 
 namespace penumbra {
 namespace {
 
-// A context that cannot be made fails the test (no skip).
-raster::ContextOptions with_validation() {
-    raster::ContextOptions options;
-    options.validation = true;
-    return options;
-}
-
-raster::RasterResult render(const Scenario& sc, const nlohmann::json& technique, raster::VulkanContext& ctx) {
-    return raster::run_raster(sc, raster::parse_technique(technique, "test: technique"), ctx);
-}
+using test::render;
+using test::with_validation;
 
 Scenario plane_under_the_sun(bool with_box) {
     test::SceneBuilder b;
