@@ -107,8 +107,9 @@ struct GpuScorer::Impl {
         // Host-visible: only the few peter-panning pixels write it, and their gaps' percentile
         // then needs no class map read back.
         GpuBuffer gaps;
-        GpuBuffer cls_host, errors_host, shown_host;  // discrete devices, made on first need
-        std::vector<float> truth;                     // the perceptual error's reference picture
+        GpuBuffer cls_host, errors_host, shown_host;        // discrete devices, made on first need
+        std::vector<float> truth;                           // the perceptual error's reference picture
+        std::optional<PerceptualReference> filtered_truth;  // its filters, once a run needed them
     };
     std::vector<Light> lights;
     std::vector<std::uint32_t> camera_prim;  // the camera pass the buckets were made with
@@ -199,7 +200,10 @@ void DeferredPerceptual::run(FrameScore& score) {
         LightErrorImage& img = score.images[l.index];
         LightScore& s = score.lights[l.index];
         const std::vector<float> shown(l.shown, l.shown + of.pixel_count());
-        img.perceptual = perceptual_error(*l.truth, shown, of.width, of.height, l.pixels_per_degree);
+        std::optional<PerceptualReference>& reference = *l.reference;
+        if (!reference || reference->pixels_per_degree() != l.pixels_per_degree)
+            reference.emplace(*l.truth, of.width, of.height, l.pixels_per_degree);
+        img.perceptual = reference->error(shown);
         double sum = 0, mx = 0;
         for (std::size_t i = 0; i < img.perceptual.size(); ++i)
             if (of.A[i] != 0) {
@@ -398,6 +402,7 @@ std::optional<FrameScore> GpuScorer::score(const raster::RasterResult& rendered,
         p.index = li;
         p.pixels_per_degree = opt.pixels_per_degree;
         p.truth = &l.truth;
+        p.reference = &l.filtered_truth;
         p.shown = static_cast<const float*>(m.host(l.shown, l.shown_host).mapped);
     }
     if (!deferred) later.run(result);

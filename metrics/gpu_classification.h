@@ -14,6 +14,7 @@
 #include <span>
 
 #include "metrics/classification.h"
+#include "metrics/perceptual.h"
 #include "raster/raster.h"
 #include "raster/vulkan_context.h"
 
@@ -44,6 +45,9 @@ class DeferredPerceptual {
         const std::vector<float>* truth = nullptr;
         const float* shown = nullptr;
         double pixels_per_degree = 0;
+        // The scorer's filtered truth, made on the first run() that needs it and kept for the
+        // renders after it: the truth is the same for every render of the session.
+        std::optional<PerceptualReference>* reference = nullptr;
     };
     const OracleFrame* oracle_ = nullptr;
     std::vector<Light> lights_;

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numbers>
+#include <utility>
 
 namespace penumbra::metrics {
 
@@ -76,17 +78,75 @@ float lightness(float Y) {  // CIE L* / 100 of luminance Y in [0, 1]
     return (116.0f * f - 16.0f) / 100.0f;
 }
 
-struct Features {
-    std::vector<float> edge, point;  // gradient magnitudes of first and second derivatives
+// The filters' reach: the rows a pixel's error reads beyond its own.
+struct Kernels {
+    Kernel csf, g0, g1, g2;
+    int reach = 0;
+    explicit Kernels(double ppd) {
+        const double sigma_csf = ppd * std::sqrt(0.0047 / (2.0 * std::numbers::pi * std::numbers::pi));
+        const double sigma_feature = 0.5 * 0.082 * ppd;
+        csf = gaussian_kernel(sigma_csf, 0);
+        g0 = gaussian_kernel(sigma_feature, 0);
+        g1 = gaussian_kernel(sigma_feature, 1);
+        g2 = gaussian_kernel(sigma_feature, 2);
+        reach = static_cast<int>(std::max(csf.size(), g0.size()) / 2);
+    }
 };
 
-}  // namespace
+// One picture's filtered lightness and features on the output rows [b0, b1) of a band of Hb
+// input rows (its first row `first` of the picture). A band's edges are the image's edges or
+// lie beyond every kernel's reach, so clamping at them gives the same values as at the image's:
+// a row comes out bit for bit the same from any band that holds it, the whole image included.
+struct Filtered {
+    // Band-sized, rows outside [b0, b1) unset: the lightness after the contrast-sensitivity
+    // filter, and the gradient magnitudes of the first and second derivatives.
+    std::vector<float> lightness, edge, point;
+};
 
-std::vector<float> perceptual_error(const std::vector<float>& reference, const std::vector<float>& test, int W, int H,
-                                    double ppd) {
-    const std::size_t n = static_cast<std::size_t>(W) * H;
-    std::vector<float> err(n, 0.0f);
-    // Only rows near a difference can score above zero; the rest keep 0 and cost nothing.
+Filtered filter_picture(const std::vector<float>& picture, int first, int W, int Hb, int b0, int b1, const Kernels& k) {
+    const std::size_t nb = static_cast<std::size_t>(W) * Hb;
+    const std::vector<float> Y(picture.begin() + static_cast<std::ptrdiff_t>(first) * W,
+                               picture.begin() + static_cast<std::ptrdiff_t>(first + Hb) * W);
+    Filtered f;
+    {
+        std::vector<float> h(nb);
+        f.lightness.resize(nb);
+        convolve_x(Y, h, W, 0, Hb, k.csf);
+        convolve_y(h, f.lightness, W, Hb, b0, b1, k.csf);
+        tbb::parallel_for(b0, b1, [&](int y) {
+            for (int x = 0; x < W; ++x) {
+                const std::size_t i = static_cast<std::size_t>(y) * W + x;
+                f.lightness[i] = lightness(f.lightness[i]);
+            }
+        });
+    }
+    std::vector<float> l(nb), h0(nb), h1(nb), h2(nb), a(nb), b(nb);
+    tbb::parallel_for(0, Hb, [&](int y) {
+        for (int x = 0; x < W; ++x)
+            l[static_cast<std::size_t>(y) * W + x] = lightness(Y[static_cast<std::size_t>(y) * W + x]);
+    });
+    convolve_x(l, h0, W, 0, Hb, k.g0);
+    convolve_x(l, h1, W, 0, Hb, k.g1);
+    convolve_x(l, h2, W, 0, Hb, k.g2);
+    // |(d/dx, d/dy)| of one derivative order, from its x and y separable halves.
+    auto magnitude = [&](const std::vector<float>& hx, const Kernel& kx, const std::vector<float>& hy,
+                         const Kernel& ky) {
+        std::vector<float> m(nb);
+        convolve_y(hx, a, W, Hb, b0, b1, kx);
+        convolve_y(hy, b, W, Hb, b0, b1, ky);
+        tbb::parallel_for(b0, b1, [&](int y) {
+            for (std::size_t i = static_cast<std::size_t>(y) * W; i < static_cast<std::size_t>(y + 1) * W; ++i)
+                m[i] = std::hypot(a[i], b[i]);
+        });
+        return m;
+    };
+    f.edge = magnitude(h1, k.g0, h0, k.g1);
+    f.point = magnitude(h2, k.g0, h0, k.g2);
+    return f;
+}
+
+// The rows [first, last] where the pictures differ; last < 0 when they are equal.
+std::pair<int, int> differing_rows(const std::vector<float>& reference, const std::vector<float>& test, int W, int H) {
     int first = H, last = -1;
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x)
@@ -95,78 +155,68 @@ std::vector<float> perceptual_error(const std::vector<float>& reference, const s
                 last = y;
                 break;
             }
+    return {first, last};
+}
+
+// Only rows near a difference can score above zero; the rest keep 0 and cost nothing. The
+// reference's filtered rows come from `reference` (its rows from `ref_first` on) when given,
+// else they are filtered here from the band alone.
+std::vector<float> error_image(const std::vector<float>& reference_picture, const Filtered* reference, int ref_first,
+                               const std::vector<float>& test, int W, int H, const Kernels& k) {
+    const std::size_t n = static_cast<std::size_t>(W) * H;
+    std::vector<float> err(n, 0.0f);
+    const auto [first, last] = differing_rows(reference_picture, test, W, H);
     if (last < 0) return err;
-
-    const double sigma_csf = ppd * std::sqrt(0.0047 / (2.0 * std::numbers::pi * std::numbers::pi));
-    const double sigma_feature = 0.5 * 0.082 * ppd;
-    const Kernel csf = gaussian_kernel(sigma_csf, 0);
-    const Kernel g0 = gaussian_kernel(sigma_feature, 0), g1 = gaussian_kernel(sigma_feature, 1),
-                 g2 = gaussian_kernel(sigma_feature, 2);
-    const int reach = static_cast<int>(std::max(csf.size(), g0.size()) / 2);
     // Output rows [y0, y1) need input rows one kernel further; intermediate rows another.
-    const int y0 = std::max(0, first - reach), y1 = std::min(H, last + reach + 1);
-    const int in0 = std::max(0, y0 - reach), in1 = std::min(H, y1 + reach);
-
-    // Everything below works on the band of input rows [in0, in1), the only rows the output
-    // reads; its edges are the image's edges or lie beyond every kernel's reach, so clamping
-    // at the band's edges gives the same result as at the image's.
+    const int y0 = std::max(0, first - k.reach), y1 = std::min(H, last + k.reach + 1);
+    const int in0 = std::max(0, y0 - k.reach), in1 = std::min(H, y1 + k.reach);
     const int Hb = in1 - in0, b0 = y0 - in0, b1 = y1 - in0;
-    const std::size_t nb = static_cast<std::size_t>(W) * Hb;
-    auto band = [&](const std::vector<float>& img) {
-        return std::vector<float>(img.begin() + static_cast<std::ptrdiff_t>(in0) * W,
-                                  img.begin() + static_cast<std::ptrdiff_t>(in1) * W);
-    };
-
-    auto lightness_after_csf = [&](const std::vector<float>& Y) {
-        std::vector<float> h(nb), v(nb);
-        convolve_x(Y, h, W, 0, Hb, csf);
-        convolve_y(h, v, W, Hb, b0, b1, csf);
-        tbb::parallel_for(b0, b1, [&](int y) {
-            for (int x = 0; x < W; ++x) {
-                const std::size_t i = static_cast<std::size_t>(y) * W + x;
-                v[i] = lightness(v[i]);
-            }
-        });
-        return v;
-    };
-    auto features = [&](const std::vector<float>& Y) {
-        std::vector<float> l(nb), h0(nb), h1(nb), h2(nb), a(nb), b(nb);
-        tbb::parallel_for(0, Hb, [&](int y) {
-            for (int x = 0; x < W; ++x)
-                l[static_cast<std::size_t>(y) * W + x] = lightness(Y[static_cast<std::size_t>(y) * W + x]);
-        });
-        convolve_x(l, h0, W, 0, Hb, g0);
-        convolve_x(l, h1, W, 0, Hb, g1);
-        convolve_x(l, h2, W, 0, Hb, g2);
-        // |(d/dx, d/dy)| of one derivative order, from its x and y separable halves.
-        auto magnitude = [&](const std::vector<float>& hx, const Kernel& kx, const std::vector<float>& hy,
-                             const Kernel& ky) {
-            std::vector<float> m(nb);
-            convolve_y(hx, a, W, Hb, b0, b1, kx);
-            convolve_y(hy, b, W, Hb, b0, b1, ky);
-            tbb::parallel_for(b0, b1, [&](int y) {
-                for (std::size_t i = static_cast<std::size_t>(y) * W; i < static_cast<std::size_t>(y + 1) * W; ++i)
-                    m[i] = std::hypot(a[i], b[i]);
-            });
-            return m;
-        };
-        return Features{magnitude(h1, g0, h0, g1), magnitude(h2, g0, h0, g2)};
-    };
-
-    const std::vector<float> ref = band(reference), tst = band(test);
-    const std::vector<float> lr = lightness_after_csf(ref), lt = lightness_after_csf(tst);
-    const Features fr = features(ref), ft = features(tst);
+    Filtered own;
+    if (!reference) {
+        own = filter_picture(reference_picture, in0, W, Hb, b0, b1, k);
+        reference = &own;
+        ref_first = in0;
+    }
+    const Filtered t = filter_picture(test, in0, W, Hb, b0, b1, k);
+    const std::size_t shift = static_cast<std::size_t>(in0 - ref_first) * W;
     // Every pixel on its own: the rows in parallel give the same image, bit for bit.
     tbb::parallel_for(b0, b1, [&](int y) {
         for (int x = 0; x < W; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * W + x;
-            const float colour = std::pow(std::abs(lr[i] - lt[i]), 0.7f);
-            const float df = std::max(std::abs(fr.edge[i] - ft.edge[i]), std::abs(fr.point[i] - ft.point[i]));
+            const std::size_t i = static_cast<std::size_t>(y) * W + x, r = i + shift;
+            const float colour = std::pow(std::abs(reference->lightness[r] - t.lightness[i]), 0.7f);
+            const float df =
+                std::max(std::abs(reference->edge[r] - t.edge[i]), std::abs(reference->point[r] - t.point[i]));
             const float feature = std::pow(std::min(1.0f, df / std::numbers::sqrt2_v<float>), 0.5f);
             err[i + static_cast<std::size_t>(in0) * W] = colour > 0 ? std::pow(colour, 1.0f - feature) : 0.0f;
         }
     });
     return err;
+}
+
+}  // namespace
+
+std::vector<float> perceptual_error(const std::vector<float>& reference, const std::vector<float>& test, int W, int H,
+                                    double ppd) {
+    return error_image(reference, nullptr, 0, test, W, H, Kernels(ppd));
+}
+
+struct PerceptualReference::Filters {
+    Kernels kernels;
+    Filtered whole;
+};
+
+PerceptualReference::PerceptualReference(std::vector<float> picture, int width, int height, double pixels_per_degree)
+    : picture_(std::move(picture)), width_(width), height_(height), pixels_per_degree_(pixels_per_degree) {}
+
+PerceptualReference::~PerceptualReference() = default;
+PerceptualReference::PerceptualReference(PerceptualReference&&) noexcept = default;
+
+std::vector<float> PerceptualReference::error(const std::vector<float>& test) {
+    if (!filters_) {
+        const Kernels k(pixels_per_degree_);
+        filters_ = std::make_unique<Filters>(Filters{k, filter_picture(picture_, 0, width_, height_, 0, height_, k)});
+    }
+    return error_image(picture_, &filters_->whole, 0, test, width_, height_, filters_->kernels);
 }
 
 }  // namespace penumbra::metrics

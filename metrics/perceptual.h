@@ -9,6 +9,7 @@
 // to [0, 1] instead). The displayed image is luminance Y = V.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 namespace penumbra::metrics {
@@ -17,5 +18,28 @@ namespace penumbra::metrics {
 // viewed at `pixels_per_degree` (67: a 0.7 m distance from a 24" 4K screen, FLIP's default).
 std::vector<float> perceptual_error(const std::vector<float>& reference, const std::vector<float>& test, int width,
                                     int height, double pixels_per_degree);
+
+// One reference picture scored against many test pictures (sweep scores every configuration's
+// render against the same oracle picture): the reference's half of the work (its filtered
+// lightness and features) is done once, over the whole image, on the first error(). error(test)
+// equals perceptual_error(picture, test, ...) bit for bit: every row it keeps is filtered from
+// the same rows in the same order.
+class PerceptualReference {
+  public:
+    PerceptualReference(std::vector<float> picture, int width, int height, double pixels_per_degree);
+    ~PerceptualReference();
+    PerceptualReference(PerceptualReference&&) noexcept;
+    PerceptualReference& operator=(PerceptualReference&&) = delete;
+
+    std::vector<float> error(const std::vector<float>& test);
+    double pixels_per_degree() const { return pixels_per_degree_; }
+
+  private:
+    struct Filters;
+    std::vector<float> picture_;
+    int width_, height_;
+    double pixels_per_degree_;
+    std::unique_ptr<Filters> filters_;
+};
 
 }  // namespace penumbra::metrics

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <set>
 
@@ -445,6 +446,33 @@ TEST(Perceptual, SmallShiftOfAnEdgeCostsLessThanAMissingShadow) {
         sm += em[i];
     }
     EXPECT_LT(ss, 0.5 * sm);  // measured 0.26: the CSF blur spreads the one-pixel ring over about three
+}
+
+// A reference filtered once over the whole image scores like the banded one-off: bit for bit,
+// whether the difference lies in a band in the middle, at either edge, or everywhere, and for
+// every test picture after the first.
+TEST(Perceptual, AReferenceFilteredOnceGivesTheSameBitsAsEachOneOff) {
+    const int W = 80, H = 200;
+    std::vector<float> truth(static_cast<std::size_t>(W) * H);
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+            truth[static_cast<std::size_t>(y) * W + x] = ((x / 7 + y / 5) % 3 == 0) ? 0.0f : 0.25f * float(x % 4);
+    auto changed = [&](int y0, int y1, float v) {
+        std::vector<float> t = truth;
+        for (int y = y0; y < y1; ++y)
+            for (int x = 10 + y % 13; x < W - 5; x += 3) t[static_cast<std::size_t>(y) * W + x] = v;
+        return t;
+    };
+    PerceptualReference reference(truth, W, H, 67);
+    for (const auto& test : {changed(100, 104, 1.0f), changed(0, 2, 0.5f), changed(H - 3, H, 0.0f),
+                             changed(0, H, 0.75f), truth, changed(150, 151, 0.1f)}) {
+        const std::vector<float> once = perceptual_error(truth, test, W, H, 67);
+        const std::vector<float> kept = reference.error(test);
+        ASSERT_EQ(kept.size(), once.size());
+        EXPECT_EQ(0, std::memcmp(kept.data(), once.data(), once.size() * sizeof(float)));
+    }
+    // And the middle band's rows far from the difference stay zero, as the one-off's do.
+    EXPECT_EQ(reference.error(changed(100, 104, 1.0f))[static_cast<std::size_t>(20) * W + 40], 0.0f);
 }
 
 // ---- gates
