@@ -81,7 +81,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
 
     OutputTransaction out(c.out);
     auto t0 = SteadyClock::now();
-    write_validate_outputs(out, scenario, r, false);
+    write_validate_outputs(out, scenario, r, {.errors = true});
     out.commit();
     const double write_s = seconds_since(t0);
     if (!a.junit_file.empty()) {

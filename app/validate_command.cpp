@@ -23,6 +23,7 @@ struct ValidateArgs {
     std::filesystem::path gate_file;
     std::filesystem::path junit_file;
     bool frames = false;
+    bool errors = false;
     std::string class_map_tint = "none";
     VerdictArgs verdict;
 };
@@ -70,11 +71,11 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     const ValidateResult& r = path ? path->last : *single;
 
     auto t0 = SteadyClock::now();
-    const bool tint_cascades = v.class_map_tint == "cascade";
+    const ValidateFiles files{v.frames, v.errors, v.class_map_tint == "cascade"};
     if (path)
-        write_camera_path_outputs(out, scenario, *path, v.frames, tint_cascades);
+        write_camera_path_outputs(out, scenario, *path, files);
     else
-        write_validate_outputs(out, scenario, r, v.frames, tint_cascades);
+        write_validate_outputs(out, scenario, r, files);
     out.commit();
     const double write_s = seconds_since(t0);
     if (!v.junit_file.empty()) {
@@ -103,7 +104,8 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
             }
         }
         if (auto line = cache_line(r.oracle->info)) fmt::print("{}\n", *line);
-        fmt::print("results: {}/report.html, report.json, errors.exr{}\n", c.out.string(),
+        fmt::print("results: {}/report.html, report.json{}{}\n", c.out.string(),
+                   files.frames || files.errors ? ", errors.exr" : "",
                    path ? fmt::format(" (the last of {} frames), flicker.exr", path->frames) : "");
     }
     return gate_exit_code(r.gate, c.quiet);
@@ -127,7 +129,10 @@ Subcommand add_validate_command(CLI::App& parent) {
     add_technique(cmd, a->technique);
     cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")")->check(kUserPath);
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);
-    cmd->add_flag("--frames", v.frames, "Also write oracle.exr and raster.exr (the oracle is traced)");
+    cmd->add_flag("--frames", v.frames,
+                  "Also write oracle.exr and raster.exr (the oracle is traced) and errors.exr (as --errors)");
+    cmd->add_flag("--errors", v.errors,
+                  "Also write errors.exr: per light the signed error, class id and perceptual error per pixel");
     cmd->add_option("--class-map-tint", v.class_map_tint,
                     "none (default) or cascade: a cascaded light's class map tinted by the cascade each pixel used")
         ->check(CLI::IsMember({"none", "cascade"}));
@@ -135,8 +140,9 @@ Subcommand add_validate_command(CLI::App& parent) {
     describe_outputs(
         cmd,
         "Outputs (in --out): report.json (the verdict per light; gates read it), report.html (the answer first,\nthen "
-        "the details), errors.exr, light<i>.classes.png / .error.png / .compare.png, oracle.json, raster.json;\nwith "
-        "--frames also oracle.exr and raster.exr; with --junit the JUnit file. Exit 1 when a gate fails.",
+        "the details), light<i>.classes.png / .error.png / .compare.png, oracle.json, raster.json; with --errors\n"
+        "errors.exr; with --frames also oracle.exr, raster.exr and errors.exr; with --junit the JUnit file. Exit 1\n"
+        "when a gate fails.",
         "penumbra validate data/default/scenario.json --out run --preset d3d12-textbook --gate gate.json --junit "
         "junit.xml");
     return {cmd, [a] { return run_validate_command(a->scenario, a->common, a->technique, a->validate); }};

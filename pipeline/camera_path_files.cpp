@@ -8,8 +8,8 @@
 namespace penumbra {
 
 void write_camera_path_outputs(OutputTransaction& out, const Scenario& scenario, const CameraPathResult& result,
-                               bool frames, bool tint_cascades) {
-    write_validate_outputs(out, scenario, result.last, frames, tint_cascades);
+                               const ValidateFiles& files) {
+    write_validate_outputs(out, scenario, result.last, files);
     std::vector<ExrChannel> channels;  // none without lights: then no file
     for (std::size_t li = 0; li < result.flicker_map.size(); ++li)
         channels.push_back({fmt::format("light{}.flicker", li), {}, result.flicker_map[li]});

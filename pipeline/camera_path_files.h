@@ -4,12 +4,13 @@
 
 #include "common/output_files.h"
 #include "pipeline/camera_path.h"
+#include "pipeline/validate_files.h"
 
 namespace penumbra {
 
 // write_validate_outputs of the last frame, and flicker.exr: per light a channel
 // light<i>.flicker, the number of frame pairs in which the point seen at the pixel flickered.
 void write_camera_path_outputs(OutputTransaction& out, const Scenario& scenario, const CameraPathResult& result,
-                               bool frames, bool tint_cascades = false);
+                               const ValidateFiles& files);
 
 }  // namespace penumbra

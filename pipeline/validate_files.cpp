@@ -7,8 +7,9 @@
 
 namespace penumbra {
 
-void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r, bool frames,
-                            bool tint_cascades) {
+void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, const ValidateResult& r,
+                            const ValidateFiles& files) {
+    const bool frames = files.frames;
     nlohmann::json oracle_info = r.oracle->info;
     // The frames (--frames: oracle.exr and raster.exr, the largest files) are written beside the
     // report's images; oracle.json, which times their writing, follows both.
@@ -23,7 +24,8 @@ void write_validate_outputs(OutputTransaction& out, const Scenario& scenario, co
     }
     // The report reads nothing of the oracle's write time: its inputs are the run's own.
     report::ReportInputs in = report_inputs(scenario, r, r.oracle->info);
-    in.tint_cascades = tint_cascades;
+    in.tint_cascades = files.tint_cascades;
+    in.errors_exr = files.frames || files.errors;
     report::write_report(out, in, r.oracle->frame, r.raster.frame, r.score, r.report);
     frame_files.wait();
     out.write_json("oracle.json", oracle_info);

@@ -33,6 +33,7 @@ struct ReportInputs {
     // validate --class-map-tint cascade: a cascaded light's class map tinted by the cascade each
     // pixel's lookup used (the raster lookups' layer), with the tints in its legend.
     bool tint_cascades = false;
+    bool errors_exr = true;  // write_report writes errors.exr (validate: only with --errors or --frames)
 };
 
 // report.json (docs/design.md's keys, and more): each light's object is metrics::to_json, built from

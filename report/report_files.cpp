@@ -448,18 +448,21 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
                   const metrics::FrameScore& score, const nlohmann::json& report) {
     const int W = oracle.width, H = oracle.height;
     const std::size_t n = oracle.pixel_count();
-    std::vector<ExrChannel> channels = {{"A", oracle.A, {}}};  // the surface mask, and never an empty file
-    for (std::size_t li = 0; li < score.images.size(); ++li) {
-        const auto& e = score.images[li];
-        channels.push_back({fmt::format("light{}.error", li), e.error, {}});
-        channels.push_back(
-            {fmt::format("light{}.class", li), {}, std::vector<std::uint32_t>(e.cls.begin(), e.cls.end())});
-        channels.push_back({fmt::format("light{}.perceptual", li), e.perceptual, {}});
-    }
     // Each file is encoded on its own task (the bytes do not depend on the order); the page
     // embeds the PNGs once they are all written.
     tbb::task_group files;
-    files.run([&] { write_exr(out, "errors.exr", W, H, channels); });
+    if (in.errors_exr)
+        files.run([&] {
+            std::vector<ExrChannel> channels = {{"A", oracle.A, {}}};  // the surface mask, and never an empty file
+            for (std::size_t li = 0; li < score.images.size(); ++li) {
+                const auto& e = score.images[li];
+                channels.push_back({fmt::format("light{}.error", li), e.error, {}});
+                channels.push_back(
+                    {fmt::format("light{}.class", li), {}, std::vector<std::uint32_t>(e.cls.begin(), e.cls.end())});
+                channels.push_back({fmt::format("light{}.perceptual", li), e.perceptual, {}});
+            }
+            write_exr(out, "errors.exr", W, H, channels);
+        });
     for (std::size_t li = 0; li < score.images.size(); ++li) {
         const auto& e = score.images[li];
         // A cascaded light (report.json has its cascades) is tinted by cascade when asked.

@@ -10,9 +10,9 @@
 
 namespace penumbra::report {
 
-// errors.exr, light<i>.classes.png, light<i>.error.png, light<i>.compare.png, report.json and
-// report.html (images embedded), added to the transaction. The page's numbers come from `score`
-// and in.gate; `report` is written as report.json and gives the page its timing.
+// errors.exr (unless in.errors_exr is off), light<i>.classes.png, light<i>.error.png, light<i>.compare.png, report.json
+// and report.html (images embedded), added to the transaction. The page's numbers come from `score` and in.gate;
+// `report` is written as report.json and gives the page its timing.
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report);
 
