@@ -8,6 +8,7 @@
 // for all when they would not fit kMapBudgetBytes) by size and format, per-light buffers and
 // descriptor sets by light count; a map whose inputs did not change is not drawn again.
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -306,7 +307,9 @@ class DepthMapFamily final : public TechniqueFamily {
     std::optional<glm::dvec2> reduce_view_depth(RasterStats& stats);
     VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
     VkPipeline peel_pipeline(const Technique& t);
+    SpecData lookup_spec(const Technique& t, gpu::uint kind, gpu::uint mode) const;
     VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
+    void make_lookup_pipelines(const Technique& t, std::span<const Light> lights, const RenderOptions& options);
     VkSampler compare_sampler(bool linear, bool clamp_to_border, bool reversed_z);
     gpu::ShadowPush caster_push(const Technique& t, const Light& light, const LightProjection& projection,
                                 std::uint32_t layer) const;
@@ -538,19 +541,49 @@ VkPipeline DepthMapFamily::peel_pipeline(const Technique& t) {
     return p.get();
 }
 
-VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode) {
+SpecData DepthMapFamily::lookup_spec(const Technique& t, gpu::uint kind, gpu::uint mode) const {
     const MomentParameters* moments = moment_parameters(t);
-    SpecData spec = {kind,
-                     moments ? gpu::kFilterVsm + static_cast<std::uint32_t>(moments->kind) : filter_kind(t.filter.type),
-                     static_cast<std::uint32_t>(moments ? 0 : t.filter.size),  // the blur is its own pass
-                     static_cast<std::uint32_t>(t.filter.taps),
-                     t.filter.bilinear_taps ? 1u : 0u,
-                     t.bias.receiver_plane ? 1u : 0u,
-                     hardware_compare_ ? 1u : 0u,
-                     mode};
+    return {kind,
+            moments ? gpu::kFilterVsm + static_cast<std::uint32_t>(moments->kind) : filter_kind(t.filter.type),
+            static_cast<std::uint32_t>(moments ? 0 : t.filter.size),  // the blur is its own pass
+            static_cast<std::uint32_t>(t.filter.taps),
+            t.filter.bilinear_taps ? 1u : 0u,
+            t.bias.receiver_plane ? 1u : 0u,
+            hardware_compare_ ? 1u : 0u,
+            mode};
+}
+
+VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode) {
+    const SpecData spec = lookup_spec(t, kind, mode);
     UniquePipeline& p = lookup_pipelines_[spec];
     if (!p) p = make_compute_pipeline(ctx_, lookup_layout_.get(), kLookupComp, sizeof(kLookupComp), spec);
     return p.get();
+}
+
+// llvmpipe compiles each specialisation of the lookup shader on one core, 0.11-0.13 s apiece on
+// the 2-core development VM (four for data/default's sun, spot and point: its face mask too),
+// where a GPU driver takes milliseconds: those a render will record and lacks are made side by
+// side first (Vulkan lets pipelines be created from several threads at once). The pipelines are
+// the same ones: only when they are made changes.
+void DepthMapFamily::make_lookup_pipelines(const Technique& t, std::span<const Light> lights,
+                                           const RenderOptions& options) {
+    std::vector<SpecData> missing;
+    auto want = [&](const SpecData& spec) {
+        if (!lookup_pipelines_.contains(spec) && std::find(missing.begin(), missing.end(), spec) == missing.end())
+            missing.push_back(spec);
+    };
+    for (std::size_t li = 0; li < lights.size(); ++li) {
+        if (lights[li].type == LightType::point) want(lookup_spec(t, gpu::kLightPoint, gpu::kModeFaceMask));
+        const Technique tl = t.for_light(li);
+        want(lookup_spec(tl, light_kind(tl, lights[li].type),
+                         options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
+    }
+    if (missing.size() < 2) return;  // made where it is recorded
+    std::vector<UniquePipeline> made(missing.size());
+    tbb::parallel_for(std::size_t(0), missing.size(), [&](std::size_t i) {
+        made[i] = make_compute_pipeline(ctx_, lookup_layout_.get(), kLookupComp, sizeof(kLookupComp), missing[i]);
+    });
+    for (std::size_t i = 0; i < missing.size(); ++i) lookup_pipelines_[missing[i]] = std::move(made[i]);
 }
 
 VkPipeline DepthMapFamily::moment_pipeline(const MomentParameters& m, gpu::uint pass) {
@@ -1098,6 +1131,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     ensure_slots(n, options.lookups);
     ensure_queries(static_cast<std::uint32_t>(2 + kQueriesPerLight * n));
     if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
+    make_lookup_pipelines(t, lights, options);
 
     const Scenario& sc = s_.scenario;
     std::optional<glm::dvec2> samples;
