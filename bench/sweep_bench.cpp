@@ -121,14 +121,16 @@ int main(int argc, char** argv) {
             std::printf(
                 "# per configuration (median, ms): total %.1f = verdict %.1f (render %.1f) + diagnostic renders %.1f + "
                 "production "
-                "renders %.1f + perceptual wait %.1f; timed renders (%.0f): set-up %.1f, submit-and-wait %.1f, GPU "
+                "renders %.1f + perceptual wait %.1f (perceptual %.1f, beside the renders); timed renders (%.0f): "
+                "set-up %.1f, submit-and-wait %.1f, GPU "
                 "(timed repeats) %.1f\n",
                 1e3 * med([](const sweep::Row& r) { return r.seconds; }),
                 1e3 * med([](const sweep::Row& r) { return r.verdict_s; }),
                 1e3 * med([](const sweep::Row& r) { return r.verdict_render_s; }),
                 1e3 * med([](const sweep::Row& r) { return r.diagnostic_s; }),
                 1e3 * med([](const sweep::Row& r) { return r.production_s; }),
-                1e3 * med([](const sweep::Row& r) { return r.perceptual_wait_s; }), renders,
+                1e3 * med([](const sweep::Row& r) { return r.perceptual_wait_s; }),
+                1e3 * med([](const sweep::Row& r) { return r.perceptual_s; }), renders,
                 1e3 * med([](const sweep::Row& r) { return r.timed_setup_s; }),
                 1e3 * med([](const sweep::Row& r) { return r.timed_submit_s; }), med([](const sweep::Row& r) {
                     double g = 0;

@@ -106,8 +106,11 @@ Table run_sweep(const Scenario& scenario, const std::string& scenario_name, std:
         if (!score) score = validate(scenario, c.technique, no_gate, diagnostic, &session, oracle).score;
         row.verdict_s = seconds_since(tc);
         // The perceptual error (CPU work) runs while the timed renders wait on the GPU.
-        std::future<void> perceptual_done =
-            std::async(std::launch::async, [&perceptual, &score] { perceptual.run(*score); });
+        std::future<void> perceptual_done = std::async(std::launch::async, [&perceptual, &score, &row] {
+            const auto tp = SteadyClock::now();
+            perceptual.run(*score);
+            row.perceptual_s = seconds_since(tp);
+        });
         auto timed_render = [&](const raster::RenderOptions& o) {
             const raster::RasterResult r = session.render(c.technique, o);
             row.timed_setup_s += r.stats.setup_s;

@@ -132,6 +132,7 @@ struct Row {
     // perceptual error after them; and of the timed renders' wall clock, the families' set-up
     // and their submit-and-wait (RasterStats::setup_s, render_s).
     double verdict_s = 0, diagnostic_s = 0, production_s = 0, perceptual_wait_s = 0;
+    double perceptual_s = 0;      // the perceptual error's own time, beside the timed renders
     double verdict_render_s = 0;  // of verdict_s, the render
     double timed_setup_s = 0, timed_submit_s = 0;
 };
