@@ -1,7 +1,9 @@
 // `penumbra oracle`: trace the exact visibility of every light and write the oracle's frame.
 #include <fmt/format.h>
 
+#include <future>
 #include <memory>
+#include <thread>
 
 #include "app/cli.h"
 #include "common/errors.h"
@@ -21,10 +23,18 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     OracleTimings timings;
     timings.load_s = seconds_since(t0);
 
-    OracleResult result = run_oracle(scenario, oracle_settings(c, a));
-
+    // oracle.exr is written while the boundary phase runs (#39), on a thread of its own unless
+    // --threads is 1; its U and boundary_m are filled in once that phase has ended.
     OutputTransaction out(c.out);
-    report::write_oracle_outputs(out, scenario, result, timings);
+    const bool own_thread =
+        (c.threads > 0 ? static_cast<unsigned>(c.threads) : std::thread::hardware_concurrency()) > 1;
+    std::shared_future<void> early_exr;
+    OracleResult result = run_oracle(scenario, oracle_settings(c, a), [&](const OracleFrame& frame) {
+        early_exr = report::start_oracle_exr(out, frame, own_thread, timings.write_exr_early_s);
+        return early_exr;
+    });
+
+    report::write_oracle_outputs(out, scenario, result, timings, early_exr);
     out.commit();
     if (!c.quiet) {
         const auto& s = result.stats;

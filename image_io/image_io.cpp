@@ -6,10 +6,15 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfThreading.h>
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <png.h>
+#include <sys/stat.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <array>
@@ -17,10 +22,12 @@
 #include <cmath>
 #include <csetjmp>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <utility>
 
 #include "common/errors.h"
 #include "common/json_reader.h"
@@ -118,8 +125,9 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
                                       const std::size_t h = k / n, y = k % n;
                                       const ExrChannelView& c = *halves[h];
                                       Imath::half* dst = strip.data() + (h * kStripRows + y) * w;
-                                      const float* src = static_cast<const float*>(c.data) +
-                                                         (static_cast<std::size_t>(y0) + y) * w * c.stride;
+                                      const float* src =
+                                          static_cast<const float*>(c.data) +
+                                          (c.same_row ? 0 : (static_cast<std::size_t>(y0) + y) * w * c.stride);
                                       for (std::size_t x = 0; x < w; ++x) dst[x] = Imath::half(src[x * c.stride]);
                                   }
                               });
@@ -129,7 +137,10 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
                 const std::size_t x_stride = 4 * c.stride;
                 auto* base = static_cast<char*>(const_cast<void*>(c.data));
                 if (c.storage != ExrStorage::half) {
-                    frame.insert(c.name, Imf::Slice(pixel_type(c.storage), base, x_stride, x_stride * w));
+                    // A y stride of 0 reads row 0 for every row (an x stride of 0 would never end
+                    // OpenEXR's copy loop, which steps by it).
+                    frame.insert(c.name,
+                                 Imf::Slice(pixel_type(c.storage), base, x_stride, c.same_row ? 0 : x_stride * w));
                     continue;
                 }
                 Imath::half* dst = strip.data() + h++ * kStripRows * w;
@@ -156,6 +167,213 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
             views.push_back({c.name, ExrStorage::u32, c.u32.data(), 1});
     }
     write_exr(out, name, width, height, views);
+}
+
+namespace {
+
+// The EXR's own numbers (OpenEXR's file layout): all little-endian, as x86 and ARM hosts store
+// them, so rows are copied as they lie in memory.
+static_assert(std::endian::native == std::endian::little, "patch_exr_channels copies pixels as EXR's little-endian");
+constexpr std::int32_t kExrMagic = 20000630;
+constexpr std::uint32_t kExrLongNames = 0x400;  // the only version flag write_exr's files may carry
+
+[[noreturn]] void unexpected_exr(const fs::path& file, const std::string& what) {
+    throw std::logic_error(
+        fmt::format("{}: not the uncompressed scanline EXR that write_exr writes: {}", file.string(), what));
+}
+
+// A file descriptor, closed when it goes.
+struct Fd {
+    int fd = -1;
+    ~Fd() {
+        if (fd >= 0) ::close(fd);
+    }
+};
+
+// The bytes from the file's start, read as far as the header's parser asks.
+class FileStart {
+  public:
+    FileStart(int fd, std::size_t file_size, const fs::path& file) : fd_(fd), size_(file_size), file_(file) {}
+    // `n` bytes at `pos`; past the file's end is an error.
+    const unsigned char* at(std::size_t pos, std::size_t n) {
+        if (pos + n > size_) unexpected_exr(file_, "the header runs past the end of the file");
+        if (pos + n > bytes_.size()) {
+            const std::size_t want = std::min(size_, std::max(pos + n, 2 * bytes_.size() + 65536));
+            const std::size_t had = bytes_.size();
+            bytes_.resize(want);
+            const ssize_t got = ::pread(fd_, bytes_.data() + had, want - had, static_cast<off_t>(had));
+            if (got != static_cast<ssize_t>(want - had))
+                throw EnvironmentError(fmt::format("{}: cannot read back the EXR's header", file_.string()));
+        }
+        return bytes_.data() + pos;
+    }
+
+  private:
+    int fd_;
+    std::size_t size_;
+    const fs::path& file_;
+    std::vector<unsigned char> bytes_;
+};
+
+template <class T>
+T little_endian(const unsigned char* p) {
+    T v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+
+std::size_t exr_pixel_bytes(std::int32_t type) {
+    return type == 1 ? 2 : 4;
+}  // HALF : UINT, FLOAT
+
+}  // namespace
+
+void patch_exr_channels(OutputTransaction& out, const std::string& name, int width, int height,
+                        const std::vector<ExrChannelView>& channels) {
+    const fs::path file = out.stage(name);  // the temporary write_exr wrote (stage gives it again)
+    Fd fd{::open(file.c_str(), O_RDWR | O_CLOEXEC)};
+    struct stat st {};
+    if (fd.fd < 0 || ::fstat(fd.fd, &st) != 0)
+        throw EnvironmentError(
+            fmt::format("{}: cannot open the EXR to fill in its channels", (out.dir() / name).string()));
+    const auto file_size = static_cast<std::size_t>(st.st_size);
+    FileStart bytes(fd.fd, file_size, file);
+
+    // ---- the header: magic, version, then attributes (name, type, size, value) until an empty name ----
+    std::size_t pos = 0;
+    auto i32 = [&] {
+        const auto v = little_endian<std::int32_t>(bytes.at(pos, 4));
+        pos += 4;
+        return v;
+    };
+    auto text = [&] {  // a NUL-terminated name, at most 255 bytes
+        std::string s;
+        while (const char c = static_cast<char>(*bytes.at(pos++, 1))) {
+            s += c;
+            if (s.size() > 255) unexpected_exr(file, "a name longer than 255 bytes");
+        }
+        return s;
+    };
+    if (i32() != kExrMagic) unexpected_exr(file, "no EXR magic number");
+    const auto version = static_cast<std::uint32_t>(i32());
+    if ((version & 0xFFu) != 2 || (version & ~0xFFu & ~kExrLongNames) != 0)
+        unexpected_exr(file, fmt::format("version field {:#x} (tiled, deep or multi-part)", version));
+    struct FileChannel {
+        std::string name;
+        std::int32_t type = 0;   // 0 UINT, 1 HALF, 2 FLOAT
+        std::size_t offset = 0;  // bytes from the start of a line's pixels
+    };
+    std::vector<FileChannel> file_channels;
+    bool have_channels = false, have_compression = false, have_window = false, have_order = false;
+    for (;;) {
+        const std::string attr = text();
+        if (attr.empty()) break;
+        const std::string type = text();
+        const std::int32_t size = i32();
+        if (size < 0) unexpected_exr(file, fmt::format("attribute {} of size {}", attr, size));
+        const std::size_t value = pos, end = pos + static_cast<std::size_t>(size);
+        bytes.at(value, static_cast<std::size_t>(size));
+        if (attr == "channels") {
+            if (type != "chlist") unexpected_exr(file, "channels of type " + type);
+            // name, pixel type, pLinear and 3 reserved bytes, x and y sampling; an empty name ends it
+            std::size_t line_offset = 0;
+            for (;;) {
+                FileChannel c;
+                c.name = text();
+                if (c.name.empty()) break;
+                c.type = i32();
+                pos += 4;
+                const std::int32_t xs = i32(), ys = i32();
+                if (c.type < 0 || c.type > 2 || xs != 1 || ys != 1)
+                    unexpected_exr(file, fmt::format("channel {}: type {}, sampling {}x{}", c.name, c.type, xs, ys));
+                c.offset = line_offset;
+                line_offset += exr_pixel_bytes(c.type) * static_cast<std::size_t>(width);
+                file_channels.push_back(std::move(c));
+            }
+            if (pos != end) unexpected_exr(file, "a channel list of another size than its attribute's");
+            have_channels = true;
+        } else if (attr == "compression") {
+            if (size != 1 || *bytes.at(value, 1) != 0) unexpected_exr(file, "compressed");
+            have_compression = true;
+        } else if (attr == "dataWindow") {
+            if (size != 16) unexpected_exr(file, "a data window of another size than a box2i's");
+            const unsigned char* b = bytes.at(value, 16);
+            if (little_endian<std::int32_t>(b) != 0 || little_endian<std::int32_t>(b + 4) != 0 ||
+                little_endian<std::int32_t>(b + 8) != width - 1 || little_endian<std::int32_t>(b + 12) != height - 1)
+                unexpected_exr(file, fmt::format("a data window other than {}x{} from (0, 0)", width, height));
+            have_window = true;
+        } else if (attr == "lineOrder") {
+            if (size != 1 || *bytes.at(value, 1) != 0) unexpected_exr(file, "lines not in increasing y");
+            have_order = true;
+        }
+        pos = end;
+    }
+    if (!have_channels || !have_compression || !have_window || !have_order)
+        unexpected_exr(file, "no channels, compression, dataWindow or lineOrder attribute");
+    std::size_t line_bytes = 0;
+    for (const FileChannel& c : file_channels) line_bytes += exr_pixel_bytes(c.type) * static_cast<std::size_t>(width);
+
+    // ---- the line offset table: one block per line (uncompressed), each `y, byte count, pixels` ----
+    const auto lines = static_cast<std::size_t>(height);
+    std::vector<std::uint64_t> offsets(lines);
+    std::memcpy(offsets.data(), bytes.at(pos, 8 * lines), 8 * lines);
+    const std::size_t table_end = pos + 8 * lines;
+    for (std::size_t y = 0; y < lines; ++y)
+        if (offsets[y] < table_end || offsets[y] > file_size || file_size - offsets[y] < 8 + line_bytes)
+            unexpected_exr(file, fmt::format("line {} at offset {} in a file of {} bytes", y, offsets[y], file_size));
+
+    struct Patch {
+        const ExrChannelView* view;
+        std::size_t offset, bytes;  // in the line's pixels
+    };
+    std::vector<Patch> patches;
+    for (const ExrChannelView& v : channels) {
+        auto c = std::find_if(file_channels.begin(), file_channels.end(),
+                              [&](const FileChannel& fc) { return fc.name == v.name; });
+        if (c == file_channels.end()) unexpected_exr(file, "no channel " + v.name);
+        if (pixel_type(v.storage) != static_cast<Imf::PixelType>(c->type))
+            unexpected_exr(file, fmt::format("channel {} of pixel type {}", v.name, c->type));
+        patches.push_back({&v, c->offset, exr_pixel_bytes(c->type) * static_cast<std::size_t>(width)});
+    }
+
+    // ---- each line's channels, converted and written in place, lines on the command's threads ----
+    const std::size_t w = static_cast<std::size_t>(width);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lines, 16), [&](const tbb::blocked_range<std::size_t>& r) {
+        std::vector<unsigned char> row(4 * w);
+        for (std::size_t y = r.begin(); y != r.end(); ++y) {
+            unsigned char block[8];
+            if (::pread(fd.fd, block, 8, static_cast<off_t>(offsets[y])) != 8)
+                throw EnvironmentError(fmt::format("{}: cannot read back the EXR's line {}", file.string(), y));
+            if (little_endian<std::int32_t>(block) != static_cast<std::int32_t>(y) ||
+                little_endian<std::int32_t>(block + 4) != static_cast<std::int32_t>(line_bytes))
+                unexpected_exr(file,
+                               fmt::format("the block at line {}'s offset is line {} of {} bytes", y,
+                                           little_endian<std::int32_t>(block), little_endian<std::int32_t>(block + 4)));
+            for (const Patch& p : patches) {
+                const ExrChannelView& v = *p.view;
+                const std::size_t first = (v.same_row ? 0 : y * w) * v.stride;
+                if (v.storage == ExrStorage::half) {
+                    const float* src = static_cast<const float*>(v.data) + first;
+                    for (std::size_t x = 0; x < w; ++x) {
+                        const std::uint16_t h = Imath::half(src[x * v.stride]).bits();
+                        std::memcpy(row.data() + 2 * x, &h, 2);
+                    }
+                } else {
+                    const auto* src = static_cast<const std::uint32_t*>(v.data) + first;  // float or uint32 bits
+                    if (v.stride == 1)
+                        std::memcpy(row.data(), src, 4 * w);
+                    else
+                        for (std::size_t x = 0; x < w; ++x) std::memcpy(row.data() + 4 * x, src + x * v.stride, 4);
+                }
+                const auto at = static_cast<off_t>(offsets[y] + 8 + p.offset);
+                if (::pwrite(fd.fd, row.data(), p.bytes, at) != static_cast<ssize_t>(p.bytes))
+                    throw EnvironmentError(fmt::format("{}: cannot write EXR: line {} of channel {}",
+                                                       (out.dir() / name).string(), y, v.name));
+            }
+        }
+    });
+    if (::close(std::exchange(fd.fd, -1)) != 0)
+        throw EnvironmentError(fmt::format("{}: cannot write EXR: closing it failed", (out.dir() / name).string()));
 }
 
 namespace {
@@ -212,6 +430,160 @@ bool write_png_file(FILE* file, int width, int height, const PngRowSource& rows,
     return true;
 }
 
+// The zlib stream of a PNG's image data made in pieces on the command's threads, as pigz does
+// (#39: at 16 threads oracle.png's serial zlib, ~0.06 s at 2048^2, bounded the write phase once
+// oracle.exr was written during the boundary phase). The filtered rows are cut into pieces of a
+// whole number of rows, at least kPngPieceBytes each but the last: a function of the width alone,
+// never of the thread count, so the file is the same at any. Each piece is raw deflate, with the
+// last 32 KiB before it as its dictionary (so its matches reach back as zlib's own would), ended
+// by a sync flush (an empty stored block: the next piece starts on a byte), the last by the
+// final block. The pieces follow one zlib header; the stream's Adler-32 is the pieces' combined.
+constexpr std::size_t kPngPieceBytes = 256 * 1024;
+constexpr std::size_t kDeflateWindow = 32768;
+
+struct DeflatedPiece {
+    std::size_t begin = 0, size = 0;  // in the filtered rows
+    std::vector<unsigned char> data;  // raw deflate
+    uLong adler = 0;                  // of the piece's filtered rows
+};
+
+// The rows (sRGB bytes) PNG-filtered with SUB, as libpng's png_set_filter(PNG_FILTER_SUB)
+// filters them: a filter byte (1), then each byte less the one a pixel (3 bytes) before it.
+// Not zero-filled first: every byte is written.
+struct FilteredRows {
+    std::unique_ptr<unsigned char[]> bytes;
+    std::size_t size = 0;
+};
+
+FilteredRows sub_filtered_rows(int width, int height, const PngRowSource& rows) {
+    const std::size_t row_size = static_cast<std::size_t>(width) * 3, line = row_size + 1;
+    FilteredRows f{std::make_unique_for_overwrite<unsigned char[]>(line * static_cast<std::size_t>(height)),
+                   line * static_cast<std::size_t>(height)};
+    tbb::parallel_for(tbb::blocked_range<int>(0, height, 4), [&](const tbb::blocked_range<int>& r) {
+        std::vector<float> rgb(row_size);
+        std::vector<unsigned char> raw(row_size);
+        for (int y = r.begin(); y != r.end(); ++y) {
+            rows(y, rgb.data());
+            for (std::size_t i = 0; i < row_size; ++i) raw[i] = srgb_byte(rgb[i]);
+            unsigned char* out = f.bytes.get() + static_cast<std::size_t>(y) * line;
+            out[0] = PNG_FILTER_VALUE_SUB;
+            for (std::size_t i = 0; i < row_size; ++i)
+                out[1 + i] = static_cast<unsigned char>(i < 3 ? raw[i] : raw[i] - raw[i - 3]);
+        }
+    });
+    return f;
+}
+
+// A thread's zlib stream and output buffer, reset for each piece it deflates (a fresh stream
+// and buffer per piece cost ~10% of a 2048^2 preview's time on one thread).
+struct Deflater {
+    z_stream z{};
+    bool started = false;
+    std::vector<unsigned char> out;
+    Deflater() = default;
+    Deflater(const Deflater&) = delete;
+    Deflater& operator=(const Deflater&) = delete;
+    ~Deflater() {
+        if (started) deflateEnd(&z);
+    }
+};
+
+// Throws EnvironmentError where zlib fails (out of memory).
+std::vector<DeflatedPiece> deflate_pieces(const FilteredRows& filtered, std::size_t line) {
+    const std::size_t rows_per_piece = std::max<std::size_t>(1, (kPngPieceBytes + line - 1) / line);
+    const std::size_t piece_bytes = rows_per_piece * line;
+    std::vector<DeflatedPiece> pieces((filtered.size + piece_bytes - 1) / piece_bytes);
+    tbb::enumerable_thread_specific<Deflater> deflaters;
+    tbb::parallel_for(std::size_t(0), pieces.size(), [&](std::size_t k) {
+        DeflatedPiece& p = pieces[k];
+        p.begin = k * piece_bytes;
+        p.size = std::min(piece_bytes, filtered.size - p.begin);
+        const unsigned char* in = filtered.bytes.get() + p.begin;
+        p.adler = adler32_z(adler32_z(0, nullptr, 0), in, p.size);
+        Deflater& d = deflaters.local();
+        z_stream& z = d.z;
+        // libpng's settings for filtered rows: Z_FILTERED (no effect at level 1, zlib's fast
+        // path), a 32 KiB window, memLevel 8; negative window bits: raw deflate, no header.
+        if (!d.started) {
+            if (deflateInit2(&z, 1, Z_DEFLATED, -15, 8, Z_FILTERED) != Z_OK)
+                throw EnvironmentError("zlib could not start a stream (out of memory)");
+            d.started = true;
+        } else if (deflateReset(&z) != Z_OK) {
+            throw EnvironmentError("zlib could not reset a stream");
+        }
+        const std::size_t dict = std::min(p.begin, kDeflateWindow);
+        if (dict > 0 && deflateSetDictionary(&z, in - dict, static_cast<uInt>(dict)) != Z_OK)
+            throw EnvironmentError("zlib refused a piece's dictionary");
+        const bool last = k + 1 == pieces.size();
+        const int flush = last ? Z_FINISH : Z_SYNC_FLUSH;
+        z.next_in = const_cast<unsigned char*>(in);
+        z.avail_in = static_cast<uInt>(p.size);
+        d.out.resize(std::max<std::size_t>(d.out.size(), deflateBound(&z, static_cast<uLong>(p.size)) + 64));
+        std::size_t used = 0;
+        for (;;) {
+            z.next_out = d.out.data() + used;
+            z.avail_out = static_cast<uInt>(d.out.size() - used);
+            const int rc = deflate(&z, flush);
+            used = d.out.size() - z.avail_out;
+            if (rc == Z_STREAM_END) break;
+            if (rc != Z_OK && rc != Z_BUF_ERROR) throw EnvironmentError(fmt::format("zlib failed ({})", rc));
+            if (!last && z.avail_in == 0 && z.avail_out != 0) break;  // flushed to the end
+            d.out.resize(2 * d.out.size());
+        }
+        p.data.assign(d.out.begin(), d.out.begin() + static_cast<std::ptrdiff_t>(used));
+    });
+    return pieces;
+}
+
+// libpng writes the signature, IHDR, sRGB and, through png_write_chunk, the IDAT chunks (one
+// per piece) and IEND: png_write_row would deflate the rows itself, serially, and png_write_end
+// refuses a stream that libpng did not deflate ("No IDATs written"), so IEND is written as a
+// plain chunk too. The pieces are made before libpng's setjmp: a longjmp skips no destructor.
+bool write_png_pieces(FILE* file, int width, int height, const std::vector<DeflatedPiece>& pieces, char (&error)[256]) {
+    png_structp png = png_create_write_struct(
+        PNG_LIBPNG_VER_STRING, error,
+        [](png_structp p, png_const_charp message) {
+            std::snprintf(static_cast<char*>(png_get_error_ptr(p)), 256, "%s", message);
+            png_longjmp(p, 1);
+        },
+        nullptr);
+    if (!png) return false;
+    png_infop info = png_create_info_struct(png);
+    if (!info || setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        return false;
+    }
+    png_init_io(png, file);
+    png_set_IHDR(png, info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height), 8, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    // The zlib header: CM 8 (deflate), CINFO 7 (a 32 KiB window); FLEVEL 0, what zlib writes at
+    // level 1; no FDICT (the pieces' dictionaries are the stream's own bytes); FCHECK makes the
+    // two bytes a multiple of 31.
+    const unsigned header = (0x78u << 8) + (31 - (0x78u << 8) % 31);
+    const unsigned char zlib_header[2] = {static_cast<unsigned char>(header >> 8),
+                                          static_cast<unsigned char>(header & 0xFF)};
+    uLong adler = adler32_z(0, nullptr, 0);
+    for (const DeflatedPiece& p : pieces) adler = adler32_combine(adler, p.adler, static_cast<z_off_t>(p.size));
+    const unsigned char adler_bytes[4] = {static_cast<unsigned char>(adler >> 24),
+                                          static_cast<unsigned char>(adler >> 16),
+                                          static_cast<unsigned char>(adler >> 8), static_cast<unsigned char>(adler)};
+    const auto* idat = reinterpret_cast<png_const_bytep>("IDAT");
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+        const bool first = k == 0, last = k + 1 == pieces.size();
+        const std::size_t size = pieces[k].data.size() + (first ? 2 : 0) + (last ? 4 : 0);
+        png_write_chunk_start(png, idat, static_cast<png_uint_32>(size));
+        if (first) png_write_chunk_data(png, zlib_header, 2);
+        png_write_chunk_data(png, pieces[k].data.data(), pieces[k].data.size());
+        if (last) png_write_chunk_data(png, adler_bytes, 4);
+        png_write_chunk_end(png);
+    }
+    png_write_chunk(png, reinterpret_cast<png_const_bytep>("IEND"), nullptr, 0);
+    png_destroy_write_struct(&png, &info);
+    return true;
+}
+
 }  // namespace
 
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const PngRowSource& rows,
@@ -219,7 +591,19 @@ void write_png(OutputTransaction& out, const std::string& name, int width, int h
     const fs::path tmp = out.stage(name);
     char error[256] = "cannot open the file";
     std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(tmp.c_str(), "wb"), &std::fclose);
-    bool ok = file && write_png_file(file.get(), width, height, rows, order, error);
+    bool ok = false;
+    if (file && order == PngRows::parallel_deflate) {
+        const std::size_t line = static_cast<std::size_t>(width) * 3 + 1;
+        std::vector<DeflatedPiece> pieces;
+        try {
+            pieces = deflate_pieces(sub_filtered_rows(width, height, rows), line);
+        } catch (const EnvironmentError& e) {
+            throw EnvironmentError(fmt::format("{}: cannot write PNG: {}", (out.dir() / name).string(), e.what()));
+        }
+        ok = write_png_pieces(file.get(), width, height, pieces, error);
+    } else if (file) {
+        ok = write_png_file(file.get(), width, height, rows, order, error);
+    }
     if (ok && std::fclose(file.release()) != 0) {
         ok = false;
         std::snprintf(error, sizeof error, "%s", "cannot finish writing the file");

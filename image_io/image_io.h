@@ -34,6 +34,9 @@ struct ExrChannelView {
     ExrStorage storage = ExrStorage::f32;
     const void* data = nullptr;
     std::size_t stride = 1;
+    // Every row reads row 0's pixels (`data` holds one row): a placeholder channel whose
+    // pixels patch_exr_channels writes later (oracle.exr written during the boundary phase, #39).
+    bool same_row = false;
 };
 
 enum class ExrCompression {
@@ -47,6 +50,14 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
 // The same from views, written in strips of scanlines: no copy of the whole image is made.
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
                const std::vector<ExrChannelView>& channels, ExrCompression compression = ExrCompression::zip);
+// Overwrites in place, in the uncompressed EXR `name` that write_exr staged in `out`
+// (ExrCompression::none), the pixels of the channels named in `channels` from those views: the
+// file becomes byte for byte what write_exr writes with them. The layout (channel order and
+// types, the size, each line's offset) is read from the file's header and line offset table;
+// a file of another layout is an internal error (std::logic_error: exit 4), a failed read or
+// write an EnvironmentError. Lines are patched on the command's threads.
+void patch_exr_channels(OutputTransaction& out, const std::string& name, int width, int height,
+                        const std::vector<ExrChannelView>& channels);
 // 8-bit sRGB-encoded RGB image, linear input in [0, 1] per channel, row-major.
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const std::vector<float>& rgb);
 // Fills row y (0 at the top) of linear RGB: `width` pixels, 3 floats each.
@@ -54,7 +65,10 @@ using PngRowSource = std::function<void(int y, float* rgb)>;
 // How write_png asks for rows: `serial`, each once, top to bottom, on the calling thread;
 // `parallel`, each once, a block of rows at a time on the command's threads (tbb), so the source
 // must be safe to call for different rows at once. The file's bytes are the same either way.
-enum class PngRows { serial, parallel };
+// `parallel_deflate`: the rows as `parallel`, and the zlib stream too is made in pieces on the
+// command's threads (as pigz does): its bytes differ from the other two's (the stream is cut
+// differently; the pixels are the same) and are the same at every thread count.
+enum class PngRows { serial, parallel, parallel_deflate };
 // The same, one row at a time: for large previews, whose whole float image would be fresh
 // memory (50 MB at 2048^2) that the kernel must fault in and zero (docs/oracle.md section 9).
 void write_png(OutputTransaction& out, const std::string& name, int width, int height, const PngRowSource& rows,

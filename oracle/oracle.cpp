@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <future>
 #include <memory>
@@ -53,7 +54,7 @@ void allocate_frame(OracleFrame& frame, const Scenario& scenario) {
 
 }  // namespace oracle_detail
 
-OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings) {
+OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings, const OracleTraceDone& trace_done) {
     using namespace oracle_detail;
     const int threads =
         settings.threads > 0 ? settings.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -80,14 +81,31 @@ OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings
     t0 = SteadyClock::now();
     frame_task.wait();
     stats.frame_s = seconds_since(t0);
-    trace_frame(tracer, settings, result);
+    // The hook's work reads the frame's arrays: should anything below throw, it must end before
+    // `result` (declared before this guard, so destroyed after it) frees them.
+    std::shared_future<void> hook_work;
+    struct WaitOnThrow {
+        std::shared_future<void>& work;
+        int exceptions = std::uncaught_exceptions();
+        ~WaitOnThrow() {
+            if (std::uncaught_exceptions() > exceptions && work.valid()) work.wait();
+        }
+    } wait_on_throw{hook_work};
+    OracleTraceDone keep_work;
+    if (trace_done)
+        keep_work = [&](const OracleFrame& f) {
+            hook_work = trace_done(f);
+            return hook_work;
+        };
+    trace_frame(tracer, settings, result, keep_work);
     result.tracer_released = std::async(std::launch::async, [t = std::move(owned)]() mutable { t.reset(); }).share();
     return result;
 }
 
 namespace oracle_detail {
 
-void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleResult& result) {
+void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleResult& result,
+                 const OracleTraceDone& trace_done) {
     OracleFrame& frame = result.frame;
     OracleStats& stats = result.stats;
     frame.frame_origin = tracer.frame_origin();
@@ -143,6 +161,10 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
     }
     tracer.device().check("area-light sampling");
     stats.area_s = seconds_since(t0);
+
+    // Every channel is final now but U and boundary_m, which only the boundary phase below
+    // writes (locate_shadow_boundaries' `finish`); the pixel counts after it only read.
+    if (trace_done) trace_done(frame);
 
     // ---- shadow boundaries of punctual lights (and the ambiguity they imply), one light per
     // task; a sampled light's (an area light's, a sun's with a size) visibility is continuous,

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <future>
 #include <memory>
 #include <string>
@@ -84,8 +85,18 @@ struct OracleResult {
     std::shared_future<void> tracer_released;
 };
 
+// Called by run_oracle once the trace is done (the area lights' sampling included), before the
+// boundary phase, e.g. to start writing the frame (#39). Every channel is final then except each
+// light's U and boundary_m, which the boundary phase writes while the work the hook started
+// runs: that work must read neither, and must hold the channels' data pointers, not the frame
+// (the result is moved out of run_oracle; the arrays stay where they are). The hook returns
+// that work (an empty future if it did all of it before returning); should a later phase throw,
+// run_oracle waits for it before the frame is freed.
+using OracleTraceDone = std::function<std::shared_future<void>(const OracleFrame&)>;
+
 // Throws EnvironmentError for Embree failures.
-OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings = {});
+OracleResult run_oracle(const Scenario& scenario, const OracleSettings& settings = {},
+                        const OracleTraceDone& trace_done = {});
 
 // The oracle of a camera path (docs/oracle.md, "Camera paths"): the BVH is built once, in the
 // local frame of the scenario's camera, and each frame costs its trace alone. A trace from the

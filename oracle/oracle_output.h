@@ -14,6 +14,9 @@ struct OracleTimings {
     double write_s = 0;  // oracle.exr and oracle.png
     // The two files are written side by side; each one's own time (oracle.json's write_seconds).
     double write_exr_s = 0, write_png_s = 0;
+    // `penumbra oracle` writes oracle.exr during the boundary phase (#39): that write's own time;
+    // write_exr_s is then the wait for it and the U and boundary_m channels filled in after.
+    double write_exr_early_s = 0;
 };
 
 // oracle.json's content.

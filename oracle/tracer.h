@@ -211,7 +211,9 @@ class Tracer {
 
 // Primary and shadow rays from the tracer's camera, area-light sampling, shadow boundaries and
 // the pixel counts: everything of a frame after the BVH build. `result.frame` is allocated.
-void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleResult& result);
+// `trace_done`, if any, is called between the area lights and the boundaries (run_oracle's).
+void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleResult& result,
+                 const OracleTraceDone& trace_done = {});
 
 // Sizes every channel of `frame` for the scenario's image and lights and fills each with its
 // default (no surface, unlit, no distance), the channels side by side.

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <future>
+#include <memory>
 
 #include "common/preview.h"
 #include "common/stopwatch.h"
@@ -35,6 +36,11 @@ std::vector<ExrChannelView> oracle_channels(const OracleFrame& f) {
         ch.push_back({prefix + "boundary_m", ExrStorage::f32, img.boundary_m.data(), 1});
     }
     return ch;
+}
+
+// The channels the boundary phase writes: each light's U and boundary_m.
+bool boundary_channel(const std::string& name) {
+    return name.ends_with(".U") || name.ends_with(".boundary_m");
 }
 
 VisibilityPreview oracle_preview(const OracleFrame& f) {
@@ -72,19 +78,54 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 
 }  // namespace
 
-double write_oracle_images(OutputTransaction& out, const OracleFrame& f, OracleTimings* parts) {
+std::shared_future<void> start_oracle_exr(OutputTransaction& out, const OracleFrame& f, bool own_thread,
+                                          double& seconds) {
+    // Data race free by construction: the boundary phase writes U and boundary_m alone (and reads
+    // the rest), and the views below read every channel but those two, whose pixels come from
+    // `placeholder`. The views hold the arrays' data pointers, not `f`, which run_oracle's result
+    // moves; the arrays stay put.
+    auto placeholder = std::make_shared<const std::vector<float>>(static_cast<std::size_t>(f.width), 0.0f);
+    std::vector<ExrChannelView> channels = oracle_channels(f);
+    for (ExrChannelView& c : channels)
+        if (boundary_channel(c.name)) {
+            c.data = placeholder->data();
+            c.stride = 1;
+            c.same_row = true;
+        }
+    auto write = [&out, &seconds, width = f.width, height = f.height, channels = std::move(channels), placeholder] {
+        auto t0 = SteadyClock::now();
+        write_exr(out, "oracle.exr", width, height, channels, ExrCompression::none);
+        seconds = seconds_since(t0);
+    };
+    if (own_thread) return std::async(std::launch::async, std::move(write)).share();
+    write();
+    std::promise<void> done;
+    done.set_value();
+    return done.get_future().share();
+}
+
+double write_oracle_images(OutputTransaction& out, const OracleFrame& f, OracleTimings* parts,
+                           const std::shared_future<void>& early_exr) {
     auto t0 = SteadyClock::now();
     // Uncompressed: zip costs ~3 CPU-seconds for a 2048^2 frame, more than tracing it (docs/oracle.md section 9).
-    // The preview is encoded (zlib, one thread) while the EXR is written; its rows are made on
-    // the command's threads.
+    // The preview (its rows and its zlib stream in pieces, on the command's threads) is written
+    // while the EXR is.
     double png_s = 0;
     auto png = std::async(std::launch::async, [&] {
         const VisibilityPreview preview = oracle_preview(f);
         write_png(
-            out, "oracle.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); }, PngRows::parallel);
+            out, "oracle.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); },
+            PngRows::parallel_deflate);
         png_s = seconds_since(t0);
     });
-    write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
+    if (early_exr.valid()) {
+        early_exr.get();
+        std::vector<ExrChannelView> boundary = oracle_channels(f);
+        std::erase_if(boundary, [](const ExrChannelView& c) { return !boundary_channel(c.name); });
+        patch_exr_channels(out, "oracle.exr", f.width, f.height, boundary);
+    } else {
+        write_exr(out, "oracle.exr", f.width, f.height, oracle_channels(f), ExrCompression::none);
+    }
     const double exr_s = seconds_since(t0);
     png.get();
     const double total = seconds_since(t0);
@@ -97,9 +138,14 @@ double write_oracle_images(OutputTransaction& out, const OracleFrame& f, OracleT
 }
 
 void write_oracle_outputs(OutputTransaction& out, const Scenario& scenario, const OracleResult& result,
-                          const OracleTimings& timings) {
+                          const OracleTimings& timings, const std::shared_future<void>& early_exr) {
+    OracleTimings images;
+    write_oracle_images(out, result.frame, &images, early_exr);
+    // Read only now: an early write (start_oracle_exr) sets its seconds in `timings` when it ends.
     OracleTimings t = timings;
-    write_oracle_images(out, result.frame, &t);
+    t.write_s = images.write_s;
+    t.write_exr_s = images.write_exr_s;
+    t.write_png_s = images.write_png_s;
     out.write_json("oracle.json", oracle_json(scenario, result, t));
 }
 
@@ -110,8 +156,11 @@ void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, cons
     write_exr(out, "raster.exr", f.width, f.height, raster_channels(f));
     VisibilityPreview preview{f.width, &f.A, nullptr, {}};
     for (const auto& l : f.lights) preview.lights.push_back({&l.V, nullptr});
+    // Its zlib stream in pieces too: on the 2-core VM a 1280x720 preview took 0.71-0.81x the
+    // serial stream's time at 2 threads and 1.00-1.01x at 1 (docs/oracle.md, session 19).
     write_png(
-        out, "raster.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); }, PngRows::parallel);
+        out, "raster.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); },
+        PngRows::parallel_deflate);
     nlohmann::json j = raster_json(scenario, technique, result, timings);
     j["seconds"]["write"] = seconds_since(t0);
     out.write_json("raster.json", j);

@@ -238,6 +238,110 @@ TEST(ImageIoExr, HalfChannelsGiveTheSameBytesOnOneThreadAndOnFour) {
     for (std::size_t i = 0; i < n; i += 17) ASSERT_EQ(b[i], static_cast<float>(Imath::half(flags[2 * i + 1]))) << i;
 }
 
+// oracle.exr's early write (#39): channels written as placeholders (one row for every row) and
+// patched in place afterwards give the file written with them in one go, byte for byte: float,
+// half and uint channels, strided views, channels on both sides of unpatched ones.
+TEST(ImageIoExr, PatchedChannelsGiveTheFileWrittenWithThem) {
+    constexpr int kWide = 53, kTall = 150;
+    const std::size_t n = static_cast<std::size_t>(kWide) * kTall;
+    std::vector<float> xyz(3 * n), mask(n), dist(n);
+    std::vector<std::uint32_t> ids(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) xyz[3 * i + c] = 0.37f * static_cast<float>(i) - static_cast<float>(c);
+        mask[i] = static_cast<float>(i % 3 == 0);
+        dist[i] = i % 11 ? 0.001f * static_cast<float>(i) : std::numeric_limits<float>::infinity();
+        ids[i] = static_cast<std::uint32_t>(i * 2654435761u);
+    }
+    const std::vector<ExrChannelView> final_views = {
+        {"P.X", ExrStorage::f32, xyz.data(), 3},         {"P.Y", ExrStorage::f32, xyz.data() + 1, 3},
+        {"U", ExrStorage::half, mask.data(), 1},         {"V", ExrStorage::f32, dist.data(), 1},
+        {"boundary_m", ExrStorage::f32, dist.data(), 1}, {"prim", ExrStorage::u32, ids.data(), 1}};
+    const std::vector<float> zeros(kWide, 0.0f);
+    std::vector<ExrChannelView> placeholders = final_views, patched;
+    for (ExrChannelView& c : placeholders)
+        if (c.name == "U" || c.name == "boundary_m" || c.name == "P.Y" || c.name == "prim") {
+            patched.push_back(c);
+            c = {c.name, c.storage, zeros.data(), 1, true};
+        }
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_exr(out, "direct.exr", kWide, kTall, final_views, ExrCompression::none);
+        write_exr(out, "patched.exr", kWide, kTall, placeholders, ExrCompression::none);
+        tbb::task_arena(4).execute([&] { patch_exr_channels(out, "patched.exr", kWide, kTall, patched); });
+        out.commit();
+    }
+    const std::vector<char> direct = file_bytes(dir / "direct.exr");
+    ASSERT_GT(direct.size(), n * 20);
+    EXPECT_TRUE(file_bytes(dir / "patched.exr") == direct);
+}
+
+// A file of another layout is refused as an internal error (exit 4), before any byte is written:
+// compressed, another size, a channel it does not have or of another type.
+TEST(ImageIoExr, PatchRefusesAFileOfAnotherLayout) {
+    constexpr int kWide = 20, kTall = 10;
+    std::vector<float> v(static_cast<std::size_t>(kWide) * kTall, 0.5f);
+    const std::vector<ExrChannelView> channels = {{"a", ExrStorage::f32, v.data(), 1},
+                                                  {"b", ExrStorage::half, v.data(), 1}};
+    const test::TempDir tmp;
+    OutputTransaction out(tmp.path() / "out");
+    write_exr(out, "zip.exr", kWide, kTall, channels, ExrCompression::zip);
+    write_exr(out, "none.exr", kWide, kTall, channels, ExrCompression::none);
+    const std::vector<char> none = file_bytes(out.stage("none.exr"));
+    auto refused = [&](const std::string& name, int w, int h, const std::vector<ExrChannelView>& views,
+                       const std::string& why) {
+        try {
+            patch_exr_channels(out, name, w, h, views);
+            ADD_FAILURE() << why << ": not refused";
+        } catch (const std::logic_error& e) {
+            EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+        }
+    };
+    refused("zip.exr", kWide, kTall, {channels[0]}, "compressed");
+    refused("none.exr", kWide, kTall + 1, {channels[0]}, "data window");
+    refused("none.exr", kWide, kTall, {{"c", ExrStorage::f32, v.data(), 1}}, "no channel c");
+    refused("none.exr", kWide, kTall, {{"b", ExrStorage::f32, v.data(), 1}}, "channel b of pixel type 1");
+    EXPECT_TRUE(file_bytes(out.stage("none.exr")) == none);
+}
+
+// The PNG's zlib stream made in pieces (PngRows::parallel_deflate, oracle.png, #39): the same
+// bytes on 1 thread and on 4, several IDAT pieces (each with its dictionary), and the serial
+// writer's pixels when read back.
+TEST(ImageIoPng, ZlibStreamInPiecesIsTheSameAtEveryThreadCountAndDecodesToTheSerialPixels) {
+    constexpr int kWide = 301, kTall = 1000;  // 904 filtered bytes a row: 4 pieces, the last short
+    auto pattern = [](int y, float* rgb) {
+        for (int i = 0; i < 3 * kWide; ++i) {
+            // Smooth areas and edges, repeating with a period that reaches across pieces.
+            const int x = i / 3, c = i % 3;
+            rgb[i] = ((x / 17 + y / 23 + c) % 5) * 0.2f + static_cast<float>((x * y) % 7) * 0.01f;
+        }
+    };
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_png(out, "serial.png", kWide, kTall, pattern);
+        tbb::task_arena(1).execute(
+            [&] { write_png(out, "one.png", kWide, kTall, pattern, PngRows::parallel_deflate); });
+        tbb::task_arena(4).execute(
+            [&] { write_png(out, "four.png", kWide, kTall, pattern, PngRows::parallel_deflate); });
+        out.commit();
+    }
+    const std::vector<char> one = file_bytes(dir / "one.png");
+    EXPECT_TRUE(file_bytes(dir / "four.png") == one);
+    const std::string bytes(one.begin(), one.end());
+    std::size_t idat = 0;
+    for (std::size_t at = bytes.find("IDAT"); at != std::string::npos; at = bytes.find("IDAT", at + 4)) ++idat;
+    EXPECT_EQ(idat, 4u);
+    const ImageFile serial = read_image(dir / "serial.png");
+    const ImageFile pieces = read_image(dir / "four.png");
+    ASSERT_EQ(pieces.width, kWide);
+    ASSERT_EQ(pieces.height, kTall);
+    ASSERT_EQ(pieces.channels.size(), 3u);
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(pieces.channels[c] == serial.channels[c]) << "channel " << c;
+}
+
 // read_image(file) throws an InputError whose message names the file.
 void expect_input_error_naming(const fs::path& file) {
     try {
