@@ -23,16 +23,20 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     OracleTimings timings;
     timings.load_s = seconds_since(t0);
 
-    // oracle.exr is written while the boundary phase runs (#39), on a thread of its own unless
-    // --threads is 1; its U and boundary_m are filled in once that phase has ended.
+    // oracle.exr is written while the boundary phase runs (#39), on a thread of its own; its U and
+    // boundary_m are filled in once that phase has ended. With --threads 1 it is written after the
+    // boundary phase, beside oracle.png, as before: written first on the one thread, it would hide
+    // nothing and no longer overlap the preview (2-4% slower on the 2-core VM, docs/oracle.md).
     OutputTransaction out(c.out);
-    const bool own_thread =
-        (c.threads > 0 ? static_cast<unsigned>(c.threads) : std::thread::hardware_concurrency()) > 1;
+    const bool early = (c.threads > 0 ? static_cast<unsigned>(c.threads) : std::thread::hardware_concurrency()) > 1;
     std::shared_future<void> early_exr;
-    OracleResult result = run_oracle(scenario, oracle_settings(c, a), [&](const OracleFrame& frame) {
-        early_exr = report::start_oracle_exr(out, frame, own_thread, timings.write_exr_early_s);
-        return early_exr;
-    });
+    OracleTraceDone start_exr;
+    if (early)
+        start_exr = [&](const OracleFrame& frame) {
+            early_exr = report::start_oracle_exr(out, frame, timings.write_exr_early_s.emplace(0.0));
+            return early_exr;
+        };
+    OracleResult result = run_oracle(scenario, oracle_settings(c, a), start_exr);
 
     report::write_oracle_outputs(out, scenario, result, timings, early_exr);
     out.commit();

@@ -5,6 +5,8 @@ namespace penumbra {
 nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result, const OracleTimings& timings) {
     const OracleFrame& f = result.frame;
     const OracleStats& s = result.stats;
+    nlohmann::json write_seconds = {{"exr", timings.write_exr_s}, {"png", timings.write_png_s}};
+    if (timings.write_exr_early_s) write_seconds["exr_early"] = *timings.write_exr_early_s;
 
     nlohmann::json lights = nlohmann::json::array();
     for (std::size_t li = 0; li < s.lights.size(); ++li) {
@@ -67,8 +69,7 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
           {"sweeps", s.boundary_parts.sweeps_s},
           {"lists", s.boundary_parts.lists_s},
           {"pixels", s.boundary_parts.pixels_s}}},
-        {"write_seconds",
-         {{"exr", timings.write_exr_s}, {"png", timings.write_png_s}, {"exr_early", timings.write_exr_early_s}}},
+        {"write_seconds", write_seconds},
         {"threads", s.threads},
         {"embree", s.embree_version},
         {"lights", lights},

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "common/scenario.h"
 #include "oracle/oracle.h"
@@ -16,7 +17,7 @@ struct OracleTimings {
     double write_exr_s = 0, write_png_s = 0;
     // `penumbra oracle` writes oracle.exr during the boundary phase (#39): that write's own time;
     // write_exr_s is then the wait for it and the U and boundary_m channels filled in after.
-    double write_exr_early_s = 0;
+    std::optional<double> write_exr_early_s;  // oracle.exr written during the boundary phase: its own time
 };
 
 // oracle.json's content.

@@ -78,8 +78,7 @@ std::vector<ExrChannel> raster_channels(const RasterFrame& f) {
 
 }  // namespace
 
-std::shared_future<void> start_oracle_exr(OutputTransaction& out, const OracleFrame& f, bool own_thread,
-                                          double& seconds) {
+std::shared_future<void> start_oracle_exr(OutputTransaction& out, const OracleFrame& f, double& seconds) {
     // Data race free by construction: the boundary phase writes U and boundary_m alone (and reads
     // the rest), and the views below read every channel but those two, whose pixels come from
     // `placeholder`. The views hold the arrays' data pointers, not `f`, which run_oracle's result
@@ -97,11 +96,7 @@ std::shared_future<void> start_oracle_exr(OutputTransaction& out, const OracleFr
         write_exr(out, "oracle.exr", width, height, channels, ExrCompression::none);
         seconds = seconds_since(t0);
     };
-    if (own_thread) return std::async(std::launch::async, std::move(write)).share();
-    write();
-    std::promise<void> done;
-    done.set_value();
-    return done.get_future().share();
+    return std::async(std::launch::async, std::move(write)).share();
 }
 
 double write_oracle_images(OutputTransaction& out, const OracleFrame& f, OracleTimings* parts,

@@ -17,11 +17,9 @@ namespace penumbra::report {
 // Starts oracle.exr from a frame whose channels are final but each light's U and boundary_m,
 // which the boundary phase is writing (run_oracle's trace_done, #39): those two are written from
 // a constant (the arrays are never read here) and write_oracle_images fills them in afterwards.
-// On a thread of its own when `own_thread`, else before returning (--threads 1: no thread beyond
-// those the command had), the same code either way. Returns the write (ready when done here; a
-// write error is thrown by its get()); its own seconds go to `seconds` when it ends.
-std::shared_future<void> start_oracle_exr(OutputTransaction& out, const OracleFrame& frame, bool own_thread,
-                                          double& seconds);
+// On a thread of its own. Returns the write (a write error is thrown by its get()); its own
+// seconds go to `seconds` when it ends.
+std::shared_future<void> start_oracle_exr(OutputTransaction& out, const OracleFrame& frame, double& seconds);
 
 // oracle.exr and oracle.png; returns the seconds they took, and each file's own in `parts`
 // (write_s, write_exr_s, write_png_s) where it is given. With `early_exr` (start_oracle_exr's),
