@@ -46,6 +46,7 @@
 #include <glm/geometric.hpp>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -571,15 +572,25 @@ void threads_sweep(const BenchScene& s, const fs::path& dir, const std::vector<i
                         row.trace.median(), row.boundary.median(), row.write.median(), row.peak.median(),
                         one / row.wall.median(), row.cpu.median());
         }
-        if (!rows[b][0].parts.empty()) {
+        // Every part any thread count reported (oracle.exr's early write only runs from 2 threads).
+        std::set<std::string> part_names;
+        for (const auto& row : rows[b])
+            for (const auto& [k, v] : row.parts) part_names.insert(k);
+        if (!part_names.empty()) {
             std::printf("\nboundary and write parts (s):\n\n| threads |");
-            for (const auto& [k, v] : rows[b][0].parts) std::printf(" %s |", k.c_str());
+            for (const std::string& k : part_names) std::printf(" %s |", k.c_str());
             std::printf("\n| --- |");
-            for (std::size_t k = 0; k < rows[b][0].parts.size(); ++k) std::printf(" --- |");
+            for (std::size_t k = 0; k < part_names.size(); ++k) std::printf(" --- |");
             std::printf("\n");
             for (std::size_t t = 0; t < threads.size(); ++t) {
                 std::printf("| %d |", threads[t]);
-                for (const auto& [k, v] : rows[b][t].parts) std::printf(" %.4f |", v.median());
+                for (const std::string& k : part_names) {
+                    const auto it = rows[b][t].parts.find(k);
+                    if (it == rows[b][t].parts.end())
+                        std::printf(" - |");
+                    else
+                        std::printf(" %.4f |", it->second.median());
+                }
                 std::printf("\n");
             }
         }
