@@ -80,14 +80,22 @@ struct SrgbTable {
     }
 };
 
-unsigned char srgb_byte(float linear) {
+// A row's values as sRGB codes, by the table, looked up once a row (a per-value function with
+// the table as a function-local static, and a branch on v > 0, was 38% of validate's writing).
+void srgb_bytes(const float* linear, unsigned char* out, std::size_t n) {
     static const SrgbTable table;
-    const float v = std::min(linear, 1.0f);
-    if (!(v > 0.0f)) return srgb_byte_exact(linear);  // 0, -0 (whose bits index no bucket), negatives, NaN
-    const unsigned code = table.bucket[std::bit_cast<std::uint32_t>(v) >> 16];
-    // The one threshold a bucket can hold, added without a branch: where it falls is data, and a
-    // preview's smooth shading mispredicts a branch on it about half the time.
-    return static_cast<unsigned char>(code + (v >= table.start[code + 1]));
+    const std::uint8_t* bucket = table.bucket.data();
+    const float* start = table.start.data();
+    for (std::size_t i = 0; i < n; ++i) {
+        // 0, -0 (whose bits would index no bucket), negatives and NaN take code 0, as the exact
+        // function gives them (NaN: lround's unspecified answer, LONG_MIN on x86-64, whose low
+        // byte is 0); selected, not branched on: black pixels come and go along a row.
+        const float v = linear[i] > 0.0f ? std::min(linear[i], 1.0f) : 0.0f;
+        const unsigned code = bucket[std::bit_cast<std::uint32_t>(v) >> 16];
+        // The one threshold a bucket can hold, added without a branch: where it falls is data, and a
+        // preview's smooth shading mispredicts a branch on it about half the time.
+        out[i] = static_cast<unsigned char>(code + (v >= start[code + 1]));
+    }
 }
 
 }  // namespace
@@ -412,7 +420,7 @@ bool write_png_file(FILE* file, int width, int height, const PngRowSource& rows,
     auto make_row = [&](int y, std::vector<float>& rgb) {
         rows(y, rgb.data());
         unsigned char* out = bytes.data() + static_cast<std::size_t>(y % block_rows) * row_size;
-        for (std::size_t i = 0; i < row_size; ++i) out[i] = srgb_byte(rgb[i]);
+        srgb_bytes(rgb.data(), out, row_size);
     };
     for (int y0 = 0; y0 < height; y0 += block_rows) {
         const int y1 = std::min(height, y0 + block_rows);
@@ -464,7 +472,7 @@ FilteredRows sub_filtered_rows(int width, int height, const PngRowSource& rows) 
         std::vector<unsigned char> raw(row_size);
         for (int y = r.begin(); y != r.end(); ++y) {
             rows(y, rgb.data());
-            for (std::size_t i = 0; i < row_size; ++i) raw[i] = srgb_byte(rgb[i]);
+            srgb_bytes(rgb.data(), raw.data(), row_size);
             unsigned char* out = f.bytes.get() + static_cast<std::size_t>(y) * line;
             out[0] = PNG_FILTER_VALUE_SUB;
             for (std::size_t i = 0; i < row_size; ++i)
