@@ -11,10 +11,13 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <vector>
 
 #include "common/errors.h"
@@ -143,6 +146,59 @@ TEST(ImageIoPng, RgbIsSrgbEncodedAndReadsBack) {
     EXPECT_LT(off_by_one, 10);
     EXPECT_EQ(std::lround(img.channels[0][0] * 255.0f), 0);
     EXPECT_EQ(std::lround(img.channels[1][0] * 255.0f), 255);
+}
+
+// The writer's sRGB code of a float, the transfer function evaluated in float as the writer's
+// exact reference does (its table must give this code for every float).
+int srgb_code_in_float(float linear) {
+    const float v = std::clamp(linear, 0.0f, 1.0f);
+    const float s = v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+    return static_cast<int>(std::lround(s * 255.0f));
+}
+
+// At every code's threshold (the smallest float of code k, found by bisection over the float
+// bits) and one float below it, the PNG holds the formula's code exactly: the table's bucket and
+// its one in-bucket threshold, where an off-by-one would change a pixel, are right at the edges.
+// Zero, -0, negatives, NaN and values above 1 too.
+TEST(ImageIoPng, SrgbCodesAreTheFormulasAtEveryThreshold) {
+    std::vector<float> values = {0.0f,
+                                 -0.0f,
+                                 -1.0f,
+                                 std::numeric_limits<float>::quiet_NaN(),
+                                 1.0f,
+                                 2.0f,
+                                 std::numeric_limits<float>::infinity(),
+                                 std::numeric_limits<float>::denorm_min()};
+    for (int k = 1; k < 256; ++k) {
+        std::uint32_t lo = 0, hi = 0x3F800000u;  // the bits of 0.0f and 1.0f
+        while (lo < hi) {
+            const std::uint32_t mid = lo + (hi - lo) / 2;
+            if (srgb_code_in_float(std::bit_cast<float>(mid)) >= k)
+                hi = mid;
+            else
+                lo = mid + 1;
+        }
+        values.push_back(std::bit_cast<float>(lo));
+        values.push_back(std::bit_cast<float>(lo - 1));
+        values.push_back(std::bit_cast<float>(lo + 1));
+    }
+    const int w = static_cast<int>(values.size());  // one row, grey: R = G = B
+    std::vector<float> rgb;
+    for (float v : values) rgb.insert(rgb.end(), {v, v, v});
+    const test::TempDir tmp;
+    const fs::path dir = tmp.path() / "out";
+    {
+        OutputTransaction out(dir);
+        write_png(out, "edges.png", w, 1, rgb);
+        out.commit();
+    }
+    const ImageFile img = read_image(dir / "edges.png");
+    ASSERT_EQ(img.width, w);
+    for (int i = 0; i < w; ++i) {
+        // NaN takes code 0, as the formula gives it on x86-64 (lround's LONG_MIN).
+        const int want = std::isnan(values[i]) ? 0 : srgb_code_in_float(values[i]);
+        EXPECT_EQ(std::lround(img.channels[0][i] * 255.0f), want) << "value " << values[i] << " (#" << i << ")";
+    }
 }
 
 // Rows asked for one at a time land where they belong: row y holds code y in every channel
