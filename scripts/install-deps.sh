@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake ninja-build pkg-config git
   libembree-dev libtbb-dev libglm-dev
-  libopenimageio-dev libopenexr-dev libpng-dev libxxhash-dev
+  libopenimageio-dev libopenexr-dev libpng-dev zlib1g-dev libxxhash-dev
   libtinygltf-dev nlohmann-json3-dev libstb-dev
   libcli11-dev libfmt-dev libspdlog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
