@@ -386,17 +386,22 @@ void patch_exr_channels(OutputTransaction& out, const std::string& name, int wid
 
 namespace {
 
-// libpng reports errors by longjmp back into this frame; the frames it skips are libpng's own.
-// Rows are made (the source, then sRGB bytes) a block at a time, on the command's threads where
-// `order` allows; libpng's filter and zlib take them in order, serially.
-bool write_png_file(FILE* file, int width, int height, const PngRowSource& rows, PngRows order, char (&error)[256]) {
-    png_structp png = png_create_write_struct(
+// A libpng writer whose errors land in `error` and longjmp back to the caller's setjmp.
+png_structp png_writer(char (&error)[256]) {
+    return png_create_write_struct(
         PNG_LIBPNG_VER_STRING, error,
         [](png_structp p, png_const_charp message) {
             std::snprintf(static_cast<char*>(png_get_error_ptr(p)), 256, "%s", message);
             png_longjmp(p, 1);
         },
         nullptr);
+}
+
+// libpng reports errors by longjmp back into this frame; the frames it skips are libpng's own.
+// Rows are made (the source, then sRGB bytes) a block at a time, on the command's threads where
+// `order` allows; libpng's filter and zlib take them in order, serially.
+bool write_png_file(FILE* file, int width, int height, const PngRowSource& rows, PngRows order, char (&error)[256]) {
+    png_structp png = png_writer(error);
     if (!png) return false;
     png_infop info = png_create_info_struct(png);
     // Made before setjmp, so that a longjmp lands where they are already whole.
@@ -548,13 +553,7 @@ std::vector<DeflatedPiece> deflate_pieces(const FilteredRows& filtered, std::siz
 // refuses a stream that libpng did not deflate ("No IDATs written"), so IEND is written as a
 // plain chunk too. The pieces are made before libpng's setjmp: a longjmp skips no destructor.
 bool write_png_pieces(FILE* file, int width, int height, const std::vector<DeflatedPiece>& pieces, char (&error)[256]) {
-    png_structp png = png_create_write_struct(
-        PNG_LIBPNG_VER_STRING, error,
-        [](png_structp p, png_const_charp message) {
-            std::snprintf(static_cast<char*>(png_get_error_ptr(p)), 256, "%s", message);
-            png_longjmp(p, 1);
-        },
-        nullptr);
+    png_structp png = png_writer(error);
     if (!png) return false;
     png_infop info = png_create_info_struct(png);
     if (!info || setjmp(png_jmpbuf(png))) {
