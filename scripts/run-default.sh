@@ -6,6 +6,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/scripts/build.sh"
 out="$root/out/default"
 rm -rf "$out"
-"$root/build/app/penumbra" validate "$root/data/default/scenario.json" --out "$out" --frames
+"$root/build/app/penumbra" validate "$root/data/default/scenario.json" --out "$out"
 echo "open $out/report.html: where the scenario's technique (on lavapipe) is wrong, and why;"
-echo "report.json has the numbers, oracle.exr and raster.exr the frames behind them"
+echo "report.json has the numbers; add --errors for errors.exr (the error per pixel), --frames for"
+echo "oracle.exr and raster.exr too (the frames behind them)"
