@@ -3,6 +3,7 @@
 
 #include <future>
 #include <memory>
+#include <system_error>
 #include <thread>
 
 #include "app/cli.h"
@@ -33,10 +34,22 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     OracleTraceDone start_exr;
     if (early)
         start_exr = [&](const OracleFrame& frame) {
-            early_exr = report::start_oracle_exr(out, frame, timings.write_exr_early_s.emplace(0.0));
+            try {
+                early_exr = report::start_oracle_exr(out, frame, timings.write_exr_early_s.emplace(0.0));
+            } catch (const std::system_error&) {  // no thread to be had: oracle.exr is written afterwards
+                timings.write_exr_early_s.reset();
+            }
             return early_exr;
         };
     OracleResult result = run_oracle(scenario, oracle_settings(c, a), start_exr);
+    // The early write reads the frame's arrays: should anything below throw (a thread refused for
+    // the PNG), it must end before `result`, declared before this guard, frees them.
+    struct WaitForTheWrite {
+        const std::shared_future<void>& write;
+        ~WaitForTheWrite() {
+            if (write.valid()) write.wait();
+        }
+    } wait_for_the_write{early_exr};
 
     report::write_oracle_outputs(out, scenario, result, timings, early_exr);
     out.commit();
