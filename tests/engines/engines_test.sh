@@ -17,9 +17,8 @@
 set -uo pipefail
 bin=$1 src=$2
 source "$src/tests/engines/setup.sh"  # here, skip, the tools, tmp
-sed "s#\"scene.glb\"#\"$src/data/default/scene.glb\"#; s/\"width\": 1280, \"height\": 720/\"width\": 320, \"height\": 180/" \
-    "$src/data/default/scenario.json" >"$tmp/scenario.json"
-"$bin" camera "$tmp/scenario.json" --convention gl >"$tmp/camera.json" || { echo "FAIL: penumbra camera"; exit 1; }
+small_default_scenario
+camera_for_pages
 
 python3 - "$tmp/configs.json" <<'PY'
 import json, sys
@@ -93,14 +92,10 @@ for bad in flipped shifted; do
 done
 [[ $failed == 0 ]] || exit 1
 
-python3 - "$tmp" <<'PY'
+PYTHONPATH=$here python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
-ok = True
-def check(name, cond, detail):
-    global ok
-    print(("ok   " if cond else "FAIL ") + name + ": " + detail)
-    ok &= bool(cond)
+from checks import check, finish
 def light(name):
     r = json.load(open(f"{tmp}/{name}/report.json"))
     return r, r["lights"][0]
@@ -148,5 +143,5 @@ for li in (0, 1, 2):
     check(f"Babylon.js {t}: bias 0.2 -> shadows lost (brighter, no acne)",
           leaks(lost) > 0.01 and lost["bias"] > 0 and lost["rates"]["acne"] < 0.001,
           f"leaks {leaks(lost):.4f}, mean error {lost['bias']:.4f}")
-sys.exit(0 if ok else 1)
+finish()
 PY

@@ -20,9 +20,8 @@
 set -uo pipefail
 bin=$1 src=$2
 source "$src/tests/engines/setup.sh"  # here, skip, the tools, tmp
-sed "s#\"scene.glb\"#\"$src/data/default/scene.glb\"#; s/\"width\": 1280, \"height\": 720/\"width\": 320, \"height\": 180/" \
-    "$src/data/default/scenario.json" >"$tmp/scenario.json"
-"$bin" camera "$tmp/scenario.json" --convention gl >"$tmp/camera.json" || { echo "FAIL: penumbra camera"; exit 1; }
+small_default_scenario
+camera_for_pages
 glb=$src/data/default/scene.glb
 
 # penumbra's side first: the presets' verdicts, and the recommendation in three.js's units.
@@ -107,15 +106,11 @@ for light in 0 1 2; do
 done
 [[ $failed == 0 ]] || exit 1
 
-python3 - "$tmp" <<'PY'
+PYTHONPATH=$here python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
 classes = ["acne", "peter_panning", "aliasing", "false_shadow", "false_lit", "light_bleeding"]
-ok = True
-def check(name, cond, detail):
-    global ok
-    print(("ok   " if cond else "FAIL ") + name + ": " + detail)
-    ok &= bool(cond)
+from checks import check, finish
 def frame(engine, name):
     return json.load(open(f"{tmp}/c_{engine}_{name}/report.json"))["lights"][0]
 def dominant(l):
@@ -169,5 +164,5 @@ for li in (0, 1, 2):
           f"visible acne + peter-panning {pct(vis(d))} -> {pct(vis(t))}")
 check("three: the tuned biases lower the engine's own visible acne + peter-panning", after < before,
       f"{pct(before)} -> {pct(after)} summed over the three lights")
-sys.exit(0 if ok else 1)
+finish()
 PY

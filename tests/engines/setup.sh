@@ -1,6 +1,7 @@
 # Sourced by the engine tests (engines_test.sh, presets_test.sh, vsm_test.sh) after `bin=$1 src=$2`:
-# `here`, `skip`, the tools a real engine needs, and a scratch folder `tmp` (removed on exit
-# unless KEEP is set) that holds the oracle cache. A missing node or chromium skips (exit 77)
+# `here`, `skip`, the tools a real engine needs, a scratch folder `tmp` (removed on exit unless
+# KEEP is set) that holds the oracle cache, and the two functions below. Their Python checks
+# import checks.py (PYTHONPATH=$here). A missing node or chromium skips (exit 77)
 # outside CI and fails in CI (CI set); missing npm packages always fail.
 here=$src/tests/engines
 skip() {
@@ -16,3 +17,14 @@ chromium=${CHROMIUM:-/usr/bin/chromium}
 tmp=$(mktemp -d)
 trap '[[ -n ${KEEP:-} ]] || rm -rf "$tmp"' EXIT
 export PENUMBRA_CACHE_DIR=$tmp/cache
+
+# data/default at 320x180, its scene by absolute path, in $tmp/scenario.json.
+small_default_scenario() {
+    sed "s#\"scene.glb\"#\"$src/data/default/scene.glb\"#; s/\"width\": 1280, \"height\": 720/\"width\": 320, \"height\": 180/" \
+        "$src/data/default/scenario.json" >"$tmp/scenario.json"
+}
+
+# $tmp/scenario.json's camera in the GL convention the pages take, in $tmp/camera.json.
+camera_for_pages() {
+    "$bin" camera "$tmp/scenario.json" --convention gl >"$tmp/camera.json" || { echo "FAIL: penumbra camera"; exit 1; }
+}

@@ -9,7 +9,7 @@ set -uo pipefail
 bin=$1 src=$2
 source "$src/tests/engines/setup.sh"  # here, skip, the tools, tmp
 python3 "$here/make_vsm_scene.py" "$tmp" || { echo "FAIL: make_vsm_scene.py"; exit 1; }
-"$bin" camera "$tmp/scenario.json" --convention gl >"$tmp/camera.json" || { echo "FAIL: penumbra camera"; exit 1; }
+camera_for_pages
 # VSM's blur: 8 texels (three's shadow.radius) of a 1024 map; PCF for the contrast.
 cat >"$tmp/configs.json" <<'JSON'
 [{"name": "vsm", "light": 0, "mapSize": 1024, "shadowMapType": "VSMShadowMap", "radius": 8, "blurSamples": 16},
@@ -25,14 +25,10 @@ for name in vsm pcf; do
         --out "$tmp/c_$name" -q || { echo "FAIL: compare on three.js $name"; failed=1; }
 done
 [[ $failed == 0 ]] || exit 1
-python3 - "$tmp" <<'PY'
+PYTHONPATH=$here python3 - "$tmp" <<'PY'
 import json, sys
 tmp = sys.argv[1]
-ok = True
-def check(name, cond, detail):
-    global ok
-    print(("ok   " if cond else "FAIL ") + name + ": " + detail)
-    ok &= bool(cond)
+from checks import check, finish
 vsm_report = json.load(open(f"{tmp}/c_vsm/report.json"))
 vsm, pcf = vsm_report["lights"][0], json.load(open(f"{tmp}/c_pcf/report.json"))["lights"][0]
 check("three.js VSMShadowMap: frame lines up (depth)", vsm_report["coverage"]["mismatch_fraction"] < 0.01,
@@ -45,5 +41,5 @@ check("three.js VSMShadowMap: light bleeding found", bleeding > 100,
       f"light_bleeding {bleeding} px; dominant {dominant}; all {vsm['counts']}")
 check("three.js PCFShadowMap: far less of it", pcf["counts"]["light_bleeding"] * 5 < bleeding,
       f"light_bleeding {pcf['counts']['light_bleeding']} px; all {pcf['counts']}")
-sys.exit(0 if ok else 1)
+finish()
 PY

@@ -213,20 +213,27 @@ const FilterCase kFilterCases[] = {
      [](double s) { return (ramp(s - 1) + ramp(s) + ramp(s + 1)) / 3; }},
 };
 
+// A straight shadow edge along x = 0 on a texel boundary, the light straight down: a 16 m
+// ground and, over x < 0, an occluder 1 m up, single-sided and facing down (the camera above
+// culls it and sees the ground; the light, culling nothing, still sees it). The orthographic
+// camera frames x in [-half_width, half_width].
+Scenario straight_edge_scenario(double half_width, int W, int H) {
+    test::SceneBuilder sb;
+    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
+    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
+    return test::make_scenario(sb.build(),
+                               test::look_at_ortho({0, 5, 0}, {0, 0, 0}, half_width, half_width / 4, {0, 0, -1}),
+                               {test::directional({0, -1, 0})}, W, H);
+}
+
 class FilterProfile : public Raster, public ::testing::WithParamInterface<FilterCase> {};
 
 // A straight shadow edge on a texel boundary, light straight down: each filter's V across the
 // edge must follow its analytic profile.
 TEST_P(FilterProfile, MatchesTheAnalyticProfileOfAStraightEdge) {
-    test::SceneBuilder sb;
-    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
-    // Occluder over x < 0, single-sided and facing down: the camera above culls it and sees
-    // the ground, the light (culling nothing) still sees it.
-    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
     const int W = 256, res = 64;
     const double texel = 16.0 / res;
-    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1, 0.25, {0, 0, -1}),
-                                      {test::directional({0, -1, 0})}, W, 64);
+    const Scenario sc = straight_edge_scenario(1, W, 64);
     raster::RasterResult r =
         render(sc, {{"resolution", res}, {"cull", "none"}, {"bias", {{"world", 0.05}}}, {"filter", GetParam().filter}});
     double worst = 0;
@@ -246,13 +253,9 @@ INSTANTIATE_TEST_SUITE_P(Raster, FilterProfile, ::testing::ValuesIn(kFilterCases
                          });
 
 TEST_F(Raster, PoissonFilterIsBoundedBySymmetricAboutTheEdge) {
-    test::SceneBuilder sb;
-    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
-    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
     const int W = 256, H = 64, res = 64;
     const double texel = 16.0 / res, radius = 2.0;
-    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1.5, 0.375, {0, 0, -1}),
-                                      {test::directional({0, -1, 0})}, W, H);
+    const Scenario sc = straight_edge_scenario(1.5, W, H);
     raster::RasterResult r = render(sc, {{"resolution", res},
                                          {"cull", "none"},
                                          {"bias", {{"world", 0.05}}},
@@ -279,13 +282,9 @@ TEST_F(Raster, PoissonFilterIsBoundedBySymmetricAboutTheEdge) {
 // pixel by interleaved gradient noise. Every V is a multiple of 1/N, the band is as wide as the
 // disk, the noise gives neighbouring pixels different values, and the edge stays in place.
 TEST_F(Raster, VogelFilterTurnsItsDiskPerPixelAndStaysCentredOnTheEdge) {
-    test::SceneBuilder sb;
-    sb.quad({-8, 0, -8}, {-8, 0, 8}, {8, 0, 8}, {8, 0, -8});
-    sb.quad({-8, 1, -8}, {0, 1, -8}, {0, 1, 8}, {-8, 1, 8}, false);
     const int W = 256, H = 64, res = 64, taps = 5;
     const double texel = 16.0 / res, radius = 2.0;
-    Scenario sc = test::make_scenario(sb.build(), test::look_at_ortho({0, 5, 0}, {0, 0, 0}, 1.5, 0.375, {0, 0, -1}),
-                                      {test::directional({0, -1, 0})}, W, H);
+    const Scenario sc = straight_edge_scenario(1.5, W, H);
     raster::RasterResult r = render(sc, {{"resolution", res},
                                          {"cull", "none"},
                                          {"bias", {{"world", 0.05}}},
