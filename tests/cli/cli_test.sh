@@ -17,6 +17,10 @@ run oracle "$src/data/default/scenario.json" --out "$tmp/b" --threads 2 -q
 check "two threads exit 0" test "$rc" -eq 0
 check "oracle.exr is bit-identical across thread counts" cmp -s "$tmp/a/oracle.exr" "$tmp/b/oracle.exr"
 check "oracle.png is bit-identical across thread counts" cmp -s "$tmp/a/oracle.png" "$tmp/b/oracle.png"
+# From two threads oracle.exr is written during the boundary phase (its own time: exr_early);
+# at one, after it, beside the PNG.
+check "oracle.json times the early oracle.exr at two threads" grep -q '"exr_early":' "$tmp/b/oracle.json"
+check "oracle.json has no early oracle.exr at one thread" bash -c "! grep -q '\"exr_early\":' '$tmp/a/oracle.json'"
 
 # Bad scenario: exit 2, the JSON path named, nothing written.
 cp "$src/data/default/scene.glb" "$tmp/"
