@@ -1,15 +1,25 @@
-// The cascaded family's keys and split placement (raster/cascades.h). Its drawing is the depth
-// map's (raster/depth_map.cpp), which gives a directional light one layer per cascade when the
-// technique carries Cascades; spot, point and area lights are drawn as the depth_map family draws them.
+// The cascaded family (raster/cascades.h): its keys, the placement of the splits, and its variant
+// of the depth-map core (raster/depth_map.h), which gives a directional light one layer per
+// cascade, with SDSM's reduction (raster/cascades_sdsm.comp) and its lookup
+// (raster/cascades_lookup.comp); spot, point and area lights are drawn as the depth_map family
+// draws them.
 #include "raster/cascades.h"
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 
+#include "common/camera.h"
 #include "common/json_reader.h"
+#include "raster/depth_map.h"
 #include "raster/technique_family.h"
+#include "shaders/penumbra_shared.h"
+// SPIR-V compiled from raster/cascades_*.comp at build time.
+#include "cascades_lookup_comp.h"
+#include "cascades_sdsm_comp.h"
 
 namespace penumbra::raster {
 
@@ -155,6 +165,157 @@ nlohmann::json cascades_json(const Cascades& c) {
 
 }  // namespace
 
+namespace {
+
+// SDSM's reduction (raster/cascades_sdsm.comp): the camera pass's triangles and the scene, and the range.
+constexpr std::array<BindingDecl, 4> kSdsmBindings = {{
+    {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+    {gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingIndices, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+    {gpu::kBindingSdsmRange, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+}};
+constexpr const char* kSdsmReduce =
+    "SDSM's compute pass (Lauritzen et al. 2011): the least and greatest view depth of the visible samples, "
+    "reduced on the GPU for the cascades' splits, once per render";
+
+// A sun of the cascaded family has a layer per cascade.
+const Cascades* cascades_for(const Technique& t, const Light& l) {
+    return l.type == LightType::directional ? cascades_of(t) : nullptr;
+}
+
+// The cascaded family's variant of the depth-map core: a sun's layers are its cascades, each
+// fitted to its slice of view depth (fit_cascades), all drawn, with its own texel and (with
+// texel_scaled_bias) constant bias; the lookup selects and blends them
+// (raster/cascades_lookup.comp). Spot, point and area lights are the core's.
+class CascadesVariant final : public DepthMapVariant {
+  public:
+    explicit CascadesVariant(const SceneOnGpu& scene)
+        : s_(scene), ctx_(scene.ctx), sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT),
+          sdsm_timer_(scene.ctx) {}
+
+    std::optional<std::uint32_t> layers(const Technique& t, const Light& l) const override {
+        if (const Cascades* c = cascades_for(t, l)) return static_cast<std::uint32_t>(c->count);
+        return std::nullopt;
+    }
+    void begin_render(const Technique& t, std::span<const Light> lights, RasterStats& stats) override {
+        samples_.reset();
+        const Cascades* c = cascades_of(t);
+        if (c && c->sdsm && std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return cascades_for(t, l); }))
+            samples_ = reduce_view_depth(stats);
+    }
+    std::optional<LightProjection> fit(const Technique& t, const Light& l, const glm::dvec3& fit_origin) const override {
+        const Cascades* c = cascades_for(t, l);
+        if (!c) return std::nullopt;
+        const Scenario& sc = s_.scenario;
+        return fit_cascades(l, sc.scene, s_.camera, sc.width, sc.height, *c, t.resolution, fit_origin, samples_);
+    }
+    // Every cascade is drawn: slices are cut to what the camera sees.
+    bool draws_every_layer(const Technique& t, const Light& l) const override { return cascades_for(t, l) != nullptr; }
+    // texel_scaled_bias: each cascade's constant scaled as its texel (cascade_bias_scale).
+    double constant_scale(const Technique& t, const Light& l, const LightProjection& projection,
+                          std::uint32_t layer) const override {
+        const Cascades* c = cascades_for(t, l);
+        return c ? cascade_bias_scale(projection, layer, c->texel_scaled_bias).y : 1.0;
+    }
+    std::optional<LookupShader> lookup_shader(const Technique& t, const Light& l) const override {
+        if (!cascades_for(t, l)) return std::nullopt;
+        return LookupShader{kCascadesLookupComp, sizeof(kCascadesLookupComp), filter_kind(t.filter.type),
+                            static_cast<std::uint32_t>(t.filter.size)};
+    }
+    // Per cascade (4 a vec4): the far end of its slice, its texel, its bias factors.
+    void fill_params(gpu::LookupParams& p, const Technique& t, const Light&,
+                     const LightProjection& projection) const override {
+        p.cascade = glm::vec4(static_cast<float>(projection.cascade_texel.size()),
+                              static_cast<float>(projection.cascade_overlap), 0.0f, 0.0f);
+        const Cascades* cascades = cascades_of(t);
+        const bool texel_scaled = cascades && cascades->texel_scaled_bias;
+        for (std::size_t k = 0; k < projection.cascade_texel.size(); ++k) {
+            p.cascade_far[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_far[k]);
+            p.cascade_texel[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_texel[k]);
+            const glm::dvec2 scale = cascade_bias_scale(projection, k, texel_scaled);
+            p.cascade_world_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.x);
+            p.cascade_constant_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.y);
+        }
+    }
+
+  private:
+    std::optional<glm::dvec2> reduce_view_depth(RasterStats& stats);
+
+    const SceneOnGpu& s_;
+    const VulkanContext& ctx_;
+    std::optional<glm::dvec2> samples_;  // this render's SDSM range, when reduced
+    // SDSM's reduction, made on first use.
+    DescriptorSets sdsm_sets_;
+    UniquePipelineLayout sdsm_layout_;
+    UniquePipeline sdsm_pipeline_;
+    GpuBuffer sdsm_range_;
+    GpuTimestamps sdsm_timer_;
+};
+
+// SDSM (Lauritzen, Salvi and Lefohn, I3D 2011): one compute pass over the camera pass's pixels
+// reduces the view depth of every visible sample to its least and greatest, timed as
+// "sdsm_reduce"; the cascades' splits are then placed between them. Unset when no pixel sees a
+// surface (the camera's range is used).
+std::optional<glm::dvec2> CascadesVariant::reduce_view_depth(RasterStats& stats) {
+    if (!sdsm_pipeline_) {
+        sdsm_sets_.reserve(1);
+        sdsm_range_ = create_buffer(ctx_, 2 * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+        std::array<DescriptorResource, kSdsmBindings.size()> r{};
+        r[0].image = {VK_NULL_HANDLE, s_.gbuffer_prim.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+        r[1].buffer = {s_.positions.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[2].buffer = {s_.indices.buffer.get(), 0, VK_WHOLE_SIZE};
+        r[3].buffer = {sdsm_range_.buffer.get(), 0, VK_WHOLE_SIZE};
+        sdsm_sets_.write(0, r);
+        sdsm_layout_ =
+            make_pipeline_layout(ctx_, sdsm_sets_.layout(), sizeof(gpu::SdsmParams), VK_SHADER_STAGE_COMPUTE_BIT);
+        sdsm_pipeline_ =
+            make_compute_pipeline(ctx_, sdsm_layout_.get(), kCascadesSdsmComp, sizeof(kCascadesSdsmComp), {});
+        sdsm_timer_.ensure(2);
+    }
+    const Scenario& sc = s_.scenario;
+    const Camera& cam = sc.camera;
+    const glm::dvec2 plane = ndc_to_image_plane(cam, sc.width, sc.height);
+    gpu::SdsmParams params{};
+    params.cam_forward = glm::vec4(glm::vec3(cam.forward), cam.type == ProjectionType::perspective ? 1.0f : 0.0f);
+    params.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
+    params.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
+    params.image = glm::vec4(sc.width, sc.height, 1.0f / sc.width, 1.0f / sc.height);
+    const std::uint32_t empty[2] = {0xFFFFFFFFu, 0u};
+    std::memcpy(sdsm_range_.mapped, empty, sizeof(empty));
+    ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
+        sdsm_timer_.reset(cmd, 0, 2);
+        sdsm_timer_.write(cmd, 0);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sdsm_pipeline_.get());
+        VkDescriptorSet set = sdsm_sets_[0];
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sdsm_layout_.get(), 0, 1, &set, 0, nullptr);
+        vkCmdPushConstants(cmd, sdsm_layout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(params), &params);
+        vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
+        sdsm_timer_.write(cmd, 1);
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+    });
+    sdsm_timer_.read(0, 2);
+    stats.gpu_ms.add("sdsm_reduce", sdsm_timer_.ms(0, 1), kSdsmReduce);
+    std::uint32_t range[2];
+    std::memcpy(range, sdsm_range_.mapped, sizeof(range));
+    if (range[0] > range[1]) return std::nullopt;
+    const auto unordered = [](std::uint32_t u) {
+        const std::uint32_t bits = (u & 0x80000000u) != 0 ? u & 0x7FFFFFFFu : ~u;
+        float f;
+        std::memcpy(&f, &bits, sizeof(f));
+        return static_cast<double>(f);
+    };
+    return glm::dvec2(unordered(range[0]), unordered(range[1]));
+}
+
+std::unique_ptr<TechniqueFamily> make_cascaded_family(const SceneOnGpu& scene) {
+    DepthMapVariants variants;
+    variants.push_back(std::make_unique<CascadesVariant>(scene));
+    return make_depth_map_core(scene, std::move(variants));
+}
+
+}  // namespace
+
 FamilyEntry cascaded_family_entry() {
     // The depth map's keys, scoring and drawing, with a layer per cascade for directional lights.
     FamilyEntry e = depth_map_family_entry();
@@ -173,6 +334,7 @@ FamilyEntry cascaded_family_entry() {
         }
         t.family_parameters = std::make_shared<const Cascades>(c);
     };
+    e.make = make_cascaded_family;
     e.write = [](const Technique& t, nlohmann::json& j) {
         j.update(depth_map_keys_json(t));
         j["area_samples"] = 0;

@@ -1,12 +1,16 @@
-// The depth-map family (docs/raster.md): one depth map per light (six cube faces for a point
-// light) drawn with the technique's fit, format, culling and hardware depth bias, then one
-// compute lookup per light that applies the shader biases and the filter (none, 2x2 compare,
-// PCF, Poisson, PCSS) and writes V with the lookups behind it. A render with lookups (the
-// diagnostic one) also stores the triangle id per map texel for the acne rule; a V-only render
-// (the production one) draws depth alone, the pass an engine pays. Everything it builds is cached
-// for the session's next render: pipelines by their specialisation, a map per light (one map
-// for all when they would not fit kMapBudgetBytes) by size and format, per-light buffers and
-// descriptor sets by light count; a map whose inputs did not change is not drawn again.
+// The depth-map core (raster/depth_map.h; docs/raster.md): one depth map per light (six cube faces
+// for a point light) drawn with the technique's fit, format, culling and hardware depth bias,
+// then one compute lookup per light that applies the shader biases and the filter (none, 2x2
+// compare, PCF, Poisson, Vogel, PCSS) and writes V with the lookups behind it. A render with lookups
+// (the diagnostic one) also stores the triangle id per map texel for the acne rule; a V-only
+// render (the production one) draws depth alone, the pass an engine pays. Variants (cascades,
+// moments, midpoint and second depth) change it through the hooks of DepthMapVariant, each in its
+// family's file. Everything it builds is cached for the session's next render: pipelines by their
+// specialisation, a map per light (one map for all when they would not fit kMapBudgetBytes) by
+// size and format, per-light buffers and descriptor sets by light count; a map whose inputs did
+// not change is not drawn again.
+#include "raster/depth_map.h"
+
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
@@ -14,6 +18,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <optional>
 #include <span>
@@ -24,17 +29,11 @@
 #include "common/memory_estimate.h"
 #include "common/stopwatch.h"
 #include "raster/area_lights.h"
-#include "raster/cascades.h"
-#include "raster/filterable.h"
-#include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
 #include "caster_geom.h"
 #include "caster_vert.h"
-#include "lookup_comp.h"
-#include "moments_comp.h"
-#include "peel_frag.h"
-#include "sdsm_comp.h"
+#include "lookup_depth_map_comp.h"
 #include "shadow_frag.h"
 #include "shadow_vert.h"
 
@@ -44,8 +43,6 @@ static_assert(gpu::kFlagSurface == kRasterSurface && gpu::kFlagBackFacing == kRa
               gpu::kFlagOutsideCone == kRasterOutsideCone && gpu::kFlagOutsideMap == kRasterOutsideMap);
 static_assert(sizeof(gpu::LookupTexel) == 36);
 
-namespace {
-
 VkFormat vk_format(DepthFormat f) {
     switch (f) {
         case DepthFormat::d16: return VK_FORMAT_D16_UNORM;
@@ -54,6 +51,48 @@ VkFormat vk_format(DepthFormat f) {
     }
     return VK_FORMAT_D32_SFLOAT;
 }
+
+std::uint64_t depth_texel_bytes(DepthFormat f) {
+    return f == DepthFormat::d16 ? 2 : 4;
+}
+
+// Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from the light
+// is VK_FRONT_FACE_CLOCKWISE with these (pinned by the culling test).
+VkCullModeFlags vk_cull(Cull c) {
+    return c == Cull::none ? VK_CULL_MODE_NONE : c == Cull::back ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_FRONT_BIT;
+}
+
+UniquePipeline make_compute_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const std::uint32_t* code,
+                                     std::size_t bytes, std::span<const std::uint32_t> spec) {
+    UniqueShaderModule cs = make_module(ctx, code, bytes);
+    std::vector<VkSpecializationMapEntry> entries(spec.size());
+    for (std::uint32_t i = 0; i < spec.size(); ++i) entries[i] = {i, i * 4, 4};
+    VkSpecializationInfo si{static_cast<std::uint32_t>(entries.size()), entries.data(), spec.size_bytes(), spec.data()};
+    VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = cs.get();
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = spec.empty() ? nullptr : &si;
+    ci.layout = layout;
+    VkPipeline p;
+    VK_CHECK(vkCreateComputePipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
+    return UniquePipeline(ctx.device(), p);
+}
+
+gpu::uint filter_kind(FilterType f) {
+    switch (f) {
+        case FilterType::none: return gpu::kFilterNone;
+        case FilterType::hw2x2: return gpu::kFilterHw2x2;
+        case FilterType::pcf: return gpu::kFilterPcf;
+        case FilterType::poisson: return gpu::kFilterPoisson;
+        case FilterType::pcss: return gpu::kFilterPcss;
+        case FilterType::vogel: return gpu::kFilterVogel;
+    }
+    return gpu::kFilterNone;
+}
+
+namespace {
 
 // Deterministic Poisson-disk taps in the unit disk: best-candidate dart throwing with a fixed
 // integer generator, so every run and every platform uses the same pattern.
@@ -83,30 +122,12 @@ std::vector<glm::vec2> poisson_disk(int n) {
     return pts;
 }
 
-// A sun of the cascaded family has a layer per cascade (raster/cascades.h).
-bool cascaded(const Technique& t, const Light& l) {
-    return l.type == LightType::directional && cascades_of(t) != nullptr;
-}
-
-gpu::uint light_kind(const Technique& technique, LightType t) {
-    if (t == LightType::directional && cascades_of(technique)) return gpu::kLightCascade;
+gpu::uint light_kind(LightType t) {
     switch (t) {
         case LightType::directional: return gpu::kLightDirectional;
         case LightType::spot: return gpu::kLightSpot;
         default: return gpu::kLightPoint;
     }
-}
-
-gpu::uint filter_kind(FilterType f) {
-    switch (f) {
-        case FilterType::none: return gpu::kFilterNone;
-        case FilterType::hw2x2: return gpu::kFilterHw2x2;
-        case FilterType::pcf: return gpu::kFilterPcf;
-        case FilterType::poisson: return gpu::kFilterPoisson;
-        case FilterType::pcss: return gpu::kFilterPcss;
-        case FilterType::vogel: return gpu::kFilterVogel;
-    }
-    return gpu::kFilterNone;
 }
 
 gpu::uint normal_factor_kind(NormalFactor f) {
@@ -137,25 +158,6 @@ bool has_caster_offsets(const Bias& b) {
 
 using SpecData = std::array<std::uint32_t, 8>;  // indexed by gpu::kSpec*
 
-// A compute pipeline of `code` whose specialisation constants 0, 1, ... take `spec` in order.
-UniquePipeline make_compute_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const std::uint32_t* code,
-                                     std::size_t bytes, std::span<const std::uint32_t> spec) {
-    UniqueShaderModule cs = make_module(ctx, code, bytes);
-    std::vector<VkSpecializationMapEntry> entries(spec.size());
-    for (std::uint32_t i = 0; i < spec.size(); ++i) entries[i] = {i, i * 4, 4};
-    VkSpecializationInfo si{static_cast<std::uint32_t>(entries.size()), entries.data(), spec.size_bytes(), spec.data()};
-    VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = cs.get();
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = spec.empty() ? nullptr : &si;
-    ci.layout = layout;
-    VkPipeline p;
-    VK_CHECK(vkCreateComputePipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
-    return UniquePipeline(ctx.device(), p);
-}
-
 // The lookup set, declared once: the layout, the pool and the writes come from this table.
 constexpr std::array<BindingDecl, 11> kLookupBindings = {{
     {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
@@ -168,59 +170,9 @@ constexpr std::array<BindingDecl, 11> kLookupBindings = {{
     {gpu::kBindingLookupOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingFaceMask, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
     {gpu::kBindingVisibilityOut, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-    {gpu::kBindingMoments, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+    {gpu::kBindingFamilyImage, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
 }};
 
-// The moment families' passes (shaders/moments.comp): what they read, what they write.
-constexpr std::array<BindingDecl, 2> kMomentBindings = {{
-    {gpu::kBindingMomentSource, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
-    {gpu::kBindingMomentTarget, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
-}};
-// Per map, three sets: depth -> moments, moments -> scratch (blur along x), scratch -> moments (along y).
-constexpr std::size_t kMomentSetsPerMap = 3;
-constexpr const char* kMomentsPass =
-    "compute pass per drawn map layer: the family's moments of every depth texel (vsm d, d^2; esm exp(c d); evsm "
-    "the warped moments; msm d..d^4, optimised and rounded to 16 bits with msm.storage 16) into a texture of the "
-    "family's format";
-constexpr const char* kBlurPass =
-    "two compute passes per drawn map layer: the separable Gaussian of radius `blur` texels (sigma = blur / 2) "
-    "over the moments, along x into a scratch texture and along y back";
-constexpr const char* kMipmapPass =
-    "the moment texture's mip chain, each level a linear blit of the one above (vkCmdBlitImage), after the blur";
-
-// The moment texture's format: the family's moments in float32, or msm's 16-bit storage.
-VkFormat moment_format(const MomentParameters& m) {
-    switch (m.kind) {
-        case MomentKind::esm: return VK_FORMAT_R32_SFLOAT;
-        case MomentKind::vsm:
-        case MomentKind::evsm2: return VK_FORMAT_R32G32_SFLOAT;
-        case MomentKind::evsm4: return VK_FORMAT_R32G32B32A32_SFLOAT;
-        case MomentKind::msm:
-            return m.storage_bits == 16 ? VK_FORMAT_R16G16B16A16_UNORM : VK_FORMAT_R32G32B32A32_SFLOAT;
-    }
-    return VK_FORMAT_R32G32B32A32_SFLOAT;
-}
-
-// Levels of a full mip chain down to 1x1.
-std::uint32_t mip_levels(std::uint32_t res) {
-    std::uint32_t levels = 1;
-    while (res > 1) {
-        res /= 2;
-        ++levels;
-    }
-    return levels;
-}
-
-// SDSM's reduction (shaders/sdsm.comp): the camera pass's triangles and the scene, and the range.
-constexpr std::array<BindingDecl, 4> kSdsmBindings = {{
-    {gpu::kBindingGBufferPrim, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
-    {gpu::kBindingPositions, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-    {gpu::kBindingIndices, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-    {gpu::kBindingSdsmRange, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-}};
-constexpr const char* kSdsmReduce =
-    "SDSM's compute pass (Lauritzen et al. 2011): the least and greatest view depth of the visible samples, "
-    "reduced on the GPU for the cascades' splits, once per render";
 
 // Everything a shadow pass's map depends on: equal keys draw equal maps.
 struct MapContent {
@@ -231,7 +183,7 @@ struct MapContent {
     Cull cull = Cull::back;
     double constant = 0, slope = 0, clamp = 0;
     DepthLayer depth_layer = DepthLayer::first;
-    bool texel_scaled_bias = false;  // each cascade's constant scaled by its texel
+    std::vector<double> constant_scale;  // per layer: DepthMapVariant::constant_scale
     bool reversed_z = false;
     CasterBias caster;
     bool operator==(const MapContent&) const = default;
@@ -252,30 +204,15 @@ constexpr const char* kShadowDepthOnly =
 constexpr const char* kLookupDiagnostic =
     "compute pass per light: V and every diagnostic lookup (36 bytes a pixel), without the copy to the host";
 constexpr const char* kLookupV = "compute pass per light: V alone (4 bytes a pixel), without the copy to the host";
-constexpr const char* kSecondDepth =
-    "midpoint depth's second pass per drawn map layer: every triangle again, fragments at or in front of the first "
-    "layer discarded, the rest writing the midpoint between the first layer and themselves (depth test less)";
 
-// Timestamps per light: before the shadow pass, after it, after the second-depth pass (midpoint
-// only, else at once), after the moments pass, after the blur, after the mip chain (the last three
-// moment families only, else at once), after the lookup.
-constexpr std::uint32_t kQueriesPerLight = 7;
+// Timestamps per light: before the shadow pass, after it, one after each of the variants'
+// passes (DepthMapVariant::timed_passes), after the lookup. Two more, first, for the face masks.
+constexpr std::uint32_t kCoreQueriesPerLight = 3;
+constexpr std::uint32_t kMaskQueries = 2;
 
-// The midpoint pass's set: the first depth layer, read by texelFetch.
-constexpr std::array<BindingDecl, 1> kPeelBindings = {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER}}};
-struct PeelPush {
-    glm::mat4 view_proj;
-    std::uint32_t layer;
-    float epsilon;  // depth units: the first layer's own surface, drawn again, is within it
-};
-
-std::uint64_t depth_texel_bytes(DepthFormat f) {
-    return f == DepthFormat::d16 ? 2 : 4;
-}
-
-class DepthMapFamily final : public TechniqueFamily {
+class DepthMapCore final : public TechniqueFamily {
   public:
-    explicit DepthMapFamily(const SceneOnGpu& scene);
+    DepthMapCore(const SceneOnGpu& scene, DepthMapVariants variants);
     void render(const Technique& t, std::span<const Light> lights, const RenderOptions& options, RasterFrame& frame,
                 RasterStats& stats) override;
 
@@ -289,45 +226,31 @@ class DepthMapFamily final : public TechniqueFamily {
     struct LightMap {
         GpuImage depth, prim;
         std::vector<UniqueImageView> depth_layers, prim_layers;
-        // Midpoint depth only: the first layer (`depth` then holds the midpoint the lookup reads)
-        // and the second pass's triangle ids (its pipeline has a colour target; nothing reads them).
-        GpuImage first, second_prim;
-        std::vector<UniqueImageView> first_layers, second_prim_layers;
         std::optional<MapContent> content;  // set: drawn, in SHADER_READ_ONLY_OPTIMAL
-        // Moment families: the filtered moments (level 0, then the mip chain) and the blur's
-        // scratch, both kept in GENERAL; `moments_of` is what they hold (content and parameters).
-        GpuImage moments, moments_scratch;
-        UniqueImageView moments_target, scratch_target;  // level 0, every layer: the storage views
-        std::optional<std::pair<MapContent, std::array<double, 6>>> moments_of;
-        bool triangle_ids = false;  // `prim` holds the triangle ids of `content` (else stale)
-        bool read_only = false;     // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
+        bool triangle_ids = false;          // `prim` holds the triangle ids of `content` (else stale)
+        bool read_only = false;             // in SHADER_READ_ONLY_OPTIMAL (else never written: UNDEFINED)
     };
 
     void check_supported(const Technique& t, RasterStats& stats);
-    std::optional<glm::dvec2> reduce_view_depth(RasterStats& stats);
+    std::uint32_t layers_of(const Technique& t, const Light& l) const;
     VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
-    VkPipeline peel_pipeline(const Technique& t);
-    SpecData lookup_spec(const Technique& t, gpu::uint kind, gpu::uint mode) const;
-    VkPipeline lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode);
+    LookupShader shader_for(const Technique& t, const Light& l) const;
+    SpecData lookup_spec(const Technique& t, const LookupShader& shader, gpu::uint kind, gpu::uint mode) const;
+    VkPipeline lookup_pipeline(const Technique& t, const Light& l, gpu::uint kind, gpu::uint mode);
     void make_lookup_pipelines(const Technique& t, std::span<const Light> lights, const RenderOptions& options);
     VkSampler compare_sampler(bool linear, bool clamp_to_border, bool reversed_z);
     gpu::ShadowPush caster_push(const Technique& t, const Light& light, const LightProjection& projection,
                                 std::uint32_t layer) const;
-    VkPipeline moment_pipeline(const MomentParameters& m, gpu::uint pass);
-    void record_moments(VkCommandBuffer cmd, const MomentParameters& m, bool reversed_z, std::size_t map_index,
-                        const RasterLightStats& ls, std::uint32_t q);
     void ensure_maps(const Technique& t, std::span<const Light> lights);
     std::size_t map_of_index(std::size_t li) const { return maps_.size() == 1 ? 0 : li; }
     LightMap& map_of(std::size_t li) { return maps_[map_of_index(li)]; }
-    void record_second_depth(VkCommandBuffer cmd, const Technique& t, LightMap& map, std::size_t map_index,
-                             const RasterLightStats& ls, std::uint32_t res);
     void record_map_layouts(VkCommandBuffer cmd);
     void ensure_slots(std::size_t n, bool lookups);
     // What the lookup pass writes per light: every lookup, or V alone.
     VkDeviceSize output_bytes(bool lookups) const {
         return s_.pixels * (lookups ? sizeof(gpu::LookupTexel) : sizeof(float));
     }
-    void ensure_queries(std::uint32_t count);
+    std::uint32_t queries_per_light() const { return kCoreQueriesPerLight + variant_passes_; }
     gpu::LookupParams light_params(const Technique& t, const Light& light, const LightProjection& projection) const;
     void record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t);
     void record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li, RasterLightStats& ls,
@@ -337,21 +260,16 @@ class DepthMapFamily final : public TechniqueFamily {
 
     const SceneOnGpu& s_;
     const VulkanContext& ctx_;
+    DepthMapVariants variants_;
+    std::uint32_t variant_passes_ = 0;  // timed passes of all variants together
     bool hardware_compare_ = false;
     bool direct_readback_ = false;  // the device shares host memory: the lookup writes where the CPU reads
 
-    DescriptorSets sets_, peel_sets_, moment_sets_;
-    UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_, peel_layout_, moment_layout_;
-    std::map<std::array<std::uint32_t, 3>, UniquePipeline> moment_pipelines_;
-    // The maps' moment textures: their format (UNDEFINED: none) and mip levels.
-    VkFormat maps_moment_format_ = VK_FORMAT_UNDEFINED;
-    std::uint32_t maps_moment_levels_ = 0;
-    UniqueSampler moment_sampler_;
-    std::map<std::pair<VkFormat, Cull>, UniquePipeline> peel_pipelines_;
-    bool maps_midpoint_ = false;  // maps_ have their first-layer images
+    DescriptorSets sets_;
+    UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_;
     // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets.
     std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool>, UniquePipeline> shadow_pipelines_;
-    std::map<SpecData, UniquePipeline> lookup_pipelines_;
+    std::map<std::pair<const std::uint32_t*, SpecData>, UniquePipeline> lookup_pipelines_;
     std::map<std::tuple<bool, bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
 
@@ -361,46 +279,24 @@ class DepthMapFamily final : public TechniqueFamily {
     std::vector<glm::vec2> disk_;
     std::vector<Slot> slots_;
     bool slots_hold_lookups_ = false;
-    UniqueQueryPool queries_;
-    std::uint32_t query_capacity_ = 0;
-
-    // SDSM's reduction, made on first use.
-    DescriptorSets sdsm_sets_;
-    UniquePipelineLayout sdsm_layout_;
-    UniquePipeline sdsm_pipeline_;
-    GpuBuffer sdsm_range_;
-    UniqueQueryPool sdsm_queries_;
+    GpuTimestamps timer_;
 };
 
-DepthMapFamily::DepthMapFamily(const SceneOnGpu& scene)
+DepthMapCore::DepthMapCore(const SceneOnGpu& scene, DepthMapVariants variants)
     : s_(scene),
       ctx_(scene.ctx),
+      variants_(std::move(variants)),
       direct_readback_(scene.ctx.info().type == "cpu" || scene.ctx.info().type == "integrated-gpu"),
       sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT),
-      peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT),
-      moment_sets_(scene.ctx, kMomentBindings, VK_SHADER_STAGE_COMPUTE_BIT),
-      sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
+      timer_(scene.ctx) {
+    for (const auto& v : variants_) variant_passes_ += v->timed_passes();
     shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     caster_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(gpu::ShadowPush), VK_SHADER_STAGE_GEOMETRY_BIT);
     lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
-    peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
-                                        VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
     nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
-    moment_layout_ =
-        make_pipeline_layout(ctx_, moment_sets_.layout(), sizeof(gpu::MomentPassParams), VK_SHADER_STAGE_COMPUTE_BIT);
-    // The lookup samples moments as engines do: bilinear, trilinear across the mip levels, the
-    // map's edge texels repeated beyond it.
-    VkSamplerCreateInfo ci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
-    ci.magFilter = ci.minFilter = VK_FILTER_LINEAR;
-    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
-    ci.addressModeU = ci.addressModeV = ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    ci.maxLod = VK_LOD_CLAMP_NONE;
-    VkSampler sampler;
-    VK_CHECK(vkCreateSampler(ctx_.device(), &ci, nullptr, &sampler));
-    moment_sampler_ = UniqueSampler(ctx_.device(), sampler);
 }
 
-void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
+void DepthMapCore::check_supported(const Technique& t, RasterStats& stats) {
     std::uint32_t max_dim = ctx_.limits().maxImageDimension2D;
     if (static_cast<std::uint32_t>(t.resolution) > max_dim)
         throw InputError(fmt::format("technique.resolution: {} exceeds the device's maxImageDimension2D {} ({})",
@@ -414,106 +310,32 @@ void DepthMapFamily::check_supported(const Technique& t, RasterStats& stats) {
                                     t.filter.type == FilterType::vogel));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
-    if (const MomentParameters* m = moment_parameters(t)) {
-        // The moment passes write one shader into each family's format, and the lookup filters it.
-        VkFormatFeatureFlags need = VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
-                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
-        if (m->mipmaps) need |= VK_FORMAT_FEATURE_BLIT_SRC_BIT | VK_FORMAT_FEATURE_BLIT_DST_BIT;
-        if (!ctx_.storage_write_without_format() || !ctx_.supports_format_features(moment_format(*m), need))
-            throw EnvironmentError(
-                fmt::format("Vulkan device '{}' cannot store, filter{} the {} family's moments (format {}, "
-                            "shaderStorageImageWriteWithoutFormat {})",
-                            ctx_.info().name, m->mipmaps ? " and blit" : " and", to_string(m->kind),
-                            static_cast<int>(moment_format(*m)), ctx_.storage_write_without_format() ? "on" : "off"));
-    }
+    for (const auto& v : variants_) v->check_supported(t);
 }
 
-// SDSM (Lauritzen, Salvi and Lefohn, I3D 2011): one compute pass over the camera pass's pixels
-// reduces the view depth of every visible sample to its least and greatest, timed as
-// "sdsm_reduce"; the cascades' splits are then placed between them. Unset when no pixel sees a
-// surface (the camera's range is used).
-std::optional<glm::dvec2> DepthMapFamily::reduce_view_depth(RasterStats& stats) {
-    if (!sdsm_pipeline_) {
-        sdsm_sets_.reserve(1);
-        sdsm_range_ = create_buffer(ctx_, 2 * sizeof(std::uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-        std::array<DescriptorResource, kSdsmBindings.size()> r{};
-        r[0].image = {VK_NULL_HANDLE, s_.gbuffer_prim.view.get(), VK_IMAGE_LAYOUT_GENERAL};
-        r[1].buffer = {s_.positions.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[2].buffer = {s_.indices.buffer.get(), 0, VK_WHOLE_SIZE};
-        r[3].buffer = {sdsm_range_.buffer.get(), 0, VK_WHOLE_SIZE};
-        sdsm_sets_.write(0, r);
-        sdsm_layout_ =
-            make_pipeline_layout(ctx_, sdsm_sets_.layout(), sizeof(gpu::SdsmParams), VK_SHADER_STAGE_COMPUTE_BIT);
-        sdsm_pipeline_ = make_compute_pipeline(ctx_, sdsm_layout_.get(), kSdsmComp, sizeof(kSdsmComp), {});
-        VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-        qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-        qi.queryCount = 2;
-        VkQueryPool qp;
-        VK_CHECK(vkCreateQueryPool(ctx_.device(), &qi, nullptr, &qp));
-        sdsm_queries_ = UniqueQueryPool(ctx_.device(), qp);
-    }
-    const Scenario& sc = s_.scenario;
-    const Camera& cam = sc.camera;
-    const glm::dvec2 plane = ndc_to_image_plane(cam, sc.width, sc.height);
-    gpu::SdsmParams params{};
-    params.cam_forward = glm::vec4(glm::vec3(cam.forward), cam.type == ProjectionType::perspective ? 1.0f : 0.0f);
-    params.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
-    params.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
-    params.image = glm::vec4(sc.width, sc.height, 1.0f / sc.width, 1.0f / sc.height);
-    const std::uint32_t empty[2] = {0xFFFFFFFFu, 0u};
-    std::memcpy(sdsm_range_.mapped, empty, sizeof(empty));
-    ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
-        vkCmdResetQueryPool(cmd, sdsm_queries_.get(), 0, 2);
-        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, sdsm_queries_.get(), 0);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sdsm_pipeline_.get());
-        VkDescriptorSet set = sdsm_sets_[0];
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, sdsm_layout_.get(), 0, 1, &set, 0, nullptr);
-        vkCmdPushConstants(cmd, sdsm_layout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(params), &params);
-        vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
-        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, sdsm_queries_.get(), 1);
-        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
-    });
-    std::uint64_t ts[2] = {0, 0};
-    VK_CHECK(vkGetQueryPoolResults(ctx_.device(), sdsm_queries_.get(), 0, 2, sizeof(ts), ts, sizeof(std::uint64_t),
-                                   VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-    stats.gpu_ms.add("sdsm_reduce",
-                     ts[1] >= ts[0] ? static_cast<double>(ts[1] - ts[0]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0,
-                     kSdsmReduce);
-    std::uint32_t range[2];
-    std::memcpy(range, sdsm_range_.mapped, sizeof(range));
-    if (range[0] > range[1]) return std::nullopt;
-    const auto unordered = [](std::uint32_t u) {
-        const std::uint32_t bits = (u & 0x80000000u) != 0 ? u & 0x7FFFFFFFu : ~u;
-        float f;
-        std::memcpy(&f, &bits, sizeof(f));
-        return static_cast<double>(f);
-    };
-    return glm::dvec2(unordered(range[0]), unordered(range[1]));
+std::uint32_t DepthMapCore::layers_of(const Technique& t, const Light& l) const {
+    for (const auto& v : variants_)
+        if (const auto layers = v->layers(t, l)) return *layers;
+    return l.type == LightType::point ? 6u : 1u;
 }
 
 // With triangle ids: a fragment shader writes each texel's triangle into the R32_UINT target.
 // Without: no fragment shader and no colour target, the depth pass an engine draws. Both share
 // the vertex shader, depth bias, clamp and culling, so they store the same depths. Caster
 // offsets add a geometry shader (caster.geom); reversed Z keeps the nearest surface with GREATER.
-VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids) {
+VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids) {
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
     const bool caster = has_caster_offsets(t.bias);
     auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias, triangle_ids, t.reversed_z, caster);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
-        // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from
-        // the light is VK_FRONT_FACE_CLOCKWISE here (pinned by the culling test).
-        VkCullModeFlags cull = t.cull == Cull::none   ? VK_CULL_MODE_NONE
-                               : t.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
-                                                      : VK_CULL_MODE_FRONT_BIT;
         GraphicsSetup g{caster ? kCasterVert : kShadowVert,
                         caster ? sizeof(kCasterVert) : sizeof(kShadowVert),
                         triangle_ids ? kShadowFrag : nullptr,
                         triangle_ids ? sizeof(kShadowFrag) : 0,
                         vk_format(t.depth_format),
                         t.reversed_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS,
-                        cull,
+                        vk_cull(t.cull),
                         VK_FRONT_FACE_CLOCKWISE,
                         true,
                         bias};
@@ -526,26 +348,19 @@ VkPipeline DepthMapFamily::shadow_pipeline(const Technique& t, bool triangle_ids
     return p.get();
 }
 
-// Midpoint depth's second pass: no bias (the midpoint is the bias), the technique's culling.
-VkPipeline DepthMapFamily::peel_pipeline(const Technique& t) {
-    UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), t.cull}];
-    if (!p) {
-        VkCullModeFlags cull = t.cull == Cull::none   ? VK_CULL_MODE_NONE
-                               : t.cull == Cull::back ? VK_CULL_MODE_BACK_BIT
-                                                      : VK_CULL_MODE_FRONT_BIT;
-        p = make_graphics_pipeline(
-            ctx_, peel_layout_.get(),
-            {kShadowVert, sizeof(kShadowVert), kPeelFrag, sizeof(kPeelFrag), vk_format(t.depth_format),
-             VK_COMPARE_OP_LESS, cull, VK_FRONT_FACE_CLOCKWISE, true, false});
-    }
-    return p.get();
+// Light `l`'s lookup: a variant's shader, or the depth map's own (shaders/lookup_depth_map.comp).
+LookupShader DepthMapCore::shader_for(const Technique& t, const Light& l) const {
+    for (const auto& v : variants_)
+        if (const auto shader = v->lookup_shader(t, l)) return *shader;
+    return {kLookupDepthMapComp, sizeof(kLookupDepthMapComp), filter_kind(t.filter.type),
+            static_cast<std::uint32_t>(t.filter.size)};
 }
 
-SpecData DepthMapFamily::lookup_spec(const Technique& t, gpu::uint kind, gpu::uint mode) const {
-    const MomentParameters* moments = moment_parameters(t);
+SpecData DepthMapCore::lookup_spec(const Technique& t, const LookupShader& shader, gpu::uint kind,
+                                   gpu::uint mode) const {
     return {kind,
-            moments ? gpu::kFilterVsm + static_cast<std::uint32_t>(moments->kind) : filter_kind(t.filter.type),
-            static_cast<std::uint32_t>(moments ? 0 : t.filter.size),  // the blur is its own pass
+            shader.filter,
+            shader.pcf_size,
             static_cast<std::uint32_t>(t.filter.taps),
             t.filter.bilinear_taps ? 1u : 0u,
             t.bias.receiver_plane ? 1u : 0u,
@@ -553,54 +368,59 @@ SpecData DepthMapFamily::lookup_spec(const Technique& t, gpu::uint kind, gpu::ui
             mode};
 }
 
-VkPipeline DepthMapFamily::lookup_pipeline(const Technique& t, gpu::uint kind, gpu::uint mode) {
-    const SpecData spec = lookup_spec(t, kind, mode);
-    UniquePipeline& p = lookup_pipelines_[spec];
-    if (!p) p = make_compute_pipeline(ctx_, lookup_layout_.get(), kLookupComp, sizeof(kLookupComp), spec);
+VkPipeline DepthMapCore::lookup_pipeline(const Technique& t, const Light& l, gpu::uint kind, gpu::uint mode) {
+    const LookupShader shader = shader_for(t, l);
+    UniquePipeline& p = lookup_pipelines_[{shader.code, lookup_spec(t, shader, kind, mode)}];
+    if (!p) p = make_compute_pipeline(ctx_, lookup_layout_.get(), shader.code, shader.bytes, lookup_spec(t, shader, kind, mode));
     return p.get();
 }
 
-// llvmpipe compiles each specialisation of the lookup shader on one core, 0.11-0.13 s apiece on
-// the 2-core development VM (four for data/default's sun, spot and point: its face mask too),
-// where a GPU driver takes milliseconds: those a render will record and lacks are made side by
-// side first (Vulkan lets pipelines be created from several threads at once). The pipelines are
-// the same ones: only when they are made changes.
-void DepthMapFamily::make_lookup_pipelines(const Technique& t, std::span<const Light> lights,
-                                           const RenderOptions& options) {
-    std::vector<SpecData> missing;
-    auto want = [&](const SpecData& spec) {
-        if (!lookup_pipelines_.contains(spec) && std::find(missing.begin(), missing.end(), spec) == missing.end())
-            missing.push_back(spec);
+// llvmpipe compiles each lookup pipeline on one core, 0.11-0.13 s apiece on the 2-core
+// development VM (four for data/default's sun, spot and point: its face mask too), where a GPU
+// driver takes milliseconds: those a render will record and lacks are made side by side first
+// (Vulkan lets pipelines be created from several threads at once). The pipelines are the same
+// ones: only when they are made changes.
+void DepthMapCore::make_lookup_pipelines(const Technique& t, std::span<const Light> lights,
+                                         const RenderOptions& options) {
+    struct Wanted {
+        LookupShader shader;
+        SpecData spec;
+    };
+    std::vector<Wanted> missing;
+    auto want = [&](const LookupShader& shader, const SpecData& spec) {
+        const std::pair<const std::uint32_t*, SpecData> key{shader.code, spec};
+        if (!lookup_pipelines_.contains(key) && std::none_of(missing.begin(), missing.end(), [&](const Wanted& w) {
+                return w.shader.code == shader.code && w.spec == spec;
+            }))
+            missing.push_back({shader, spec});
     };
     for (std::size_t li = 0; li < lights.size(); ++li) {
-        if (lights[li].type == LightType::point) want(lookup_spec(t, gpu::kLightPoint, gpu::kModeFaceMask));
+        if (lights[li].type == LightType::point) {
+            const LookupShader mask = shader_for(t, lights[li]);
+            want(mask, lookup_spec(t, mask, gpu::kLightPoint, gpu::kModeFaceMask));
+        }
         const Technique tl = t.for_light(li);
-        want(lookup_spec(tl, light_kind(tl, lights[li].type),
-                         options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
+        const LookupShader shader = shader_for(tl, lights[li]);
+        want(shader, lookup_spec(tl, shader, light_kind(lights[li].type),
+                                 options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
     }
     if (missing.size() < 2) return;  // made where it is recorded
     std::vector<UniquePipeline> made(missing.size());
     tbb::parallel_for(std::size_t(0), missing.size(), [&](std::size_t i) {
-        made[i] = make_compute_pipeline(ctx_, lookup_layout_.get(), kLookupComp, sizeof(kLookupComp), missing[i]);
+        made[i] = make_compute_pipeline(ctx_, lookup_layout_.get(), missing[i].shader.code, missing[i].shader.bytes,
+                                        missing[i].spec);
     });
-    for (std::size_t i = 0; i < missing.size(); ++i) lookup_pipelines_[missing[i]] = std::move(made[i]);
+    for (std::size_t i = 0; i < missing.size(); ++i)
+        lookup_pipelines_[{missing[i].shader.code, missing[i].spec}] = std::move(made[i]);
 }
 
-VkPipeline DepthMapFamily::moment_pipeline(const MomentParameters& m, gpu::uint pass) {
-    const std::array<std::uint32_t, 3> spec = {gpu::kFilterVsm + static_cast<std::uint32_t>(m.kind), pass,
-                                               static_cast<std::uint32_t>(m.blur)};
-    UniquePipeline& p = moment_pipelines_[spec];
-    if (!p) p = make_compute_pipeline(ctx_, moment_layout_.get(), kMomentsComp, sizeof(kMomentsComp), spec);
-    return p.get();
-}
-
-VkSampler DepthMapFamily::compare_sampler(bool linear, bool clamp_to_border, bool reversed_z) {
+VkSampler DepthMapCore::compare_sampler(bool linear, bool clamp_to_border, bool reversed_z) {
     UniqueSampler& s = compare_samplers_[{linear, clamp_to_border, reversed_z}];
     if (!s) s = make_sampler(ctx_, true, linear, clamp_to_border, reversed_z);
     return s.get();
 }
 
-gpu::ShadowPush DepthMapFamily::caster_push(const Technique& t, const Light& light, const LightProjection& projection,
+gpu::ShadowPush DepthMapCore::caster_push(const Technique& t, const Light& light, const LightProjection& projection,
                                             std::uint32_t layer) const {
     gpu::ShadowPush push{};
     push.view_proj = glm::mat4(map_view_proj(t, projection.view_proj[layer]));
@@ -623,102 +443,60 @@ gpu::ShadowPush DepthMapFamily::caster_push(const Technique& t, const Light& lig
     return push;
 }
 
-void DepthMapFamily::ensure_maps(const Technique& t, std::span<const Light> lights) {
+// The maps of `lights`: one per light (its layers), or one for all beyond kMapBudgetBytes; then the
+// variants' own resources beside them.
+void DepthMapCore::ensure_maps(const Technique& t, std::span<const Light> lights) {
     const VkFormat format = vk_format(t.depth_format);
     // Without lights nothing samples a map: a 1x1 placeholder keeps descriptors valid.
     const auto res = static_cast<std::uint32_t>(lights.empty() ? 1 : t.resolution);
-    auto layers_of = [&](const Light& l) {
-        return l.type == LightType::point ? 6u
-               : cascaded(t, l)           ? static_cast<std::uint32_t>(cascades_of(t)->count)
-                                          : 1u;
-    };
-    const bool midpoint = t.depth_layer == DepthLayer::midpoint;
+    int copies = 1;
+    for (const auto& v : variants_) copies = std::max(copies, v->map_copies(t));
     std::vector<std::uint32_t> wanted;
     std::uint64_t bytes = 0;
     for (const Light& l : lights) {
-        wanted.push_back(layers_of(l));
-        bytes += std::uint64_t{res} * res * layers_of(l) * (depth_texel_bytes(t.depth_format) + 4) * (midpoint ? 2 : 1);
+        wanted.push_back(layers_of(t, l));
+        bytes += std::uint64_t{res} * res * layers_of(t, l) * (depth_texel_bytes(t.depth_format) + 4) *
+                 static_cast<std::uint64_t>(copies);
     }
     if (wanted.empty() || bytes > kMapBudgetBytes) {
         std::uint32_t most = 1;
-        for (const Light& l : lights) most = std::max(most, layers_of(l));
+        for (const Light& l : lights) most = std::max(most, layers_of(t, l));
         wanted = {most};  // one map for all
     }
-    const MomentParameters* moments = moment_parameters(t);
-    const VkFormat mformat = moments ? moment_format(*moments) : VK_FORMAT_UNDEFINED;
-    const std::uint32_t mlevels = !moments ? 0 : moments->mipmaps ? mip_levels(res) : 1;
-    bool same = maps_.size() == wanted.size() && maps_midpoint_ == midpoint && maps_moment_format_ == mformat &&
-                maps_moment_levels_ == mlevels;
+    bool same = maps_.size() == wanted.size();
     for (std::size_t i = 0; same && i < wanted.size(); ++i)
         same = maps_[i].depth.format == format && maps_[i].depth.width == res && maps_[i].depth.layers == wanted[i];
-    if (same) return;
-    maps_.clear();
-    maps_arena_ = MemoryArena(ctx_);
-    maps_.resize(wanted.size());
-    for (std::size_t i = 0; i < wanted.size(); ++i) {
-        maps_arena_.add(maps_[i].depth, format, res, res, wanted[i],
-                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                        VK_IMAGE_ASPECT_DEPTH_BIT, true);
-        maps_arena_.add(maps_[i].prim, kPrimFormat, res, res, wanted[i],
-                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
-                        true);
-        if (moments) {
-            const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-            maps_arena_.add(maps_[i].moments, mformat, res, res, wanted[i],
-                            usage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
-                            VK_IMAGE_ASPECT_COLOR_BIT, true, mlevels);
-            maps_arena_.add(maps_[i].moments_scratch, mformat, res, res, wanted[i], usage, VK_IMAGE_ASPECT_COLOR_BIT,
-                            true);
+    if (!same) {
+        maps_.clear();
+        maps_arena_ = MemoryArena(ctx_);
+        maps_.resize(wanted.size());
+        for (std::size_t i = 0; i < wanted.size(); ++i) {
+            maps_arena_.add(maps_[i].depth, format, res, res, wanted[i],
+                            VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                            VK_IMAGE_ASPECT_DEPTH_BIT, true);
+            maps_arena_.add(maps_[i].prim, kPrimFormat, res, res, wanted[i],
+                            VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                            VK_IMAGE_ASPECT_COLOR_BIT, true);
         }
-        if (!midpoint) continue;
-        maps_arena_.add(maps_[i].first, format, res, res, wanted[i],
-                        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                        VK_IMAGE_ASPECT_DEPTH_BIT, true);
-        maps_arena_.add(maps_[i].second_prim, kPrimFormat, res, res, wanted[i], VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT,
-                        VK_IMAGE_ASPECT_COLOR_BIT, true);
+        maps_arena_.commit();
+        for (LightMap& m : maps_)
+            for (std::uint32_t l = 0; l < m.depth.layers; ++l) {
+                m.depth_layers.push_back(create_layer_view(ctx_, m.depth, l, VK_IMAGE_ASPECT_DEPTH_BIT));
+                m.prim_layers.push_back(create_layer_view(ctx_, m.prim, l, VK_IMAGE_ASPECT_COLOR_BIT));
+            }
     }
-    maps_arena_.commit();
-    maps_midpoint_ = midpoint;
-    maps_moment_format_ = mformat;
-    maps_moment_levels_ = mlevels;
-    if (moments) {
-        moment_sets_.reserve(kMomentSetsPerMap * maps_.size());
-        for (std::size_t i = 0; i < maps_.size(); ++i) {
-            LightMap& m = maps_[i];
-            m.moments_target = create_level_view(ctx_, m.moments, 0, VK_IMAGE_ASPECT_COLOR_BIT);
-            m.scratch_target = create_level_view(ctx_, m.moments_scratch, 0, VK_IMAGE_ASPECT_COLOR_BIT);
-            std::array<DescriptorResource, kMomentBindings.size()> r{};
-            r[0].image = {nearest_.get(), m.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-            r[1].image = {VK_NULL_HANDLE, m.moments_target.get(), VK_IMAGE_LAYOUT_GENERAL};
-            moment_sets_.write(kMomentSetsPerMap * i, r);
-            r[0].image = {nearest_.get(), m.moments.view.get(), VK_IMAGE_LAYOUT_GENERAL};
-            r[1].image = {VK_NULL_HANDLE, m.scratch_target.get(), VK_IMAGE_LAYOUT_GENERAL};
-            moment_sets_.write(kMomentSetsPerMap * i + 1, r);
-            r[0].image = {nearest_.get(), m.moments_scratch.view.get(), VK_IMAGE_LAYOUT_GENERAL};
-            r[1].image = {VK_NULL_HANDLE, m.moments_target.get(), VK_IMAGE_LAYOUT_GENERAL};
-            moment_sets_.write(kMomentSetsPerMap * i + 2, r);
-        }
+    std::vector<MapShape> shapes;
+    std::vector<const GpuImage*> depth;
+    for (const LightMap& m : maps_) {
+        shapes.push_back({m.depth.format, m.depth.width, m.depth.layers});
+        depth.push_back(&m.depth);
     }
-    for (LightMap& m : maps_)
-        for (std::uint32_t l = 0; l < m.depth.layers; ++l) {
-            m.depth_layers.push_back(create_layer_view(ctx_, m.depth, l, VK_IMAGE_ASPECT_DEPTH_BIT));
-            m.prim_layers.push_back(create_layer_view(ctx_, m.prim, l, VK_IMAGE_ASPECT_COLOR_BIT));
-            if (!midpoint) continue;
-            m.first_layers.push_back(create_layer_view(ctx_, m.first, l, VK_IMAGE_ASPECT_DEPTH_BIT));
-            m.second_prim_layers.push_back(create_layer_view(ctx_, m.second_prim, l, VK_IMAGE_ASPECT_COLOR_BIT));
-        }
-    if (!midpoint) return;
-    peel_sets_.reserve(maps_.size());
-    for (std::size_t i = 0; i < maps_.size(); ++i) {
-        std::array<DescriptorResource, kPeelBindings.size()> r{};
-        r[0].image = {nearest_.get(), maps_[i].first.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-        peel_sets_.write(i, r);
-    }
+    for (const auto& v : variants_) v->ensure_map_resources(t, shapes, depth, !same);
 }
 
 // The lookup descriptors name the maps in SHADER_READ_ONLY, the mask dispatches' too (which
 // never read them): make that true of maps never drawn.
-void DepthMapFamily::record_map_layouts(VkCommandBuffer cmd) {
+void DepthMapCore::record_map_layouts(VkCommandBuffer cmd) {
     for (LightMap& m : maps_) {
         if (m.read_only) continue;
         image_barrier(cmd, m.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, m.depth.layers, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -727,17 +505,12 @@ void DepthMapFamily::record_map_layouts(VkCommandBuffer cmd) {
         image_barrier(cmd, m.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, m.prim.layers, VK_IMAGE_LAYOUT_UNDEFINED,
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        // The moment textures live in GENERAL: written by the passes, blitted, sampled.
-        for (GpuImage* img : {&m.moments, &m.moments_scratch})
-            if (img->image)
-                image_barrier(cmd, img->image.get(), VK_IMAGE_ASPECT_COLOR_BIT, img->layers, VK_IMAGE_LAYOUT_UNDEFINED,
-                              VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
-                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
         m.read_only = true;
     }
+    for (const auto& v : variants_) v->record_layouts(cmd);
 }
 
-void DepthMapFamily::ensure_slots(std::size_t n, bool lookups) {
+void DepthMapCore::ensure_slots(std::size_t n, bool lookups) {
     // Outputs sized for the lookups stay for V-only renders too: a sweep alternating the two
     // kinds would otherwise allocate (and, on a GPU, pin host memory for) both every configuration.
     if (slots_.size() >= n && (slots_hold_lookups_ || !lookups)) return;
@@ -760,18 +533,7 @@ void DepthMapFamily::ensure_slots(std::size_t n, bool lookups) {
     sets_.reserve(n);
 }
 
-void DepthMapFamily::ensure_queries(std::uint32_t count) {
-    if (count <= query_capacity_) return;
-    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-    qi.queryCount = count;
-    VkQueryPool qp;
-    VK_CHECK(vkCreateQueryPool(ctx_.device(), &qi, nullptr, &qp));
-    queries_ = UniqueQueryPool(ctx_.device(), qp);
-    query_capacity_ = count;
-}
-
-gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& light,
+gpu::LookupParams DepthMapCore::light_params(const Technique& t, const Light& light,
                                                const LightProjection& projection) const {
     const Scenario& sc = s_.scenario;
     const Camera& cam = s_.camera;
@@ -797,28 +559,11 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
     p.map = glm::vec4(t.resolution, 1.0f / t.resolution, t.filter.radius_texels,
                       static_cast<float>(projection.view_proj.size()));
     p.footprint = glm::vec4(projection.metres_per_texel, projection.metres_per_texel_per_metre, 0.0f, 0.0f);
-    p.cascade = glm::vec4(static_cast<float>(projection.cascade_texel.size()),
-                          static_cast<float>(projection.cascade_overlap), 0.0f, 0.0f);
-    const Cascades* cascades = cascades_of(t);
-    const bool texel_scaled = cascades && cascades->texel_scaled_bias;
-    for (std::size_t k = 0; k < projection.cascade_texel.size(); ++k) {
-        p.cascade_far[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_far[k]);
-        p.cascade_texel[k / 4][static_cast<int>(k % 4)] = static_cast<float>(projection.cascade_texel[k]);
-        const glm::dvec2 scale = cascade_bias_scale(projection, k, texel_scaled);
-        p.cascade_world_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.x);
-        p.cascade_constant_scale[k / 4][static_cast<int>(k % 4)] = static_cast<float>(scale.y);
-    }
     // PCSS reaches here with lights that have a size only (check_technique_lights): an area
-    // light's radius, or a sun's angular radius as its tangent (lookup.comp, pcss_visibility).
+    // light's radius, or a sun's angular radius as its tangent (shaders/lookup_core.glsl, pcss_visibility).
     const double light_size =
         light.type == LightType::directional ? std::tan(0.5 * light.angular_diameter_rad) : light.radius;
     p.pcss = glm::vec4(light_size, projection.near, projection.far, t.filter.max_radius_texels);
-    if (const MomentParameters* m = moment_parameters(t)) {
-        p.moments = moment_uniform(*m);
-        p.moment_map =
-            glm::vec4(static_cast<float>(m->mipmaps ? mip_levels(static_cast<std::uint32_t>(t.resolution)) : 1),
-                      m->kind == MomentKind::msm && m->storage_bits == 16 ? 1.0f : 0.0f, 0.0f, 0.0f);
-    }
     for (std::size_t l = 0; l < projection.view_proj.size(); ++l) {
         p.view_proj[l] = glm::mat4(map_view_proj(t, projection.view_proj[l]));
         p.light_axis[l] = glm::vec4(glm::vec3(projection.axis[l]), 0.0f);
@@ -833,260 +578,15 @@ gpu::LookupParams DepthMapFamily::light_params(const Technique& t, const Light& 
             pair.w = disk_[k].y;
         }
     }
+    for (const auto& v : variants_) v->fill_params(p, t, light, projection);
     return p;
 }
 
-// Point lights: which cube faces some receiver samples, so that only those are drawn.
-void DepthMapFamily::record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t) {
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 0);
-    for (std::size_t li = 0; li < lights.size(); ++li) {
-        if (lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                          lookup_pipeline(t, gpu::kLightPoint, gpu::kModeFaceMask));
-        VkDescriptorSet set = sets_[li];
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
-        vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
-    }
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 1);
-    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                   VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
-}
-
-// The moment families' passes over the map just drawn (or reused with other parameters): the
-// moments of every sampled layer, the separable blur, the mip chain; timestamps q + 3, 4, 5.
-// Every pass reads what the one before wrote: a memory barrier between them (the textures stay
-// in GENERAL).
-void DepthMapFamily::record_moments(VkCommandBuffer cmd, const MomentParameters& m, bool reversed_z,
-                                    std::size_t map_index, const RasterLightStats& ls, std::uint32_t q) {
-    LightMap& map = maps_[map_index];
-    const auto res = map.depth.width;
-    const std::uint32_t layer_count = static_cast<std::uint32_t>(ls.projection.view_proj.size());
-    const gpu::MomentPassParams base{glm::vec4(static_cast<float>(m.exponent), static_cast<float>(m.negative_exponent),
-                                               m.kind == MomentKind::msm && m.storage_bits == 16 ? 1.0f : 0.0f, 0.0f),
-                                     glm::uvec4(0u, res, reversed_z ? 1u : 0u, 0u)};  // moments of forward depth
-    auto dispatch = [&](gpu::uint pass, std::size_t set_index) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, moment_pipeline(m, pass));
-        VkDescriptorSet set = moment_sets_[kMomentSetsPerMap * map_index + set_index];
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, moment_layout_.get(), 0, 1, &set, 0, nullptr);
-        for (std::uint32_t layer = 0; layer < layer_count; ++layer) {
-            if (!(ls.layers_sampled & (1u << layer))) continue;
-            gpu::MomentPassParams push = base;
-            push.layer.x = layer;
-            vkCmdPushConstants(cmd, moment_layout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-            vkCmdDispatch(cmd, (res + 7) / 8, (res + 7) / 8, 1);
-        }
-    };
-    auto compute_to_compute = [&] {
-        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    };
-    // The previous light's or render's lookup and blits may still read the textures.
-    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
-                   VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
-                   VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
-    dispatch(gpu::kMomentPassWarp, 0);
-    compute_to_compute();
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 3);
-    if (m.blur > 0) {
-        dispatch(gpu::kMomentPassBlurX, 1);
-        compute_to_compute();
-        dispatch(gpu::kMomentPassBlurY, 2);
-        compute_to_compute();
-    }
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 4);
-    if (map.moments.levels > 1) {
-        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
-        for (std::uint32_t level = 1; level < map.moments.levels; ++level) {
-            const auto from = static_cast<std::int32_t>(std::max(res >> (level - 1), 1u));
-            const auto to = static_cast<std::int32_t>(std::max(res >> level, 1u));
-            VkImageBlit blit{};
-            blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, map.moments.layers};
-            blit.srcOffsets[1] = {from, from, 1};
-            blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, map.moments.layers};
-            blit.dstOffsets[1] = {to, to, 1};
-            vkCmdBlitImage(cmd, map.moments.image.get(), VK_IMAGE_LAYOUT_GENERAL, map.moments.image.get(),
-                           VK_IMAGE_LAYOUT_GENERAL, 1, &blit, VK_FILTER_LINEAR);
-            memory_barrier(cmd, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                           VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-        }
-        memory_barrier(cmd, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    }
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 5);
-}
-
-void DepthMapFamily::record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li,
-                                  RasterLightStats& ls, const RenderOptions& options) {
-    const auto q = static_cast<std::uint32_t>(2 + kQueriesPerLight * li);
-    const auto res = static_cast<std::uint32_t>(t.resolution);
-    const bool midpoint = t.depth_layer == DepthLayer::midpoint;
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
-    const Cascades* cascades = cascaded(t, light) ? cascades_of(t) : nullptr;
-    const bool texel_scaled = cascades && cascades->texel_scaled_bias;
-    MapContent content{ls.projection.view_proj,
-                       ls.layers_sampled,
-                       t.resolution,
-                       t.depth_format,
-                       t.cull,
-                       t.bias.constant,
-                       t.bias.slope,
-                       t.bias.clamp,
-                       t.depth_layer,
-                       texel_scaled,
-                       t.reversed_z,
-                       t.bias.caster};
-    LightMap& map = map_of(li);
-    // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
-    // ids serves it too, but a depth-only map must be drawn again for the lookups.
-    const bool triangle_ids = options.lookups;
-    ls.map_reused =
-        options.reuse_maps && ls.layers_sampled != 0 && map.content == content && (map.triangle_ids || !triangle_ids);
-    if (ls.layers_sampled != 0 && !ls.map_reused) {
-        // A lookup may have read these images (a previous render, or the previous light of a
-        // shared map); their contents are not needed again.
-        map.content.reset();
-        map.moments_of.reset();
-        image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
-                      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
-                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
-                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-        // Midpoint: the first pass draws the first layer, read by the second pass, which draws `depth`.
-        if (midpoint)
-            image_barrier(
-                cmd, map.first.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.first.layers, VK_IMAGE_LAYOUT_UNDEFINED,
-                VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE,
-                kFragmentTests,
-                VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-        const std::vector<UniqueImageView>& first_views = midpoint ? map.first_layers : map.depth_layers;
-        // Without ids the id image stays as it is (SHADER_READ_ONLY, bound but never read).
-        if (triangle_ids)
-            image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
-                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE,
-                          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t, triangle_ids));
-        VkDeviceSize zero = 0;
-        vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
-        vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
-        for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
-            if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
-            // Reversed Z clears to 0, the far plane.
-            begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE, first_views[layer].get(),
-                            res, res, t.reversed_z ? 0.0f : 1.0f);
-            // texel_scaled_bias: each cascade's constant scaled as its texel (cascade_bias_scale).
-            // Reversed Z: away from the light is towards 0, so the hardware bias changes sign (as
-            // engines with reverse-Z negate theirs).
-            const double sign = t.reversed_z ? -1.0 : 1.0;
-            const double constant = t.bias.constant * cascade_bias_scale(ls.projection, layer, texel_scaled).y;
-            vkCmdSetDepthBias(cmd, static_cast<float>(sign * constant), static_cast<float>(sign * t.bias.clamp),
-                              static_cast<float>(sign * t.bias.slope));
-            if (has_caster_offsets(t.bias)) {
-                const gpu::ShadowPush push = caster_push(t, light, ls.projection, layer);
-                vkCmdPushConstants(cmd, caster_layout_.get(), VK_SHADER_STAGE_GEOMETRY_BIT, 0, sizeof(push), &push);
-            } else {
-                glm::mat4 vp = glm::mat4(map_view_proj(t, ls.projection.view_proj[layer]));
-                vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
-            }
-            if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
-            vkCmdEndRendering(cmd);
-            ++ls.layers_rendered;
-        }
-        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
-        if (midpoint) record_second_depth(cmd, t, map, map_of_index(li), ls, res);
-        image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
-                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                      kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        if (triangle_ids)
-            image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
-                          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-        map.content = content;
-        map.triangle_ids = triangle_ids;
-    }
-    ls.map_triangle_ids = ls.layers_sampled != 0 && map.triangle_ids;
-    if (ls.layers_sampled == 0 || ls.map_reused)
-        vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 2);
-    const MomentParameters* moments = moment_parameters(t);
-    bool moments_drawn = false;
-    if (moments && ls.layers_sampled != 0) {
-        // The moments follow the map and the family's parameters: a reused map with the same
-        // parameters keeps them.
-        const std::pair<MapContent, std::array<double, 6>> of = {
-            content,
-            {static_cast<double>(moments->kind), moments->exponent, moments->negative_exponent,
-             static_cast<double>(moments->storage_bits), static_cast<double>(moments->blur),
-             moments->mipmaps ? 1.0 : 0.0}};
-        if (map.moments_of != of) {
-            record_moments(cmd, *moments, t.reversed_z, map_of_index(li), ls, q);
-            map.moments_of = of;
-            moments_drawn = true;
-        }
-    }
-    if (!moments_drawn)  // no moment pass: their timestamps at once
-        for (std::uint32_t k = 3; k <= 5; ++k)
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + k);
-    vkCmdBindPipeline(
-        cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-        lookup_pipeline(t, light_kind(t, light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
-    VkDescriptorSet set = sets_[li];
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
-    vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
-    vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 6);
-    const Slot& slot = slots_[li];
-    if (direct_readback_ || !options.read_back) {
-        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
-        return;
-    }
-    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                   VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
-    VkBufferCopy region{0, 0, output_bytes(options.lookups)};
-    vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.output_host.buffer.get(), 1, &region);
-    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
-                   VK_ACCESS_2_HOST_READ_BIT);
-}
-
-// Midpoint depth (Woo 1992): every sampled layer drawn again into `depth`, keeping behind each
-// texel's first layer the nearest surface's midpoint with it (shaders/peel.frag). The
-// first layer was just drawn into `map.first` (with the technique's bias, if any).
-void DepthMapFamily::record_second_depth(VkCommandBuffer cmd, const Technique& t, LightMap& map, std::size_t map_index,
-                                         const RasterLightStats& ls, std::uint32_t res) {
-    image_barrier(cmd, map.first.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.first.layers,
-                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, kFragmentTests,
-                  VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
-                  VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
-    image_barrier(cmd, map.second_prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.second_prim.layers,
-                  VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
-                  VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, peel_pipeline(t));
-    VkDescriptorSet set = peel_sets_[map_index];
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, peel_layout_.get(), 0, 1, &set, 0, nullptr);
-    // Two depth quanta: the first layer's own surface drawn again lies within one of it (a UNORM
-    // map rounds it), and never behind by more.
-    const float epsilon = static_cast<float>(2 * std::max(depth_resolution(t.depth_format), std::ldexp(1.0, -22)));
-    for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
-        if (!(ls.layers_sampled & (1u << layer))) continue;
-        begin_rendering(cmd, map.second_prim_layers[layer].get(), map.depth_layers[layer].get(), res, res, 1.0f);
-        vkCmdSetDepthBias(cmd, 0.0f, 0.0f, 0.0f);
-        const PeelPush push{glm::mat4(ls.projection.view_proj[layer]), layer, epsilon};
-        vkCmdPushConstants(cmd, peel_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                           sizeof(push), &push);
-        if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
-        vkCmdEndRendering(cmd);
-    }
-}
-
-const GpuBuffer& DepthMapFamily::host_copy(const Slot& slot) const {
+const GpuBuffer& DepthMapCore::host_copy(const Slot& slot) const {
     return direct_readback_ ? slot.output : slot.output_host;
 }
 
-RasterLightImage DepthMapFamily::read_back(std::size_t li, bool lookups) const {
+RasterLightImage DepthMapCore::read_back(std::size_t li, bool lookups) const {
     const std::size_t n = s_.pixels;
     RasterLightImage img;
     if (!lookups) {
@@ -1114,8 +614,138 @@ RasterLightImage DepthMapFamily::read_back(std::size_t li, bool lookups) const {
     return img;
 }
 
-void DepthMapFamily::render(const Technique& t, std::span<const Light> all_lights, const RenderOptions& options,
-                            RasterFrame& frame, RasterStats& stats) {
+// Point lights: which cube faces some receiver samples, so that only those are drawn.
+void DepthMapCore::record_masks(VkCommandBuffer cmd, std::span<const Light> lights, const Technique& t) {
+    timer_.write(cmd, 0);
+    for (std::size_t li = 0; li < lights.size(); ++li) {
+        if (lights[li].type != LightType::point) continue;  // one layer, sampled unless nothing is lit
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                          lookup_pipeline(t, lights[li], gpu::kLightPoint, gpu::kModeFaceMask));
+        VkDescriptorSet set = sets_[li];
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
+        vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
+    }
+    timer_.write(cmd, 1);
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const Light& light, std::size_t li,
+                                RasterLightStats& ls, const RenderOptions& options) {
+    const auto q = static_cast<std::uint32_t>(kMaskQueries + queries_per_light() * li);
+    const auto res = static_cast<std::uint32_t>(t.resolution);
+    const std::size_t mi = map_of_index(li);
+    timer_.write(cmd, q);
+    std::vector<double> constant_scale(ls.projection.view_proj.size(), 1.0);
+    for (std::uint32_t layer = 0; layer < constant_scale.size(); ++layer)
+        for (const auto& v : variants_) constant_scale[layer] *= v->constant_scale(t, light, ls.projection, layer);
+    MapContent content{ls.projection.view_proj,
+                       ls.layers_sampled,
+                       t.resolution,
+                       t.depth_format,
+                       t.cull,
+                       t.bias.constant,
+                       t.bias.slope,
+                       t.bias.clamp,
+                       t.depth_layer,
+                       constant_scale,
+                       t.reversed_z,
+                       t.bias.caster};
+    LightMap& map = map_of(li);
+    // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
+    // ids serves it too, but a depth-only map must be drawn again for the lookups.
+    const bool triangle_ids = options.lookups;
+    ls.map_reused =
+        options.reuse_maps && ls.layers_sampled != 0 && map.content == content && (map.triangle_ids || !triangle_ids);
+    MapTargets targets{mi, &map.depth, map.depth_layers, &ls.projection, ls.layers_sampled, false};
+    if (ls.layers_sampled != 0 && !ls.map_reused) {
+        // A lookup may have read these images (a previous render, or the previous light of a
+        // shared map); their contents are not needed again.
+        map.content.reset();
+        targets.redrawn = true;
+        image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
+                      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE, kFragmentTests,
+                      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
+        for (const auto& v : variants_) v->before_shadow(cmd, t, mi);
+        // Without ids the id image stays as it is (SHADER_READ_ONLY, bound but never read).
+        if (triangle_ids)
+            image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
+                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE,
+                          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t, triangle_ids));
+        VkDeviceSize zero = 0;
+        vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
+        vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
+        for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
+            if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
+            VkImageView target = map.depth_layers[layer].get();
+            for (const auto& v : variants_)
+                if (VkImageView own = v->shadow_target(t, mi, layer)) target = own;
+            // Reversed Z clears to 0, the far plane.
+            begin_rendering(cmd, triangle_ids ? map.prim_layers[layer].get() : VK_NULL_HANDLE, target, res, res,
+                            t.reversed_z ? 0.0f : 1.0f);
+            // A variant may scale each layer's constant (cascades.texel_scaled_bias). Reversed Z:
+            // away from the light is towards 0, so the hardware bias changes sign (as engines with
+            // reverse-Z negate theirs).
+            const double sign = t.reversed_z ? -1.0 : 1.0;
+            const double constant = t.bias.constant * constant_scale[layer];
+            vkCmdSetDepthBias(cmd, static_cast<float>(sign * constant), static_cast<float>(sign * t.bias.clamp),
+                              static_cast<float>(sign * t.bias.slope));
+            if (has_caster_offsets(t.bias)) {
+                const gpu::ShadowPush push = caster_push(t, light, ls.projection, layer);
+                vkCmdPushConstants(cmd, caster_layout_.get(), VK_SHADER_STAGE_GEOMETRY_BIT, 0, sizeof(push), &push);
+            } else {
+                glm::mat4 vp = glm::mat4(map_view_proj(t, ls.projection.view_proj[layer]));
+                vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+            }
+            if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
+            vkCmdEndRendering(cmd);
+            ++ls.layers_rendered;
+        }
+        timer_.write(cmd, q + 1);
+        for (const auto& v : variants_) v->record_map_pass(cmd, t, targets);
+        image_barrier(cmd, map.depth.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, map.depth.layers,
+                      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                      kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+                      VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        if (triangle_ids)
+            image_barrier(cmd, map.prim.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, map.prim.layers,
+                          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+                          VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        map.content = content;
+        map.triangle_ids = triangle_ids;
+    }
+    ls.map_triangle_ids = ls.layers_sampled != 0 && map.triangle_ids;
+    if (ls.layers_sampled == 0 || ls.map_reused) timer_.write(cmd, q + 1);
+    // The variants' passes over the readable map (a midpoint's is timed from the shadow pass's end).
+    PassMarks marks(timer_, q + 2);
+    for (const auto& v : variants_) v->record_after_map(cmd, t, targets, marks);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+                      lookup_pipeline(t, light, light_kind(light.type),
+                                      options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
+    VkDescriptorSet set = sets_[li];
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
+    vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
+    timer_.write(cmd, q + 2 + variant_passes_);
+    const Slot& slot = slots_[li];
+    if (direct_readback_ || !options.read_back) {
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                       VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+        return;
+    }
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                   VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferCopy region{0, 0, output_bytes(options.lookups)};
+    vkCmdCopyBuffer(cmd, slot.output.buffer.get(), slot.output_host.buffer.get(), 1, &region);
+    memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
+                   VK_ACCESS_2_HOST_READ_BIT);
+}
+
+void DepthMapCore::render(const Technique& t, std::span<const Light> all_lights, const RenderOptions& options,
+                          RasterFrame& frame, RasterStats& stats) {
     auto t0 = SteadyClock::now();
     check_supported(t, stats);
     // An area light is drawn from its centre as a point light carrying its size (for PCSS).
@@ -1129,16 +759,13 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         std::any_of(lights.begin(), lights.end(), [](const Light& l) { return l.type == LightType::point; });
     ensure_maps(t, lights);
     ensure_slots(n, options.lookups);
-    ensure_queries(static_cast<std::uint32_t>(2 + kQueriesPerLight * n));
+    const auto queries = static_cast<std::uint32_t>(kMaskQueries + queries_per_light() * n);
+    timer_.ensure(queries);
     if (static_cast<int>(disk_.size()) != t.filter.taps) disk_ = poisson_disk(t.filter.taps);
     make_lookup_pipelines(t, lights, options);
+    for (const auto& v : variants_) v->begin_render(t, lights, stats);
 
     const Scenario& sc = s_.scenario;
-    std::optional<glm::dvec2> samples;
-    const Cascades* cascades = cascades_of(t);
-    if (cascades && cascades->sdsm &&
-        std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return cascaded(t, l); }))
-        samples = reduce_view_depth(stats);
     stats.lights.resize(n);
     for (std::size_t li = 0; li < n; ++li) {
         const Light& light = lights[li];
@@ -1147,12 +774,12 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         // world_float32: fitted in world space, its matrices then rounded as an engine keeps them.
         const bool world = t.precision == Precision::world_float32;
         const glm::dvec3 fit_origin = world ? glm::dvec3(0.0) : s_.origin;
-        if (cascaded(t, light))
-            ls.projection = fit_cascades(light, sc.scene, s_.camera, sc.width, sc.height, *cascades, t.resolution,
-                                         fit_origin, samples);
-        else
-            ls.projection = fit_light(light, sc.scene, s_.camera, sc.width, sc.height, t.fit, t.resolution, fit_origin,
-                                      t.shadow_distance);
+        std::optional<LightProjection> fitted;
+        for (const auto& v : variants_)
+            if (!fitted) fitted = v->fit(t, light, fit_origin);
+        ls.projection = fitted ? std::move(*fitted)
+                               : fit_light(light, sc.scene, s_.camera, sc.width, sc.height, t.fit, t.resolution,
+                                           fit_origin, t.shadow_distance);
         if (world) round_to_world_float32(ls.projection, s_.origin);
         ls.views = shadow_views(ls.projection);
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
@@ -1180,11 +807,10 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         r[7].buffer = {slot.output.buffer.get(), 0, slot.output.size};
         r[8].buffer = {slot.mask.buffer.get(), 0, slot.mask.size};
         r[9].buffer = {slot.output.buffer.get(), 0, slot.output.size};
-        // The other families never read it: the depth map stands in.
-        if (moment_parameters(t))
-            r[10].image = {moment_sampler_.get(), map.moments.view.get(), VK_IMAGE_LAYOUT_GENERAL};
-        else
-            r[10].image = {nearest_.get(), map.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        // A variant's own image (a moment family's moments); the depth map stands in, never read.
+        r[10].image = {nearest_.get(), map.depth.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+        for (const auto& v : variants_)
+            if (const auto own = v->family_image(t, map_of_index(li))) r[10].image = *own;
         sets_.write(li, r);
     }
     stats.setup_s += seconds_since(t0);
@@ -1192,7 +818,7 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     auto t1 = SteadyClock::now();
     if (any_point) {
         ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
-            vkCmdResetQueryPool(cmd, queries_.get(), 0, 2);
+            timer_.reset(cmd, 0, kMaskQueries);
             record_map_layouts(cmd);
             record_masks(cmd, lights, t);
         });
@@ -1201,12 +827,12 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     } else {
         for (std::size_t li = 0; li < n; ++li) stats.lights[li].layers_sampled = 1u;
     }
-    // Every cascade is drawn: slices are cut to what the camera sees.
     for (std::size_t li = 0; li < n; ++li)
-        if (cascaded(t, lights[li]))
-            stats.lights[li].layers_sampled = (1u << stats.lights[li].projection.view_proj.size()) - 1u;
+        for (const auto& v : variants_)
+            if (v->draws_every_layer(t, lights[li]))
+                stats.lights[li].layers_sampled = (1u << stats.lights[li].projection.view_proj.size()) - 1u;
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
-        if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 2, static_cast<std::uint32_t>(kQueriesPerLight * n));
+        timer_.reset(cmd, kMaskQueries, queries - kMaskQueries);
         record_map_layouts(cmd);
         for (std::size_t li = 0; li < n; ++li)
             record_light(cmd, t.for_light(li), lights[li], li, stats.lights[li], options);
@@ -1214,27 +840,18 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
     stats.render_s += seconds_since(t1);
 
     // All timestamps in one query-pool read.
-    const std::uint32_t queries = static_cast<std::uint32_t>(2 + kQueriesPerLight * n);
-    std::vector<std::uint64_t> ts(queries, 0);
-    const std::uint32_t first = any_point ? 0 : 2;
-    if (queries > first)
-        VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), first, queries - first,
-                                       (queries - first) * sizeof(std::uint64_t), ts.data() + first,
-                                       sizeof(std::uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-    auto ms = [&](std::uint32_t a, std::uint32_t b) {
-        return ts[b] >= ts[a] ? static_cast<double>(ts[b] - ts[a]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
-    };
+    const std::uint32_t first = any_point ? 0 : kMaskQueries;
+    if (queries > first) timer_.read(first, queries - first);
     for (std::size_t li = 0; li < n; ++li) {
-        const auto q = static_cast<std::uint32_t>(2 + kQueriesPerLight * li);
+        const auto q = static_cast<std::uint32_t>(kMaskQueries + queries_per_light() * li);
         RasterLightStats& ls = stats.lights[li];
-        ls.gpu_ms.add("shadow", ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
-        if (t.depth_layer == DepthLayer::midpoint) ls.gpu_ms.add("second_depth", ms(q + 1, q + 2), kSecondDepth);
-        if (const MomentParameters* m = moment_parameters(t)) {
-            ls.gpu_ms.add("moments", ms(q + 2, q + 3), kMomentsPass);
-            if (m->blur > 0) ls.gpu_ms.add("blur", ms(q + 3, q + 4), kBlurPass);
-            if (m->mipmaps) ls.gpu_ms.add("mipmaps", ms(q + 4, q + 5), kMipmapPass);
+        ls.gpu_ms.add("shadow", timer_.ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
+        std::uint32_t pass = q + 1;  // each variant's passes, timed from the mark before
+        for (const auto& v : variants_) {
+            v->add_times(t, [&](std::uint32_t k) { return timer_.ms(pass + k, pass + k + 1); }, ls.gpu_ms);
+            pass += v->timed_passes();
         }
-        ls.gpu_ms.add("lookup", ms(q + 5, q + 6), options.lookups ? kLookupDiagnostic : kLookupV);
+        ls.gpu_ms.add("lookup", timer_.ms(pass, pass + 1), options.lookups ? kLookupDiagnostic : kLookupV);
         stats.gpu_ms.add(ls.gpu_ms);
         if (options.read_back) {
             frame.lights.push_back(read_back(li, options.lookups));
@@ -1244,14 +861,21 @@ void DepthMapFamily::render(const Technique& t, std::span<const Light> all_light
         }
     }
     if (any_point)
-        stats.gpu_ms.add("layer_mask", ms(0, 1),
+        stats.gpu_ms.add("layer_mask", timer_.ms(0, 1),
                          "a compute pass per point light marking the cube faces some receiver samples");
 }
 
 }  // namespace
 
+std::unique_ptr<TechniqueFamily> make_depth_map_core(const SceneOnGpu& scene, DepthMapVariants variants) {
+    return std::make_unique<DepthMapCore>(scene, std::move(variants));
+}
+
+// The depth_map family: the core, and midpoint depth's second pass (raster/depth_layers.cpp).
 std::unique_ptr<TechniqueFamily> make_depth_map_family(const SceneOnGpu& scene) {
-    return std::make_unique<DepthMapFamily>(scene);
+    DepthMapVariants variants;
+    variants.push_back(make_midpoint_variant(scene));
+    return make_depth_map_core(scene, std::move(variants));
 }
 
 FamilyEntry depth_map_family_entry() {

@@ -3,14 +3,22 @@
 // variance shadow maps (Lauritzen & McCool 2008), with two or four moments, and moment shadow
 // maps (Peters & Klein 2015), with four. They share the
 // depth-map family's map and keys (resolution, format, fit, cull, bias, lights); a moments pass,
-// a separable Gaussian blur and optionally a mip chain follow the map (raster/depth_map.cpp,
-// shaders/moments.comp), and the lookup samples the filtered moments bilinearly or trilinearly.
+// a separable Gaussian blur and optionally a mip chain follow the map (MomentsVariant below, a
+// variant of the depth-map core, raster/depth_map.h; raster/filterable_moments.comp), and the
+// lookup (raster/filterable_lookup.comp) samples the filtered moments bilinearly or trilinearly.
 #include "raster/filterable.h"
 
 #include <fmt/format.h>
 
+#include <map>
+
+#include "common/errors.h"
 #include "common/json_reader.h"
+#include "raster/depth_map.h"
 #include "raster/technique_family.h"
+// SPIR-V compiled from raster/filterable_*.comp at build time.
+#include "filterable_lookup_comp.h"
+#include "filterable_moments_comp.h"
 
 namespace penumbra::raster {
 
@@ -216,6 +224,298 @@ nlohmann::json moment_keys_json(const Technique& t) {
     return j;
 }
 
+}  // namespace
+
+namespace {
+
+// The moment families' passes (raster/filterable_moments.comp): what they read, what they write.
+constexpr std::array<BindingDecl, 2> kMomentBindings = {{
+    {gpu::kBindingMomentSource, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+    {gpu::kBindingMomentTarget, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},
+}};
+// Per map, three sets: depth -> moments, moments -> scratch (blur along x), scratch -> moments (along y).
+constexpr std::size_t kMomentSetsPerMap = 3;
+constexpr const char* kMomentsPass =
+    "compute pass per drawn map layer: the family's moments of every depth texel (vsm d, d^2; esm exp(c d); evsm "
+    "the warped moments; msm d..d^4, optimised and rounded to 16 bits with msm.storage 16) into a texture of the "
+    "family's format";
+constexpr const char* kBlurPass =
+    "two compute passes per drawn map layer: the separable Gaussian of radius `blur` texels (sigma = blur / 2) "
+    "over the moments, along x into a scratch texture and along y back";
+constexpr const char* kMipmapPass =
+    "the moment texture's mip chain, each level a linear blit of the one above (vkCmdBlitImage), after the blur";
+
+// The moment texture's format: the family's moments in float32, or msm's 16-bit storage.
+VkFormat moment_format(const MomentParameters& m) {
+    switch (m.kind) {
+        case MomentKind::esm: return VK_FORMAT_R32_SFLOAT;
+        case MomentKind::vsm:
+        case MomentKind::evsm2: return VK_FORMAT_R32G32_SFLOAT;
+        case MomentKind::evsm4: return VK_FORMAT_R32G32B32A32_SFLOAT;
+        case MomentKind::msm:
+            return m.storage_bits == 16 ? VK_FORMAT_R16G16B16A16_UNORM : VK_FORMAT_R32G32B32A32_SFLOAT;
+    }
+    return VK_FORMAT_R32G32B32A32_SFLOAT;
+}
+
+// Levels of a full mip chain down to 1x1.
+std::uint32_t mip_levels(std::uint32_t res) {
+    std::uint32_t levels = 1;
+    while (res > 1) {
+        res /= 2;
+        ++levels;
+    }
+    return levels;
+}
+
+// The moment families' variant of the depth-map core: after the map, a moments pass, the blur and
+// the mip chain fill a texture of moments per map, and the lookup (raster/filterable_lookup.comp)
+// samples them instead of comparing depths.
+class MomentsVariant final : public DepthMapVariant {
+  public:
+    explicit MomentsVariant(const SceneOnGpu& scene)
+        : ctx_(scene.ctx), sets_(scene.ctx, kMomentBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
+        layout_ = make_pipeline_layout(ctx_, sets_.layout(), sizeof(gpu::MomentPassParams), VK_SHADER_STAGE_COMPUTE_BIT);
+        nearest_ = make_sampler(ctx_, false, false, false);
+        // The lookup samples moments as engines do: bilinear, trilinear across the mip levels, the
+        // map's edge texels repeated beyond it.
+        VkSamplerCreateInfo ci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+        ci.magFilter = ci.minFilter = VK_FILTER_LINEAR;
+        ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
+        ci.addressModeU = ci.addressModeV = ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+        ci.maxLod = VK_LOD_CLAMP_NONE;
+        VkSampler sampler;
+        VK_CHECK(vkCreateSampler(ctx_.device(), &ci, nullptr, &sampler));
+        sampler_ = UniqueSampler(ctx_.device(), sampler);
+    }
+
+    void check_supported(const Technique& t) override {
+        const MomentParameters* m = moment_parameters(t);
+        if (!m) return;
+        // The moment passes write one shader into each family's format, and the lookup filters it.
+        VkFormatFeatureFlags need = VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
+                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
+        if (m->mipmaps) need |= VK_FORMAT_FEATURE_BLIT_SRC_BIT | VK_FORMAT_FEATURE_BLIT_DST_BIT;
+        if (!ctx_.storage_write_without_format() || !ctx_.supports_format_features(moment_format(*m), need))
+            throw EnvironmentError(
+                fmt::format("Vulkan device '{}' cannot store, filter{} the {} family's moments (format {}, "
+                            "shaderStorageImageWriteWithoutFormat {})",
+                            ctx_.info().name, m->mipmaps ? " and blit" : " and", to_string(m->kind),
+                            static_cast<int>(moment_format(*m)), ctx_.storage_write_without_format() ? "on" : "off"));
+    }
+
+    // Per map the moments (level 0, then the mip chain) and the blur's scratch, both kept in GENERAL.
+    void ensure_map_resources(const Technique& t, std::span<const MapShape> maps,
+                              std::span<const GpuImage* const> depth, bool remade) override {
+        const MomentParameters* m = moment_parameters(t);
+        if (!m) return;
+        const VkFormat format = moment_format(*m);
+        const std::uint32_t levels = m->mipmaps && !maps.empty() ? mip_levels(maps[0].resolution) : 1;
+        if (!remade && format == format_ && levels == levels_ &&
+            std::equal(maps.begin(), maps.end(), shapes_.begin(), shapes_.end()))
+            return;
+        textures_.clear();
+        arena_ = MemoryArena(ctx_);
+        textures_.resize(maps.size());
+        const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+        for (std::size_t i = 0; i < maps.size(); ++i) {
+            const std::uint32_t res = maps[i].resolution, layers = maps[i].layers;
+            arena_.add(textures_[i].moments, format, res, res, layers,
+                       usage | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                       VK_IMAGE_ASPECT_COLOR_BIT, true, levels);
+            arena_.add(textures_[i].scratch, format, res, res, layers, usage, VK_IMAGE_ASPECT_COLOR_BIT, true);
+        }
+        arena_.commit();
+        sets_.reserve(kMomentSetsPerMap * textures_.size());
+        for (std::size_t i = 0; i < textures_.size(); ++i) {
+            Textures& x = textures_[i];
+            x.moments_target = create_level_view(ctx_, x.moments, 0, VK_IMAGE_ASPECT_COLOR_BIT);
+            x.scratch_target = create_level_view(ctx_, x.scratch, 0, VK_IMAGE_ASPECT_COLOR_BIT);
+            std::array<DescriptorResource, kMomentBindings.size()> r{};
+            r[0].image = {nearest_.get(), depth[i]->view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+            r[1].image = {VK_NULL_HANDLE, x.moments_target.get(), VK_IMAGE_LAYOUT_GENERAL};
+            sets_.write(kMomentSetsPerMap * i, r);
+            r[0].image = {nearest_.get(), x.moments.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+            r[1].image = {VK_NULL_HANDLE, x.scratch_target.get(), VK_IMAGE_LAYOUT_GENERAL};
+            sets_.write(kMomentSetsPerMap * i + 1, r);
+            r[0].image = {nearest_.get(), x.scratch.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+            r[1].image = {VK_NULL_HANDLE, x.moments_target.get(), VK_IMAGE_LAYOUT_GENERAL};
+            sets_.write(kMomentSetsPerMap * i + 2, r);
+        }
+        format_ = format;
+        levels_ = levels;
+        shapes_.assign(maps.begin(), maps.end());
+    }
+
+    // The moment textures live in GENERAL: written by the passes, blitted, sampled.
+    void record_layouts(VkCommandBuffer cmd) override {
+        for (Textures& x : textures_) {
+            if (x.in_general) continue;
+            for (GpuImage* img : {&x.moments, &x.scratch})
+                image_barrier(cmd, img->image.get(), VK_IMAGE_ASPECT_COLOR_BIT, img->layers, VK_IMAGE_LAYOUT_UNDEFINED,
+                              VK_IMAGE_LAYOUT_GENERAL, VK_PIPELINE_STAGE_2_NONE, VK_ACCESS_2_NONE,
+                              VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+            x.in_general = true;
+        }
+    }
+
+    // The moments follow the map and the family's parameters: a reused map with the same
+    // parameters keeps them. Marks after the moments, the blur and the mip chain.
+    std::uint32_t timed_passes() const override { return 3; }
+    void record_after_map(VkCommandBuffer cmd, const Technique& t, const MapTargets& map, PassMarks& marks) override {
+        const MomentParameters* m = moment_parameters(t);
+        Textures* x = m ? &textures_[map.map_index] : nullptr;
+        if (x && map.redrawn) x->of.reset();
+        if (x && map.layers_sampled != 0) {
+            const std::array<double, 7> of = {static_cast<double>(map.depth->width),
+                                              static_cast<double>(m->kind),
+                                              m->exponent,
+                                              m->negative_exponent,
+                                              static_cast<double>(m->storage_bits),
+                                              static_cast<double>(m->blur),
+                                              m->mipmaps ? 1.0 : 0.0};
+            if (x->of != of || x->layers_of != map.layers_sampled || x->views_of != map.projection->view_proj) {
+                record_moments(cmd, *m, t.reversed_z, map, marks);
+                x->of = of;
+                x->layers_of = map.layers_sampled;
+                x->views_of = map.projection->view_proj;
+                return;
+            }
+        }
+        for (int k = 0; k < 3; ++k) marks.mark(cmd);  // no moment pass: its marks at once
+    }
+    void add_times(const Technique& t, const std::function<double(std::uint32_t)>& ms,
+                   PassTimes& times) const override {
+        const MomentParameters* m = moment_parameters(t);
+        if (!m) return;
+        times.add("moments", ms(0), kMomentsPass);
+        if (m->blur > 0) times.add("blur", ms(1), kBlurPass);
+        if (m->mipmaps) times.add("mipmaps", ms(2), kMipmapPass);
+    }
+
+    std::optional<LookupShader> lookup_shader(const Technique& t, const Light&) const override {
+        const MomentParameters* m = moment_parameters(t);
+        if (!m) return std::nullopt;
+        // Specialisation constant kSpecFilter is the moment kind; the blur is its own pass.
+        return LookupShader{kFilterableLookupComp, sizeof(kFilterableLookupComp), static_cast<std::uint32_t>(m->kind),
+                            0};
+    }
+    void fill_params(gpu::LookupParams& p, const Technique& t, const Light&, const LightProjection&) const override {
+        const MomentParameters* m = moment_parameters(t);
+        if (!m) return;
+        p.moments = moment_uniform(*m);
+        p.moment_map = glm::vec4(static_cast<float>(m->mipmaps ? mip_levels(static_cast<std::uint32_t>(t.resolution)) : 1),
+                                 m->kind == MomentKind::msm && m->storage_bits == 16 ? 1.0f : 0.0f, 0.0f, 0.0f);
+    }
+    std::optional<VkDescriptorImageInfo> family_image(const Technique& t, std::size_t map) const override {
+        if (!moment_parameters(t)) return std::nullopt;
+        return VkDescriptorImageInfo{sampler_.get(), textures_[map].moments.view.get(), VK_IMAGE_LAYOUT_GENERAL};
+    }
+
+  private:
+    struct Textures {
+        GpuImage moments, scratch;
+        UniqueImageView moments_target, scratch_target;  // level 0, every layer: the storage views
+        bool in_general = false;
+        // What they hold: the map's size and the parameters, its sampled layers and views.
+        std::optional<std::array<double, 7>> of;
+        std::uint32_t layers_of = 0;
+        std::vector<glm::dmat4> views_of;
+    };
+
+    VkPipeline pipeline(const MomentParameters& m, gpu::uint pass) {
+        const std::array<std::uint32_t, 3> spec = {static_cast<std::uint32_t>(m.kind), pass,
+                                                   static_cast<std::uint32_t>(m.blur)};
+        UniquePipeline& p = pipelines_[spec];
+        if (!p)
+            p = make_compute_pipeline(ctx_, layout_.get(), kFilterableMomentsComp, sizeof(kFilterableMomentsComp), spec);
+        return p.get();
+    }
+
+    // The moments of every sampled layer, the separable blur, the mip chain, each marked after.
+    // Every pass reads what the one before wrote: a memory barrier between them (the textures
+    // stay in GENERAL).
+    void record_moments(VkCommandBuffer cmd, const MomentParameters& m, bool reversed_z, const MapTargets& map,
+                        PassMarks& marks) {
+        Textures& x = textures_[map.map_index];
+        const auto res = map.depth->width;
+        const std::uint32_t layer_count = static_cast<std::uint32_t>(map.projection->view_proj.size());
+        const gpu::MomentPassParams base{
+            glm::vec4(static_cast<float>(m.exponent), static_cast<float>(m.negative_exponent),
+                      m.kind == MomentKind::msm && m.storage_bits == 16 ? 1.0f : 0.0f, 0.0f),
+            glm::uvec4(0u, res, reversed_z ? 1u : 0u, 0u)};  // moments of forward depth
+        auto dispatch = [&](gpu::uint pass, std::size_t set_index) {
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline(m, pass));
+            VkDescriptorSet set = sets_[kMomentSetsPerMap * map.map_index + set_index];
+            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_.get(), 0, 1, &set, 0, nullptr);
+            for (std::uint32_t layer = 0; layer < layer_count; ++layer) {
+                if (!(map.layers_sampled & (1u << layer))) continue;
+                gpu::MomentPassParams push = base;
+                push.layer.x = layer;
+                vkCmdPushConstants(cmd, layout_.get(), VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+                vkCmdDispatch(cmd, (res + 7) / 8, (res + 7) / 8, 1);
+            }
+        };
+        auto compute_to_compute = [&] {
+            memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                           VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+                           VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+        };
+        // The previous light's or render's lookup and blits may still read the textures.
+        memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_2_BLIT_BIT,
+                       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT | VK_ACCESS_2_TRANSFER_READ_BIT,
+                       VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT);
+        dispatch(gpu::kMomentPassWarp, 0);
+        compute_to_compute();
+        marks.mark(cmd);
+        if (m.blur > 0) {
+            dispatch(gpu::kMomentPassBlurX, 1);
+            compute_to_compute();
+            dispatch(gpu::kMomentPassBlurY, 2);
+            compute_to_compute();
+        }
+        marks.mark(cmd);
+        if (x.moments.levels > 1) {
+            memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
+                           VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+            for (std::uint32_t level = 1; level < x.moments.levels; ++level) {
+                const auto from = static_cast<std::int32_t>(std::max(res >> (level - 1), 1u));
+                const auto to = static_cast<std::int32_t>(std::max(res >> level, 1u));
+                VkImageBlit blit{};
+                blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, x.moments.layers};
+                blit.srcOffsets[1] = {from, from, 1};
+                blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, x.moments.layers};
+                blit.dstOffsets[1] = {to, to, 1};
+                vkCmdBlitImage(cmd, x.moments.image.get(), VK_IMAGE_LAYOUT_GENERAL, x.moments.image.get(),
+                               VK_IMAGE_LAYOUT_GENERAL, 1, &blit, VK_FILTER_LINEAR);
+                memory_barrier(cmd, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                               VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT);
+            }
+            memory_barrier(cmd, VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                           VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+        }
+        marks.mark(cmd);
+    }
+
+    const VulkanContext& ctx_;
+    DescriptorSets sets_;
+    UniquePipelineLayout layout_;
+    UniqueSampler nearest_, sampler_;
+    std::map<std::array<std::uint32_t, 3>, UniquePipeline> pipelines_;
+    // The arena before what is bound to it: destroyed after it.
+    MemoryArena arena_;
+    std::vector<Textures> textures_;
+    VkFormat format_ = VK_FORMAT_UNDEFINED;
+    std::uint32_t levels_ = 0;
+    std::vector<MapShape> shapes_;  // what textures_ were made for
+};
+
+std::unique_ptr<TechniqueFamily> make_moment_family(const SceneOnGpu& scene) {
+    DepthMapVariants variants;
+    variants.push_back(std::make_unique<MomentsVariant>(scene));
+    return make_depth_map_core(scene, std::move(variants));
+}
+
 FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
     FamilyEntry e = depth_map_family_entry();
     e.name = to_string(kind);
@@ -230,6 +530,7 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
         h.light_bleeding = true;
         return h;
     };
+    e.make = make_moment_family;
     e.describe_light = [](const Technique& t, const Light&, const RasterLightStats&) {
         const MomentParameters& p = parameters_of(t);
         return nlohmann::json{

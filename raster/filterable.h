@@ -12,7 +12,7 @@
 
 namespace penumbra::raster {
 
-// The order is the lookup shader's: kFilterVsm + kind (shaders/penumbra_shared.h).
+// The order is the shaders' kMoment* (raster/filterable.glsl).
 enum class MomentKind { vsm, esm, evsm2, evsm4, msm };
 const char* to_string(MomentKind k);
 
@@ -54,7 +54,7 @@ inline constexpr double kEvsmMinVariance = 2.5e-9;
 inline constexpr double kMsmMomentBias32 = 3e-5;
 inline constexpr double kMsmMomentBias16 = 6e-5;
 
-// The math of shaders/lookup.comp's moment filters, on the CPU, for tests.
+// The math of raster/filterable_lookup.comp's moment filters, on the CPU, for tests.
 // One-tailed Chebyshev upper bound on P(d >= t) from the first two moments (Donnelly & Lauritzen
 // 2006), the variance floored at `min_variance`.
 inline double chebyshev_upper_bound(double m1, double m2, double t, double min_variance) {
@@ -71,7 +71,7 @@ inline double reduce_light_bleeding(double p, double amount) {
 // Moment shadow maps (Peters & Klein, "Moment Shadow Mapping", I3D 2015). b = (E[d], E[d^2],
 // E[d^3], E[d^4]) of the filtered depths; returns the visibility (1 lit) of a receiver at depth
 // `z`, after the moment bias `alpha`. Double precision; the shader's float version is
-// msm_visibility in shaders/lookup.comp.
+// msm_visibility in raster/filterable_lookup.comp.
 double msm_visibility(const std::array<double, 4>& b, double z, double alpha, MsmVariant variant);
 // The optimised quantisation of Peters & Klein 2015 (section 4.3): an affine map of the four
 // moments of a depth in [0, 1] onto [0, 1]^4 that spreads them over the 16-bit range, its

@@ -259,4 +259,39 @@ void DescriptorSets::write(std::size_t index, std::span<const DescriptorResource
     vkUpdateDescriptorSets(ctx_->device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
 }
 
+void GpuTimestamps::ensure(std::uint32_t count) {
+    if (pool_ && capacity_ >= count) return;
+    VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    qi.queryCount = std::max(count, 1u);
+    VkQueryPool qp;
+    VK_CHECK(vkCreateQueryPool(ctx_->device(), &qi, nullptr, &qp));
+    pool_ = UniqueQueryPool(ctx_->device(), qp);
+    capacity_ = qi.queryCount;
+    ticks_.assign(capacity_, 0);
+}
+
+void GpuTimestamps::reset(VkCommandBuffer cmd, std::uint32_t first, std::uint32_t count) const {
+    if (count > 0) vkCmdResetQueryPool(cmd, pool_.get(), first, count);
+}
+
+void GpuTimestamps::write(VkCommandBuffer cmd, std::uint32_t query, VkPipelineStageFlags2 stage) const {
+    vkCmdWriteTimestamp2(cmd, stage, pool_.get(), query);
+}
+
+void GpuTimestamps::read(std::uint32_t first, std::uint32_t count) {
+    if (count == 0) return;
+    VK_CHECK(vkGetQueryPoolResults(ctx_->device(), pool_.get(), first, count, count * sizeof(std::uint64_t),
+                                   ticks_.data() + first, sizeof(std::uint64_t),
+                                   VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+}
+
+double GpuTimestamps::ms(std::uint32_t a, std::uint32_t b) const {
+    return ticks_to_ms(*ctx_, ticks_[a], ticks_[b]);
+}
+
+double ticks_to_ms(const VulkanContext& ctx, std::uint64_t a, std::uint64_t b) {
+    return b >= a ? static_cast<double>(b - a) * ctx.limits().timestampPeriod * 1e-6 : 0.0;
+}
+
 }  // namespace penumbra::raster

@@ -61,6 +61,30 @@ void set_viewport(VkCommandBuffer cmd, std::uint32_t w, std::uint32_t h);
 void begin_rendering(VkCommandBuffer cmd, VkImageView color, VkImageView depth, std::uint32_t w, std::uint32_t h,
                      float depth_clear);
 
+// GPU timestamps in one query pool, grown on demand and read back in one call: the timer every
+// pass shares (raster.json's gpu_ms). Ticks become milliseconds by the device's timestampPeriod.
+class GpuTimestamps {
+  public:
+    explicit GpuTimestamps(const VulkanContext& ctx) : ctx_(&ctx) {}
+    // At least `count` queries (a larger pool replaces the old one: only between submissions).
+    void ensure(std::uint32_t count);
+    void reset(VkCommandBuffer cmd, std::uint32_t first, std::uint32_t count) const;
+    void write(VkCommandBuffer cmd, std::uint32_t query,
+               VkPipelineStageFlags2 stage = VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT) const;
+    // Queries [first, first + count), after the submission that wrote them has completed.
+    void read(std::uint32_t first, std::uint32_t count);
+    // Milliseconds from query a to query b (as read), 0 when b's ticks precede a's.
+    double ms(std::uint32_t a, std::uint32_t b) const;
+
+  private:
+    const VulkanContext* ctx_;
+    UniqueQueryPool pool_;
+    std::uint32_t capacity_ = 0;
+    std::vector<std::uint64_t> ticks_;
+};
+// Milliseconds between two timestamps of `ctx`, 0 when b precedes a.
+double ticks_to_ms(const VulkanContext& ctx, std::uint64_t a, std::uint64_t b);
+
 // One binding of a descriptor set (one descriptor each).
 struct BindingDecl {
     std::uint32_t binding;

@@ -34,9 +34,9 @@ PENUMBRA_CONST uint kBindingLookupParams = 6;   // uniform LookupParams
 PENUMBRA_CONST uint kBindingLookupOut = 7;      // LookupTexel[pixels]
 PENUMBRA_CONST uint kBindingFaceMask = 8;       // uint: bit f = cube face f is sampled
 PENUMBRA_CONST uint kBindingVisibilityOut = 9;  // float[pixels]: V alone (kModeVisibility)
-// sampler2DArray, linear (trilinear with mipmaps), clamp to edge: a moment family's filtered
-// moments (the depth map, never read, for the other families)
-PENUMBRA_CONST uint kBindingMoments = 10;
+// sampler2DArray: a depth-map variant's own image (DepthMapVariant::family_image; the moment
+// families' filtered moments, linear, trilinear with mipmaps, clamp to edge), else the depth map, never read
+PENUMBRA_CONST uint kBindingFamilyImage = 10;
 // SDSM's reduction (sdsm.comp) binds the first three above and this.
 PENUMBRA_CONST uint kBindingSdsmRange = 3;  // uint[2]: least, greatest view depth (order-preserving bits)
 
@@ -53,27 +53,21 @@ PENUMBRA_CONST uint kSpecMode = 7;             // kMode*
 PENUMBRA_CONST uint kLightDirectional = 0;
 PENUMBRA_CONST uint kLightSpot = 1;
 PENUMBRA_CONST uint kLightPoint = 2;
-PENUMBRA_CONST uint kLightCascade = 3;  // directional, one layer per cascade of view depth
 
 PENUMBRA_CONST uint kFilterNone = 0;
 PENUMBRA_CONST uint kFilterHw2x2 = 1;
 PENUMBRA_CONST uint kFilterPcf = 2;
 PENUMBRA_CONST uint kFilterPoisson = 3;
 PENUMBRA_CONST uint kFilterPcss = 4;
-// Moment families (raster/filterable.h): the lookup samples their filtered moments (kBindingMoments).
-PENUMBRA_CONST uint kFilterVsm = 5;
-PENUMBRA_CONST uint kFilterEsm = 6;
-PENUMBRA_CONST uint kFilterEvsm2 = 7;
-PENUMBRA_CONST uint kFilterEvsm4 = 8;
-PENUMBRA_CONST uint kFilterMsm = 9;  // moments: moment bias, unused, variant (1 hausdorff), storage bits
-// After the moment families: a rotated Vogel disk of kSpecPoissonTaps taps (three.js's PCF).
-PENUMBRA_CONST uint kFilterVogel = 10;
+// A rotated Vogel disk of kSpecPoissonTaps taps (three.js's PCF).
+PENUMBRA_CONST uint kFilterVogel = 5;
+// A family's own lookup gives kSpecFilter its own meaning (the moment families: the moment kind).
 
-// The moment families' passes (shaders/moments.comp): the source texture, read by texelFetch
+// The moment families' passes (raster/filterable_moments.comp): the source texture, read by texelFetch
 // (the depth map, or moments to blur), and the storage image they write.
 PENUMBRA_CONST uint kBindingMomentSource = 0;
 PENUMBRA_CONST uint kBindingMomentTarget = 1;
-PENUMBRA_CONST uint kSpecMomentFilter = 0;  // kFilterVsm ... kFilterMsm
+PENUMBRA_CONST uint kSpecMomentFilter = 0;  // the moment kind (raster/filterable.glsl)
 PENUMBRA_CONST uint kSpecMomentPass = 1;    // kMomentPass*
 PENUMBRA_CONST uint kSpecMomentRadius = 2;  // the blur's radius, texels
 PENUMBRA_CONST uint kMomentPassWarp = 0;    // depth -> the family's moments
@@ -111,14 +105,14 @@ struct LookupParams {
     vec4 light_axis[kMaxLayers];        // perspective: unit forward axis of each layer
     vec4 poisson[kMaxPoissonTaps / 2];  // two taps (x, y) per vec4, unit disk
     vec4 pcss;                          // light radius (m), near, far (m, perspective layers), largest radius (texels)
-    // kLightCascade: x = cascade count, y = overlap fraction; per cascade (4 a vec4) the far end
+    // Cascades (raster/cascades_lookup.comp): x = cascade count, y = overlap fraction; per cascade (4 a vec4) the far end
     // of its slice of view depth (metres) and its texel size (metres).
     vec4 cascade;
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];
-    vec4 moments;     // min variance, light-bleed reduction, exponent, negative exponent (msm: kFilterMsm)
+    vec4 moments;     // min variance, light-bleed reduction, exponent, negative exponent (msm: kMomentMsm)
     vec4 moment_map;  // x: mip levels of the moment texture (1: bilinear, more: trilinear), y: 1 msm 16-bit
-    // kLightCascade: per cascade (4 a vec4) the factor its world bias (metres) and hardware
+    // Cascades: per cascade (4 a vec4) the factor its world bias (metres) and hardware
     // constant bias are multiplied by: 1, or with cascades.texel_scaled_bias its texel over the
     // first cascade's (the constant also by the first's depth range over its own).
     vec4 cascade_world_scale[kMaxLayers / 4];

@@ -26,6 +26,7 @@
 #include "pipeline/compare_files.h"
 #include "pipeline/validate.h"
 #include "pipeline/validate_files.h"
+#include "raster/depth_map.h"
 #include "raster/raster.h"
 #include "raster/technique.h"
 #include "raster/technique_family.h"

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "common/errors.h"
+#include "raster/depth_map.h"
 #include "raster/light_projection.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
@@ -306,6 +307,55 @@ TEST_F(FamilyOnDevice, ARegisteredFamilyDrawsTheTechniquesThatNameIt) {
     EXPECT_EQ(j["family"], "constant_shade");
     // The same session goes on drawing depth maps.
     EXPECT_EQ(session.render(parse_technique(nlohmann::json::object(), "t")).stats.family, "depth_map");
+}
+
+// A depth-map variant added from outside the library (docs/raster.md, "Adding a depth-map
+// variant"): its own code and one registration, nothing edited in the core. This one doubles
+// every layer's hardware constant bias through the core's hook, so it must draw exactly the map
+// the depth map draws with the constant doubled, and not the one it draws without.
+class DoubledConstant final : public raster::DepthMapVariant {
+  public:
+    double constant_scale(const raster::Technique&, const Light&, const raster::LightProjection&,
+                          std::uint32_t) const override {
+        return 2.0;
+    }
+};
+
+void register_doubled_constant() {
+    if (raster::find_technique_family("doubled_constant")) return;
+    raster::FamilyEntry e = raster::depth_map_family_entry();
+    e.name = "doubled_constant";
+    e.description = "a test variant: the depth map with each layer's constant bias doubled";
+    e.make = [](const raster::SceneOnGpu& s) {
+        raster::DepthMapVariants variants;
+        variants.push_back(std::make_unique<DoubledConstant>());
+        return raster::make_depth_map_core(s, std::move(variants));
+    };
+    raster::register_technique_family(std::move(e));
+}
+
+TEST_F(FamilyOnDevice, ADepthMapVariantFromOutsideDrawsThroughTheCoresHooks) {
+    register_doubled_constant();
+    for (const Light& light : {test::directional({-0.4, -1, -0.3}), test::point({0.5, 3, 0.2})}) {
+        const Scenario sc = views_scene(light);
+        raster::RasterSession session(sc, *ctx_);
+        auto technique = [](const char* family, double constant) {
+            return parse_technique({{"family", family},
+                                    {"resolution", 256},
+                                    {"depth_format", "d24"},
+                                    {"bias", {{"constant", constant}, {"slope", 0}}}},
+                                   "t");
+        };
+        const raster::RasterResult doubled = session.render(technique("doubled_constant", 20000));
+        const raster::RasterResult twice = session.render(technique("depth_map", 40000));
+        const raster::RasterResult once = session.render(technique("depth_map", 20000));
+        EXPECT_EQ(doubled.stats.family, "doubled_constant");
+        ASSERT_EQ(doubled.frame.lights.size(), 1u);
+        ASSERT_TRUE(doubled.frame.lights[0].lookups && twice.frame.lights[0].lookups && once.frame.lights[0].lookups);
+        EXPECT_EQ(doubled.frame.lights[0].V, twice.frame.lights[0].V);
+        EXPECT_EQ(doubled.frame.lights[0].lookups->stored_depth, twice.frame.lights[0].lookups->stored_depth);
+        EXPECT_NE(doubled.frame.lights[0].lookups->stored_depth, once.frame.lights[0].lookups->stored_depth);
+    }
 }
 
 // A render without read-back leaves each light's output where the lookup pass wrote it, for a

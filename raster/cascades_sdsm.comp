@@ -36,7 +36,7 @@ void main() {
     uint W = uint(p.image.x), H = uint(p.image.y);
     uint id = pix.x < W && pix.y < H ? imageLoad(gbuffer_prim, ivec2(pix)).r : kNoPrim;
     if (id != kNoPrim) {
-        // As lookup.comp's main(): the same float operations give the same point.
+        // As shaders/lookup_main.glsl's main(): the same float operations give the same point.
         vec3 v0 = vertex(indices[3 * id]), v1 = vertex(indices[3 * id + 1]), v2 = vertex(indices[3 * id + 2]);
         vec3 n = normalize(cross(v1 - v0, v2 - v0));
         vec2 ndc = vec2((float(pix.x) + 0.5) * 2.0 * p.image.z - 1.0, 1.0 - (float(pix.y) + 0.5) * 2.0 * p.image.w);

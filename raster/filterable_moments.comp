@@ -7,11 +7,12 @@
 // family's (R32F, RG32F, RGBA32F, or RGBA16 UNORM for msm's 16-bit storage), so the store
 // itself rounds what 16 bits cannot hold.
 #include "penumbra_shared.h"
+#include "filterable.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // Ids must match kSpecMoment* in penumbra_shared.h.
-layout(constant_id = 0) const uint kFilterType = 5;
+layout(constant_id = 0) const uint kMomentKind = 0;  // kMoment*
 layout(constant_id = 1) const uint kPass = 0;
 layout(constant_id = 2) const uint kRadius = 0;
 
@@ -21,7 +22,7 @@ layout(push_constant) uniform Push { MomentPassParams q; };
 
 // Moment shadow maps' optimised 16-bit quantisation (Peters & Klein 2015, section 4.3): the
 // four moments mapped affinely onto [0, 1]^4 (raster/filterable.cpp has the same matrix;
-// lookup.comp maps them back).
+// raster/filterable_lookup.comp maps them back).
 vec4 msm_optimise(vec4 b) {
     const mat4 a = mat4(-2.07224649, 13.7948857237, 0.105877704, 9.7924062118,  // column 1
                         32.23703778, -59.4683975703, -1.9077466311, -33.7652110555,
@@ -32,12 +33,12 @@ vec4 msm_optimise(vec4 b) {
 
 // The family's moments of depth d.
 vec4 warp(float d) {
-    if (kFilterType == kFilterVsm) return vec4(d, d * d, 0.0, 0.0);
-    if (kFilterType == kFilterMsm) {
+    if (kMomentKind == kMomentVsm) return vec4(d, d * d, 0.0, 0.0);
+    if (kMomentKind == kMomentMsm) {
         vec4 b = vec4(d, d * d, d * d * d, d * d * d * d);
         return q.warp.z > 0.5 ? clamp(msm_optimise(b), 0.0, 1.0) : b;
     }
-    if (kFilterType == kFilterEsm) return vec4(exp(q.warp.x * d), 0.0, 0.0, 0.0);
+    if (kMomentKind == kMomentEsm) return vec4(exp(q.warp.x * d), 0.0, 0.0, 0.0);
     float w = 2.0 * d - 1.0;  // EVSM warps depth remapped to [-1, 1]
     float pos = exp(q.warp.x * w), neg = -exp(-q.warp.y * w);
     return vec4(pos, pos * pos, neg, neg * neg);
