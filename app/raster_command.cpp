@@ -9,6 +9,7 @@
 #include "common/stopwatch.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
+#include "raster/technique_family.h"
 #include "report/frame_files.h"
 
 namespace penumbra::cli {
@@ -37,8 +38,8 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
     if (!c.quiet) {
         const auto& s = result.stats;
         for (const auto& w : s.warnings) fmt::print(stderr, "warning: {}\n", w);
-        // A family without a map (shadow volumes) has resolution 0: its passes are all GPU time.
-        const std::string map = technique.resolution > 0
+        // A family without a map (shadow volumes, planar projection): its passes are all GPU time.
+        const std::string map = raster::family_of(technique).draws_maps
                                     ? fmt::format("{}^2 {} map; GPU shadow {:.2f} ms", technique.resolution,
                                                   raster::to_string(technique.depth_format), s.gpu_ms["shadow"])
                                     : fmt::format("{}, no map; GPU {:.2f} ms", s.family, s.gpu_ms.total());

@@ -96,7 +96,7 @@ class BareDepthPass {
         std::uint64_t t[2] = {0, 0};
         VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), 0, 2, sizeof(t), t, sizeof(std::uint64_t),
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        return t[1] >= t[0] ? static_cast<double>(t[1] - t[0]) * ctx_.limits().timestampPeriod * 1e-6 : 0.0;
+        return raster::ticks_to_ms(ctx_, t[0], t[1]);
     }
 
   private:

@@ -81,7 +81,7 @@ glm::dvec4 homogeneous_light(const Light& l) {
 
 class PlanarProjectionFamily final : public TechniqueFamily {
   public:
-    explicit PlanarProjectionFamily(const SceneOnGpu& scene) : s_(scene), ctx_(scene.ctx) {}
+    explicit PlanarProjectionFamily(const SceneOnGpu& scene) : s_(scene), ctx_(scene.ctx), timer_(scene.ctx) {}
     void render(const Technique& t, std::span<const Light> lights, const RenderOptions& options, RasterFrame& frame,
                 RasterStats& stats) override;
 
@@ -97,8 +97,7 @@ class PlanarProjectionFamily final : public TechniqueFamily {
     UniquePipeline pipeline_;
     MemoryArena arena_;
     GpuImage coverage_, depth_;
-    UniqueQueryPool queries_;
-    std::uint32_t query_capacity_ = 0;
+    GpuTimestamps timer_;
     // The receiver plane the per-triangle flags below were computed for.
     std::optional<glm::dvec4> flags_plane_;
     std::vector<std::uint8_t> on_plane_;  // per triangle: all three vertices on the receiver plane
@@ -210,15 +209,7 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
     }
     ensure_resources();
     const std::size_t n = lights.size();
-    if (query_capacity_ < 2 * n) {
-        VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-        qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-        qi.queryCount = static_cast<std::uint32_t>(2 * n);
-        VkQueryPool qp;
-        VK_CHECK(vkCreateQueryPool(ctx_.device(), &qi, nullptr, &qp));
-        queries_ = UniqueQueryPool(ctx_.device(), qp);
-        query_capacity_ = static_cast<std::uint32_t>(2 * n);
-    }
+    timer_.ensure(static_cast<std::uint32_t>(2 * n));
     // Per light: its flattened casters and the host copy of its coverage.
     std::vector<GpuBuffer> vertices(n), readback(n);
     std::vector<std::uint32_t> vertex_counts(n, 0);
@@ -236,7 +227,7 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
 
     auto t1 = SteadyClock::now();
     ctx_.submit_and_wait([&](VkCommandBuffer cmd) {
-        if (n > 0) vkCmdResetQueryPool(cmd, queries_.get(), 0, static_cast<std::uint32_t>(2 * n));
+        timer_.reset(cmd, 0, static_cast<std::uint32_t>(2 * n));
         for (std::size_t li = 0; li < n; ++li) {
             const auto q = static_cast<std::uint32_t>(2 * li);
             image_barrier(cmd, coverage_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, 1, VK_IMAGE_LAYOUT_UNDEFINED,
@@ -246,7 +237,7 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
                 cmd, depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT, 1, VK_IMAGE_LAYOUT_UNDEFINED,
                 VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, kFragmentTests, VK_ACCESS_2_NONE, kFragmentTests,
                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q);
+            timer_.write(cmd, q);
             begin_rendering(cmd, coverage_.view.get(), depth_.view.get(), s_.width, s_.height, 0.0f);
             if (vertex_counts[li] > 0) {
                 vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_.get());
@@ -257,7 +248,7 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
                 vkCmdDraw(cmd, vertex_counts[li], 1, 0, 0);
             }
             vkCmdEndRendering(cmd);
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), q + 1);
+            timer_.write(cmd, q + 1);
             image_barrier(cmd, coverage_.image.get(), VK_IMAGE_ASPECT_COLOR_BIT, 1,
                           VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                           VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
@@ -273,18 +264,12 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
     });
     stats.render_s += seconds_since(t1);
 
-    std::vector<std::uint64_t> ts(2 * n, 0);
-    if (n > 0)
-        VK_CHECK(vkGetQueryPoolResults(ctx_.device(), queries_.get(), 0, static_cast<std::uint32_t>(2 * n),
-                                       ts.size() * sizeof(std::uint64_t), ts.data(), sizeof(std::uint64_t),
-                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    timer_.read(0, static_cast<std::uint32_t>(2 * n));
     stats.lights.resize(n);
     for (std::size_t li = 0; li < n; ++li) {
         RasterLightStats& ls = stats.lights[li];
         ls = {};
-        const std::uint64_t a = ts[2 * li], b = ts[2 * li + 1];
-        ls.gpu_ms.add("stencil", b >= a ? static_cast<double>(b - a) * ctx_.limits().timestampPeriod * 1e-6 : 0.0,
-                      kStencilPass);
+        ls.gpu_ms.add("stencil", timer_.ms(2 * li, 2 * li + 1), kStencilPass);
         stats.gpu_ms.add(ls.gpu_ms);
         RasterLightImage img;
         img.V = visibility(*plane, lights[li], static_cast<const std::uint32_t*>(readback[li].mapped));
@@ -300,6 +285,7 @@ nlohmann::json plane_json(const glm::dvec4& p) {
 
 FamilyEntry planar_projection_family_entry() {
     FamilyEntry e;
+    e.draws_maps = false;
     e.name = "planar_projection";
     e.description =
         "planar projection shadows (Blinn 1988): casters flattened onto one receiver plane by the light's projection "

@@ -160,7 +160,7 @@ void prepare_scene(SceneOnGpu& s) {
     std::uint64_t t[2] = {0, 0};
     VK_CHECK(vkGetQueryPoolResults(ctx.device(), queries.get(), 0, 2, sizeof(t), t, sizeof(std::uint64_t),
                                    VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-    s.camera_ms = t[1] >= t[0] ? static_cast<double>(t[1] - t[0]) * ctx.limits().timestampPeriod * 1e-6 : 0.0;
+    s.camera_ms = ticks_to_ms(ctx, t[0], t[1]);
     static std::atomic<std::uint64_t> passes_drawn{0};
     s.camera_pass = ++passes_drawn;
     s.prim.resize(s.pixels);

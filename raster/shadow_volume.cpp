@@ -376,7 +376,8 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     explicit ShadowVolumeFamily(const SceneOnGpu& s)
         : s_(s),
           topology_(scene_topology(s.scenario.scene)),
-          depth_sets_(s.ctx, kDepthBindings, VK_SHADER_STAGE_FRAGMENT_BIT) {}
+          depth_sets_(s.ctx, kDepthBindings, VK_SHADER_STAGE_FRAGMENT_BIT),
+          timer_(s.ctx) {}
 
     void render(const Technique& technique, std::span<const Light> lights, const RenderOptions&, RasterFrame& frame,
                 RasterStats& stats) override {
@@ -420,8 +421,8 @@ class ShadowVolumeFamily final : public TechniqueFamily {
         const std::uint32_t W = s_.width, H = s_.height;
         auto t_render = SteadyClock::now();
         s_.ctx.submit_and_wait([&](VkCommandBuffer cmd) {
-            vkCmdResetQueryPool(cmd, queries_.get(), 0, queries);
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT, queries_.get(), 0);
+            timer_.reset(cmd, 0, queries);
+            timer_.write(cmd, 0, VK_PIPELINE_STAGE_2_TOP_OF_PIPE_BIT);
             image_barrier(
                 cmd, depth_.image.get(), VK_IMAGE_ASPECT_DEPTH_BIT | VK_IMAGE_ASPECT_STENCIL_BIT, 1,
                 VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE,
@@ -442,7 +443,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                 vkCmdDraw(cmd, scene_vertex_count_, 1, 0, 0);
             }
             vkCmdEndRendering(cmd);
-            vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(), 1);
+            timer_.write(cmd, 1);
             for (std::size_t li = 0; li < L; ++li) {
                 const LightVolume& v = volumes_[li];
                 memory_barrier(
@@ -456,8 +457,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                     vkCmdDraw(cmd, static_cast<std::uint32_t>(v.vertex_count), 1, 0, 0);
                 }
                 vkCmdEndRendering(cmd);
-                vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(),
-                                     static_cast<std::uint32_t>(2 + 2 * li));
+                timer_.write(cmd, static_cast<std::uint32_t>(2 + 2 * li));
                 memory_barrier(
                     cmd, kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kFragmentTests,
                     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
@@ -479,21 +479,16 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                 region.imageExtent = {W, H, 1};
                 vkCmdCopyImageToBuffer(cmd, visibility_.image.get(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                                        readback_.buffer.get(), 1, &region);
-                vkCmdWriteTimestamp2(cmd, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT, queries_.get(),
-                                     static_cast<std::uint32_t>(3 + 2 * li));
+                timer_.write(cmd, static_cast<std::uint32_t>(3 + 2 * li));
             }
             memory_barrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
                            VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
         });
         stats.render_s += seconds_since(t_render);
         stats.hw2x2 = "unused";
-        std::vector<std::uint64_t> t(queries, 0);
-        VK_CHECK(vkGetQueryPoolResults(s_.ctx.device(), queries_.get(), 0, queries, t.size() * sizeof(std::uint64_t),
-                                       t.data(), sizeof(std::uint64_t),
-                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        const double period = s_.ctx.limits().timestampPeriod * 1e-6;
+        timer_.read(0, queries);
         auto ms = [&](std::size_t a, std::size_t b) {
-            return t[b] >= t[a] ? static_cast<double>(t[b] - t[a]) * period : 0.0;
+            return timer_.ms(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
         };
         stats.gpu_ms.add("depth", ms(0, 1), "the camera's depth and stencil redrawn for the volumes, once a render");
         const float* visible = static_cast<const float*>(readback_.mapped);
@@ -621,17 +616,12 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             resolve_ = make_pipeline(ctx, volume_layout_.get(), r);
         }
         if (volumes_.size() < lights) volumes_.resize(lights);
-        if (!queries_ || readback_lights_ < lights) {  // also with no lights: the depth pass is timed
+        if (!readback_.buffer || readback_lights_ < lights) {
             readback_ = create_buffer(ctx, std::max<std::size_t>(lights, 1) * s_.pixels * sizeof(float),
                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
             readback_lights_ = lights;
-            VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
-            qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-            qi.queryCount = static_cast<std::uint32_t>(2 + 2 * lights);
-            VkQueryPool qp;
-            VK_CHECK(vkCreateQueryPool(ctx.device(), &qi, nullptr, &qp));
-            queries_ = UniqueQueryPool(ctx.device(), qp);
         }
+        timer_.ensure(static_cast<std::uint32_t>(2 + 2 * lights));  // also with no lights: the depth pass is timed
     }
 
     // As the depth map's lookup: V = 0 where the seen side faces away from the light (the near
@@ -682,7 +672,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     std::size_t readback_lights_ = 0;
     UniquePipelineLayout depth_layout_, volume_layout_;
     UniquePipeline depth_pipeline_, zfail_, zpass_, resolve_;
-    UniqueQueryPool queries_;
+    GpuTimestamps timer_;
     std::vector<LightVolume> volumes_;
 };
 
@@ -704,6 +694,7 @@ void parse_keys(JsonObject& o, Technique& t) {
 
 FamilyEntry shadow_volume_family_entry() {
     FamilyEntry e;
+    e.draws_maps = false;
     e.name = "shadow_volume";
     e.description =
         "stencil shadow volumes (Crow 1977; Heidmann 1991; z-fail, Everitt & Kilgard 2002): silhouettes from "

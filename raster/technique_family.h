@@ -75,6 +75,10 @@ struct ScoringHints {
 struct FamilyEntry {
     std::string name;  // the "family" key's value
     std::string description;
+    // Capabilities, said rather than inferred from a technique's fields: the family draws shadow
+    // maps (resolution, depth_format, fit and the map's bias mean something; shadow volumes and
+    // planar projection draw none).
+    bool draws_maps = true;
     // Reads the family's keys (every key but "preset", "family" and "precision") from `o` into
     // `t`, checked: bad values fail through `o` (InputError, exit 2, naming the key path). Keys
     // it does not read are refused as unknown afterwards.
