@@ -27,7 +27,8 @@ int run_oracle_command(const std::filesystem::path& scenario_file, const Common&
     // oracle.exr is written while the boundary phase runs (#39), on a thread of its own; its U and
     // boundary_m are filled in once that phase has ended. With --threads 1 it is written after the
     // boundary phase, beside oracle.png, as before: written first on the one thread, it would hide
-    // nothing and no longer overlap the preview (2-4% slower on the 2-core VM, docs/oracle.md).
+    // nothing and no longer overlap the preview (2-4% slower on the 2-core VM:
+    // docs/history/oracle-speed.md, session 19).
     OutputTransaction out(c.out);
     const bool early = (c.threads > 0 ? static_cast<unsigned>(c.threads) : std::thread::hardware_concurrency()) > 1;
     std::shared_future<void> early_exr;

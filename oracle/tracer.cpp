@@ -427,7 +427,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     const PrimaryRays rays(cam, W, H);
     // Per-packet state lives for the whole tile and every per-pixel result is written in
     // place: zero-filled temporaries and struct copies per pixel (store-forwarding stalls) were
-    // the largest part of the 15% this loop lost before (docs/oracle.md section 9).
+    // the largest part of the 15% this loop lost before (docs/history/oracle-speed.md).
     SurfacePoint surf[kPacket];
     ShadowSetup setup[kPacket];
     TraceCounters local;  // counted here, not through `counters`, which the compiler must assume aliases

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "common/json_reader.h"
+#include "report/html_page.h"
 #include "report/report.h"
 #include "report/report_files.h"
 
@@ -33,17 +34,7 @@ std::string pct(double f) {
 }
 
 std::string html_page(const Run& a, const Run& b, const DiffResult& d) {
-    std::string h = R"(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>penumbra diff</title>
-<style>
-body{font-family:system-ui,sans-serif;background:#16181d;color:#e6e6e6;margin:2em;max-width:1400px}
-h1,h2{font-weight:600} table{border-collapse:collapse;margin:.5em 0 1em} td,th{padding:.25em .8em;border-bottom:1px solid #333;text-align:right}
-th:first-child,td:first-child{text-align:left} img{max-width:100%;display:block;margin:.5em 0;image-rendering:pixelated}
-.worse{color:#ff5252;font-weight:bold} .better{color:#4caf50} .missing{color:#999}
-.grid{display:grid;grid-template-columns:1fr 1fr;gap:1em} .wrap{overflow-x:auto}
-</style></head><body>
-<h1>penumbra diff</h1>
-)";
+    std::string h = report::html_page_head("penumbra diff", report::PageKind::diff) + "<h1>penumbra diff</h1>\n";
     h += fmt::format("<p>A: <code>{}</code> ({})<br>B: <code>{}</code> ({})<br>scenario: <code>{}</code></p>\n",
                      escape_markup(path_text(a.file)), escape_markup(a.kind), escape_markup(path_text(b.file)),
                      escape_markup(b.kind), escape_markup(a.scenario));

@@ -152,7 +152,7 @@ void write_raster_outputs(OutputTransaction& out, const Scenario& scenario, cons
     VisibilityPreview preview{f.width, &f.A, nullptr, {}};
     for (const auto& l : f.lights) preview.lights.push_back({&l.V, nullptr});
     // Its zlib stream in pieces too: on the 2-core VM a 1280x720 preview took 0.71-0.81x the
-    // serial stream's time at 2 threads and 1.00-1.01x at 1 (docs/oracle.md, session 19).
+    // serial stream's time at 2 threads and 1.00-1.01x at 1 (docs/oracle.md section 9).
     write_png(
         out, "raster.png", f.width, f.height, [&](int y, float* rgb) { preview.row(y, rgb); },
         PngRows::parallel_deflate);

@@ -9,6 +9,7 @@
 
 #include "image_io/image_io.h"
 #include "report/bitmap_font.h"
+#include "report/html_page.h"
 
 namespace penumbra::report {
 
@@ -253,19 +254,7 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
     auto img = [&](const std::string& file, const std::string& alt) {
         return fmt::format(R"(<img src="{}" alt="{}">)", src(file), escape_markup(alt));
     };
-    std::string h = R"(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>penumbra report</title>
-<style>
-body{font-family:system-ui,sans-serif;background:#16181d;color:#e6e6e6;margin:2em;max-width:1400px}
-h1,h2{font-weight:600} table{border-collapse:collapse;margin:.5em 0 1em} td,th{padding:.25em .8em;border-bottom:1px solid #333;text-align:right}
-th:first-child,td:first-child{text-align:left} img{max-width:100%;display:block;margin:.5em 0;image-rendering:pixelated}
-pre{background:#0e0f12;padding:1em;overflow:auto;white-space:pre-wrap;word-break:break-all} .pass{color:#4caf50} .fail{color:#ff5252} .swatch{display:inline-block;width:.9em;height:.9em;margin-right:.4em;vertical-align:middle}
-.grid{display:grid;grid-template-columns:minmax(0,1fr) minmax(0,1fr);gap:1em} .scroll{overflow-x:auto;max-width:100%}
-a{color:#8ab4f8} nav{margin:.5em 0 1em} td.reading{text-align:left;max-width:36em}
-.strip{display:flex;flex-wrap:wrap;gap:1em} .strip a{color:#e6e6e6;text-decoration:none;width:min(24em,100%)} .strip img{margin:.2em 0}
-.classmap{display:grid;grid-template-columns:minmax(0,3fr) minmax(0,1fr);gap:1em} dl.classes dt{font-weight:600;margin-top:.5em} dl.classes dd{margin:0 0 0 1.3em;color:#bbb}
-</style></head><body>
-)";
+    std::string h = html_page_head("penumbra report", PageKind::report);
     const Scenario& sc = *in.scenario;
     h += fmt::format("<h1>penumbra report</h1>\n<p>Scenario <code>{}</code>, {}&times;{} pixels, {} light(s). ",
                      escape_markup(in.scenario_file.string()), sc.width, sc.height, sc.lights.size());

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include "report/html_page.h"
 #include "report/report.h"
 #include "report/report_files.h"
 
@@ -72,15 +73,8 @@ std::string html_page(const std::vector<StressCase>& cases, const SuiteResult& r
             highest += fmt::format("{}<b>{}</b>: {} light {} ({})", highest.empty() ? "" : "; ", escape_markup(cls),
                                    escape_markup(best.at("case").get<std::string>()), best.at("light").get<int>(),
                                    percent(best.at("rate")));
-    return fmt::format(R"(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>penumbra stress</title>
-<style>
-body {{ font-family: sans-serif; background: #111; color: #ddd; margin: 1.5em; }}
-table {{ border-collapse: collapse; }} td, th {{ border: 1px solid #333; padding: 4px 6px; vertical-align: top; }}
-th {{ background: #222; }} .ok {{ color: #6d6; }} .bad {{ color: #f55; font-weight: bold; }} small {{ color: #999; }}
-img {{ image-rendering: pixelated; }}
-</style></head><body>
-<h1>penumbra stress</h1>
+    return report::html_page_head("penumbra stress", report::PageKind::stress) +
+           fmt::format(R"(<h1>penumbra stress</h1>
 <p>{} cases, {}x{} px, on {}; {:.1f} s. Oracle invariant: {} of {} cases hold. {}</p>
 <p>Technique: <code>{}</code></p>
 <p>Highest rate per class: {}</p>

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "image_io/image_io.h"
+#include "report/html_page.h"
 #include "report/pareto_plot.h"
 #include "report/report.h"
 #include "report/report_files.h"
@@ -61,13 +62,7 @@ report::ScatterPlot plot_of(const Table& t) {
 }
 
 std::string html_page(const Table& t, const std::string& svg, const std::string& csv_table) {
-    std::string h = R"(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>penumbra sweep</title>
-<style>body{font-family:sans-serif;margin:24px;max-width:1300px}table{border-collapse:collapse}
-td,th{border:1px solid #ccc;padding:3px 6px;text-align:right}th{text-align:left}
-.scroll{overflow-x:auto;max-width:100%}svg{max-width:100%;height:auto}.note{color:#a60}</style></head><body>
-<h1>penumbra sweep</h1>
-)";
+    std::string h = report::html_page_head("penumbra sweep", report::PageKind::sweep) + "<h1>penumbra sweep</h1>\n";
     h += fmt::format(
         "<p>{} on {} ({}): {} configurations; GPU times are medians of {} renders. Production: the "
         "shadow pass and V alone, as an engine draws it; diagnostic: the same with every depth-map "

@@ -6,6 +6,7 @@
 
 #include "image_io/image_io.h"
 #include "metrics/metric_table.h"
+#include "report/html_page.h"
 #include "report/pareto_plot.h"
 #include "report/report.h"
 #include "report/report_files.h"
@@ -144,14 +145,7 @@ std::string units_table(const TuneReport& r) {
 
 std::string html_page(OutputTransaction& out, const TuneReport& r, const std::string& svg) {
     const TuneResult& res = r.result;
-    std::string h = R"(<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>penumbra tune</title>
-<style>body{font-family:sans-serif;margin:24px;max-width:1200px}table{border-collapse:collapse}
-td,th{border:1px solid #ccc;padding:4px 8px;text-align:left}.fail{color:#b00}
-.maps{display:flex;gap:12px;flex-wrap:wrap}.maps figure{margin:0;flex:1 1 560px;max-width:800px}
-.maps img{width:100%;height:auto}</style></head><body>
-<h1>penumbra tune</h1>
-)";
+    std::string h = report::html_page_head("penumbra tune", report::PageKind::tune) + "<h1>penumbra tune</h1>\n";
     const std::size_t chosen = res.chosen();
     for (std::size_t li = 0; li < res.per_light.size(); ++li) {
         const TuneResult& rl = res.per_light[li];
