@@ -190,7 +190,9 @@ const Cascades* cascades_for(const Technique& t, const Light& l) {
 class CascadesVariant final : public DepthMapVariant {
   public:
     explicit CascadesVariant(const SceneOnGpu& scene)
-        : s_(scene), ctx_(scene.ctx), sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT),
+        : s_(scene),
+          ctx_(scene.ctx),
+          sdsm_sets_(scene.ctx, kSdsmBindings, VK_SHADER_STAGE_COMPUTE_BIT),
           sdsm_timer_(scene.ctx) {}
 
     std::optional<std::uint32_t> layers(const Technique& t, const Light& l) const override {
@@ -200,10 +202,12 @@ class CascadesVariant final : public DepthMapVariant {
     void begin_render(const Technique& t, std::span<const Light> lights, RasterStats& stats) override {
         samples_.reset();
         const Cascades* c = cascades_of(t);
-        if (c && c->sdsm && std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return cascades_for(t, l); }))
+        if (c && c->sdsm &&
+            std::any_of(lights.begin(), lights.end(), [&](const Light& l) { return cascades_for(t, l); }))
             samples_ = reduce_view_depth(stats);
     }
-    std::optional<LightProjection> fit(const Technique& t, const Light& l, const glm::dvec3& fit_origin) const override {
+    std::optional<LightProjection> fit(const Technique& t, const Light& l,
+                                       const glm::dvec3& fit_origin) const override {
         const Cascades* c = cascades_for(t, l);
         if (!c) return std::nullopt;
         const Scenario& sc = s_.scenario;

@@ -48,8 +48,8 @@ class MidpointVariant final : public DepthMapVariant {
 
     // Per map: the first layer, and the second pass's triangle ids (its pipeline has a colour
     // target; nothing reads them).
-    void ensure_map_resources(const Technique& t, std::span<const MapShape> maps,
-                              std::span<const GpuImage* const>, bool) override {
+    void ensure_map_resources(const Technique& t, std::span<const MapShape> maps, std::span<const GpuImage* const>,
+                              bool) override {
         if (!midpoint(t)) {
             if (!shapes_.empty()) {
                 images_.clear();

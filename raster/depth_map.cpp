@@ -173,7 +173,6 @@ constexpr std::array<BindingDecl, 11> kLookupBindings = {{
     {gpu::kBindingFamilyImage, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
 }};
 
-
 // Everything a shadow pass's map depends on: equal keys draw equal maps.
 struct MapContent {
     std::vector<glm::dmat4> view_proj;
@@ -371,7 +370,9 @@ SpecData DepthMapCore::lookup_spec(const Technique& t, const LookupShader& shade
 VkPipeline DepthMapCore::lookup_pipeline(const Technique& t, const Light& l, gpu::uint kind, gpu::uint mode) {
     const LookupShader shader = shader_for(t, l);
     UniquePipeline& p = lookup_pipelines_[{shader.code, lookup_spec(t, shader, kind, mode)}];
-    if (!p) p = make_compute_pipeline(ctx_, lookup_layout_.get(), shader.code, shader.bytes, lookup_spec(t, shader, kind, mode));
+    if (!p)
+        p = make_compute_pipeline(ctx_, lookup_layout_.get(), shader.code, shader.bytes,
+                                  lookup_spec(t, shader, kind, mode));
     return p.get();
 }
 
@@ -421,7 +422,7 @@ VkSampler DepthMapCore::compare_sampler(bool linear, bool clamp_to_border, bool 
 }
 
 gpu::ShadowPush DepthMapCore::caster_push(const Technique& t, const Light& light, const LightProjection& projection,
-                                            std::uint32_t layer) const {
+                                          std::uint32_t layer) const {
     gpu::ShadowPush push{};
     push.view_proj = glm::mat4(map_view_proj(t, projection.view_proj[layer]));
     const bool positional = light.type != LightType::directional;
@@ -475,8 +476,8 @@ void DepthMapCore::ensure_maps(const Technique& t, std::span<const Light> lights
                             VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                             VK_IMAGE_ASPECT_DEPTH_BIT, true);
             maps_arena_.add(maps_[i].prim, kPrimFormat, res, res, wanted[i],
-                            VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                            VK_IMAGE_ASPECT_COLOR_BIT, true);
+                            VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT, VK_IMAGE_ASPECT_COLOR_BIT,
+                            true);
         }
         maps_arena_.commit();
         for (LightMap& m : maps_)
@@ -534,7 +535,7 @@ void DepthMapCore::ensure_slots(std::size_t n, bool lookups) {
 }
 
 gpu::LookupParams DepthMapCore::light_params(const Technique& t, const Light& light,
-                                               const LightProjection& projection) const {
+                                             const LightProjection& projection) const {
     const Scenario& sc = s_.scenario;
     const Camera& cam = s_.camera;
     const bool persp = cam.type == ProjectionType::perspective;
@@ -723,9 +724,9 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
     // The variants' passes over the readable map (a midpoint's is timed from the shadow pass's end).
     PassMarks marks(timer_, q + 2);
     for (const auto& v : variants_) v->record_after_map(cmd, t, targets, marks);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-                      lookup_pipeline(t, light, light_kind(light.type),
-                                      options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
+    vkCmdBindPipeline(
+        cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+        lookup_pipeline(t, light, light_kind(light.type), options.lookups ? gpu::kModeLookup : gpu::kModeVisibility));
     VkDescriptorSet set = sets_[li];
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lookup_layout_.get(), 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, (s_.width + 7) / 8, (s_.height + 7) / 8, 1);
@@ -848,7 +849,8 @@ void DepthMapCore::render(const Technique& t, std::span<const Light> all_lights,
         ls.gpu_ms.add("shadow", timer_.ms(q, q + 1), options.lookups ? kShadowWithIds : kShadowDepthOnly);
         std::uint32_t pass = q + 1;  // each variant's passes, timed from the mark before
         for (const auto& v : variants_) {
-            v->add_times(t, [&](std::uint32_t k) { return timer_.ms(pass + k, pass + k + 1); }, ls.gpu_ms);
+            v->add_times(
+                t, [&](std::uint32_t k) { return timer_.ms(pass + k, pass + k + 1); }, ls.gpu_ms);
             pass += v->timed_passes();
         }
         ls.gpu_ms.add("lookup", timer_.ms(pass, pass + 1), options.lookups ? kLookupDiagnostic : kLookupV);

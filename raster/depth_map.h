@@ -30,11 +30,11 @@ struct MapShape {
 // What a variant's passes draw from and into for one light: the core's map of that light.
 struct MapTargets {
     std::size_t map_index = 0;
-    const GpuImage* depth = nullptr;                       // the map the lookup reads
-    std::span<const UniqueImageView> depth_layers;         // one view per layer of `depth`
-    const LightProjection* projection = nullptr;           // the light's layers
-    std::uint32_t layers_sampled = 0;                      // bit l: layer l is drawn
-    bool redrawn = false;                                  // drawn in this render (not reused)
+    const GpuImage* depth = nullptr;                // the map the lookup reads
+    std::span<const UniqueImageView> depth_layers;  // one view per layer of `depth`
+    const LightProjection* projection = nullptr;    // the light's layers
+    std::uint32_t layers_sampled = 0;               // bit l: layer l is drawn
+    bool redrawn = false;                           // drawn in this render (not reused)
 };
 
 // A lookup shader of a variant: its SPIR-V and the value of specialisation constant kSpecFilter.
@@ -76,7 +76,8 @@ class DepthMapVariant {
     // Whether every layer of light `l` is drawn (else the core draws what receivers sample).
     virtual bool draws_every_layer(const Technique&, const Light&) const { return false; }
     // The hardware constant bias of `layer` as a multiple of the technique's (cascades scale it).
-    virtual double constant_scale(const Technique&, const Light&, const LightProjection&, std::uint32_t /*layer*/) const {
+    virtual double constant_scale(const Technique&, const Light&, const LightProjection&,
+                                  std::uint32_t /*layer*/) const {
         return 1.0;
     }
     // The copies of a map texel's bytes this variant keeps (midpoint depth: two layers).

@@ -275,7 +275,8 @@ class MomentsVariant final : public DepthMapVariant {
   public:
     explicit MomentsVariant(const SceneOnGpu& scene)
         : ctx_(scene.ctx), sets_(scene.ctx, kMomentBindings, VK_SHADER_STAGE_COMPUTE_BIT) {
-        layout_ = make_pipeline_layout(ctx_, sets_.layout(), sizeof(gpu::MomentPassParams), VK_SHADER_STAGE_COMPUTE_BIT);
+        layout_ =
+            make_pipeline_layout(ctx_, sets_.layout(), sizeof(gpu::MomentPassParams), VK_SHADER_STAGE_COMPUTE_BIT);
         nearest_ = make_sampler(ctx_, false, false, false);
         // The lookup samples moments as engines do: bilinear, trilinear across the mip levels, the
         // map's edge texels repeated beyond it.
@@ -404,8 +405,9 @@ class MomentsVariant final : public DepthMapVariant {
         const MomentParameters* m = moment_parameters(t);
         if (!m) return;
         p.moments = moment_uniform(*m);
-        p.moment_map = glm::vec4(static_cast<float>(m->mipmaps ? mip_levels(static_cast<std::uint32_t>(t.resolution)) : 1),
-                                 m->kind == MomentKind::msm && m->storage_bits == 16 ? 1.0f : 0.0f, 0.0f, 0.0f);
+        p.moment_map =
+            glm::vec4(static_cast<float>(m->mipmaps ? mip_levels(static_cast<std::uint32_t>(t.resolution)) : 1),
+                      m->kind == MomentKind::msm && m->storage_bits == 16 ? 1.0f : 0.0f, 0.0f, 0.0f);
     }
     std::optional<VkDescriptorImageInfo> family_image(const Technique& t, std::size_t map) const override {
         if (!moment_parameters(t)) return std::nullopt;
@@ -428,7 +430,8 @@ class MomentsVariant final : public DepthMapVariant {
                                                    static_cast<std::uint32_t>(m.blur)};
         UniquePipeline& p = pipelines_[spec];
         if (!p)
-            p = make_compute_pipeline(ctx_, layout_.get(), kFilterableMomentsComp, sizeof(kFilterableMomentsComp), spec);
+            p = make_compute_pipeline(ctx_, layout_.get(), kFilterableMomentsComp, sizeof(kFilterableMomentsComp),
+                                      spec);
         return p.get();
     }
 
@@ -477,7 +480,8 @@ class MomentsVariant final : public DepthMapVariant {
         marks.mark(cmd);
         if (x.moments.levels > 1) {
             memory_barrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT,
-                           VK_PIPELINE_STAGE_2_BLIT_BIT, VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
+                           VK_PIPELINE_STAGE_2_BLIT_BIT,
+                           VK_ACCESS_2_TRANSFER_READ_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT);
             for (std::uint32_t level = 1; level < x.moments.levels; ++level) {
                 const auto from = static_cast<std::int32_t>(std::max(res >> (level - 1), 1u));
                 const auto to = static_cast<std::int32_t>(std::max(res >> level, 1u));

@@ -68,9 +68,9 @@ void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAcce
 
 UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g) {
     // No fragment shader: a depth-only pass without a colour target.
-    const bool colour = g.frag != nullptr;
+    const bool colour = g.frag != nullptr && g.colour_format != VK_FORMAT_UNDEFINED;
     UniqueShaderModule vs = make_module(ctx, g.vert, g.vert_bytes);
-    UniqueShaderModule fs = colour ? make_module(ctx, g.frag, g.frag_bytes) : UniqueShaderModule();
+    UniqueShaderModule fs = g.frag ? make_module(ctx, g.frag, g.frag_bytes) : UniqueShaderModule();
     UniqueShaderModule gs = g.geom ? make_module(ctx, g.geom, g.geom_bytes) : UniqueShaderModule();
     VkPipelineShaderStageCreateInfo stages[3] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
                                                  {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
@@ -84,15 +84,20 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     };
     add_stage(VK_SHADER_STAGE_VERTEX_BIT, vs.get());
     if (g.geom) add_stage(VK_SHADER_STAGE_GEOMETRY_BIT, gs.get());
-    if (colour) add_stage(VK_SHADER_STAGE_FRAGMENT_BIT, fs.get());
+    if (g.frag) add_stage(VK_SHADER_STAGE_FRAGMENT_BIT, fs.get());
 
-    VkVertexInputBindingDescription binding{0, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
-    VkVertexInputAttributeDescription attribute{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
+    const bool vec4 = g.vertex_input == VertexInput::vec4;
+    VkVertexInputBindingDescription binding{0, (vec4 ? 4 : 3) * static_cast<std::uint32_t>(sizeof(float)),
+                                            VK_VERTEX_INPUT_RATE_VERTEX};
+    VkVertexInputAttributeDescription attribute{0, 0, vec4 ? VK_FORMAT_R32G32B32A32_SFLOAT : VK_FORMAT_R32G32B32_SFLOAT,
+                                                0};
     VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-    vi.vertexBindingDescriptionCount = 1;
-    vi.pVertexBindingDescriptions = &binding;
-    vi.vertexAttributeDescriptionCount = 1;
-    vi.pVertexAttributeDescriptions = &attribute;
+    if (g.vertex_input != VertexInput::none) {
+        vi.vertexBindingDescriptionCount = 1;
+        vi.pVertexBindingDescriptions = &binding;
+        vi.vertexAttributeDescriptionCount = 1;
+        vi.pVertexAttributeDescriptions = &attribute;
+    }
     VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
     ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
     VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
@@ -108,9 +113,12 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
     ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
     VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-    ds.depthTestEnable = VK_TRUE;
-    ds.depthWriteEnable = VK_TRUE;
+    ds.depthTestEnable = g.depth_test;
+    ds.depthWriteEnable = g.depth_write;
     ds.depthCompareOp = g.depth_compare;
+    ds.stencilTestEnable = g.stencil_test;
+    ds.front = g.front;
+    ds.back = g.back;
     VkPipelineColorBlendAttachmentState blend{};
     blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
     VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
@@ -122,9 +130,9 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     dy.pDynamicStates = dyn;
     VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
     ri.colorAttachmentCount = colour ? 1 : 0;
-    VkFormat color = kPrimFormat;
-    ri.pColorAttachmentFormats = &color;
+    ri.pColorAttachmentFormats = &g.colour_format;
     ri.depthAttachmentFormat = g.depth_format;
+    if (g.stencil_attachment) ri.stencilAttachmentFormat = g.depth_format;
 
     VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
     ci.pNext = &ri;
@@ -257,6 +265,32 @@ void DescriptorSets::write(std::size_t index, std::span<const DescriptorResource
         writes.push_back(w);
     }
     vkUpdateDescriptorSets(ctx_->device(), static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
+}
+
+void begin_depth_stencil_rendering(VkCommandBuffer cmd, VkImageView colour, VkImageView depth_stencil, std::uint32_t w,
+                                   std::uint32_t h, bool clear_depth, bool clear_stencil) {
+    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    ca.imageView = colour;
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = depth_stencil;
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    da.loadOp = clear_depth ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    da.clearValue.depthStencil = {0.0f, 0};
+    VkRenderingAttachmentInfo sa = da;
+    sa.loadOp = clear_stencil ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {w, h}};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = colour != VK_NULL_HANDLE ? 1 : 0;
+    ri.pColorAttachments = &ca;
+    ri.pDepthAttachment = &da;
+    ri.pStencilAttachment = &sa;
+    vkCmdBeginRendering(cmd, &ri);
+    set_viewport(cmd, w, h);
 }
 
 void GpuTimestamps::ensure(std::uint32_t count) {

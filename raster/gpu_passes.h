@@ -29,9 +29,15 @@ void image_barrier(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect
 void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags2 src_stage, VkAccessFlags2 src_access,
                     VkPipelineStageFlags2 dst_stage, VkAccessFlags2 dst_access);
 
-// A graphics pipeline for the camera and shadow passes: one vec3 stream, one R32_UINT colour
-// target (the primitive id) and a depth target, dynamic rendering, dynamic depth bias. Without a
-// fragment shader (frag null) it is depth-only, with no colour target.
+// How a graphics pipeline reads its vertices: one vec3 stream (the scene), one vec4 stream
+// (homogeneous points, w = 0 at infinity: shadow volumes), or none (a full-screen triangle).
+enum class VertexInput { vec3, vec4, none };
+
+// A graphics pipeline of any pass: by default the camera and shadow passes' (one vec3 stream, one
+// R32_UINT colour target for the primitive id, a depth target, depth test and write), with
+// dynamic rendering, dynamic viewport, scissor and depth bias. Without a fragment shader (frag
+// null) it is depth-only, with no colour target. The fields after `geom` serve the passes that
+// differ (shadow volumes: a vec4 stream, another colour target or none, a stencil test).
 struct GraphicsSetup {
     const std::uint32_t* vert;
     std::size_t vert_bytes;
@@ -46,6 +52,13 @@ struct GraphicsSetup {
     // A geometry shader between the two (null: none), e.g. the shadow pass's caster offsets.
     const std::uint32_t* geom = nullptr;
     std::size_t geom_bytes = 0;
+    VertexInput vertex_input = VertexInput::vec3;
+    VkFormat colour_format = kPrimFormat;  // with a fragment shader; VK_FORMAT_UNDEFINED: no colour target
+    bool depth_test = true, depth_write = true;
+    // The depth target's stencil aspect is attached (a depth-stencil format), and tested with
+    // `front` and `back` when stencil_test.
+    bool stencil_attachment = false, stencil_test = false;
+    VkStencilOpState front{}, back{};
 };
 UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g);
 UniquePipelineLayout make_pipeline_layout(const VulkanContext& ctx, VkDescriptorSetLayout set_layout,
@@ -84,6 +97,11 @@ class GpuTimestamps {
 };
 // Milliseconds between two timestamps of `ctx`, 0 when b precedes a.
 double ticks_to_ms(const VulkanContext& ctx, std::uint64_t a, std::uint64_t b);
+
+// Dynamic rendering into a depth-stencil target (its depth and its stencil each cleared to 0 or
+// loaded), and into `colour` cleared to 0 when given: the shadow volumes' passes.
+void begin_depth_stencil_rendering(VkCommandBuffer cmd, VkImageView colour, VkImageView depth_stencil, std::uint32_t w,
+                                   std::uint32_t h, bool clear_depth, bool clear_stencil);
 
 // One binding of a descriptor set (one descriptor each).
 struct BindingDecl {

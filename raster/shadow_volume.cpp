@@ -243,118 +243,25 @@ VkStencilOpState stencil_ops(VkStencilOp pass, VkStencilOp depth_fail) {
     return s;
 }
 
-struct PipelineSetup {
-    const std::uint32_t* vert;
-    std::size_t vert_bytes;
-    const std::uint32_t* frag;  // null: no fragment shader
-    std::size_t frag_bytes;
-    bool vertex_input;  // one vec4 stream
-    VkFormat colour;    // VK_FORMAT_UNDEFINED: no colour target
-    VkFormat depth_stencil;
-    bool depth_test, depth_write, depth_clamp;
-    bool stencil;
-    VkStencilOpState front{}, back{};
-};
-
-UniquePipeline make_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const PipelineSetup& g) {
-    UniqueShaderModule vs = make_module(ctx, g.vert, g.vert_bytes);
-    UniqueShaderModule fs = g.frag ? make_module(ctx, g.frag, g.frag_bytes) : UniqueShaderModule();
-    VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
-                                                 {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
-    stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-    stages[0].module = vs.get();
-    stages[0].pName = "main";
-    stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-    stages[1].module = fs.get();
-    stages[1].pName = "main";
-    VkVertexInputBindingDescription binding{0, sizeof(glm::vec4), VK_VERTEX_INPUT_RATE_VERTEX};
-    VkVertexInputAttributeDescription attribute{0, 0, VK_FORMAT_R32G32B32A32_SFLOAT, 0};
-    VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-    if (g.vertex_input) {
-        vi.vertexBindingDescriptionCount = 1;
-        vi.pVertexBindingDescriptions = &binding;
-        vi.vertexAttributeDescriptionCount = 1;
-        vi.pVertexAttributeDescriptions = &attribute;
-    }
-    VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-    ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-    VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-    vp.viewportCount = 1;
-    vp.scissorCount = 1;
-    VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-    rs.depthClampEnable = g.depth_clamp;
-    rs.polygonMode = VK_POLYGON_MODE_FILL;
-    rs.cullMode = VK_CULL_MODE_NONE;
-    // As the camera pass: counter-clockwise is front once camera_matrix has flipped y.
-    rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-    rs.lineWidth = 1.0f;
-    VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-    ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-    VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-    ds.depthTestEnable = g.depth_test;
-    ds.depthWriteEnable = g.depth_write;
-    ds.depthCompareOp = VK_COMPARE_OP_GREATER;  // reversed depth; equal fails
-    ds.stencilTestEnable = g.stencil;
-    ds.front = g.front;
-    ds.back = g.back;
-    VkPipelineColorBlendAttachmentState blend{};
-    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
-    VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-    const bool colour = g.colour != VK_FORMAT_UNDEFINED;
-    cb.attachmentCount = colour ? 1 : 0;
-    cb.pAttachments = &blend;
-    VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-    VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-    dy.dynamicStateCount = 2;
-    dy.pDynamicStates = dyn;
-    VkPipelineRenderingCreateInfo ri{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-    ri.colorAttachmentCount = colour ? 1 : 0;
-    ri.pColorAttachmentFormats = &g.colour;
-    ri.depthAttachmentFormat = g.depth_stencil;
-    ri.stencilAttachmentFormat = g.depth_stencil;
-    VkGraphicsPipelineCreateInfo ci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-    ci.pNext = &ri;
-    ci.stageCount = g.frag ? 2 : 1;
-    ci.pStages = stages;
-    ci.pVertexInputState = &vi;
-    ci.pInputAssemblyState = &ia;
-    ci.pViewportState = &vp;
-    ci.pRasterizationState = &rs;
-    ci.pMultisampleState = &ms;
-    ci.pDepthStencilState = &ds;
-    ci.pColorBlendState = &cb;
-    ci.pDynamicState = &dy;
-    ci.layout = layout;
-    VkPipeline p;
-    VK_CHECK(vkCreateGraphicsPipelines(ctx.device(), VK_NULL_HANDLE, 1, &ci, nullptr, &p));
-    return UniquePipeline(ctx.device(), p);
-}
-
-// Dynamic rendering into the depth-stencil target (and `colour`, cleared to 0, when given).
-void begin(VkCommandBuffer cmd, VkImageView colour, VkImageView depth_stencil, std::uint32_t w, std::uint32_t h,
-           bool clear_depth, bool clear_stencil) {
-    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    ca.imageView = colour;
-    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    da.imageView = depth_stencil;
-    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
-    da.loadOp = clear_depth ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
-    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    da.clearValue.depthStencil = {0.0f, 0};
-    VkRenderingAttachmentInfo sa = da;
-    sa.loadOp = clear_stencil ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, {w, h}};
-    ri.layerCount = 1;
-    ri.colorAttachmentCount = colour != VK_NULL_HANDLE ? 1 : 0;
-    ri.pColorAttachments = &ca;
-    ri.pDepthAttachment = &da;
-    ri.pStencilAttachment = &sa;
-    vkCmdBeginRendering(cmd, &ri);
-    set_viewport(cmd, w, h);
+// The volumes' passes (GraphicsSetup): reversed depth (equal fails), no culling, counter-clockwise
+// front as in the camera pass (camera_matrix has flipped y), a depth-stencil target, homogeneous
+// vertices (w = 0 at infinity), no colour target.
+GraphicsSetup volume_setup(const std::uint32_t* vert, std::size_t vert_bytes, const std::uint32_t* frag,
+                           std::size_t frag_bytes, VkFormat depth_stencil) {
+    GraphicsSetup g{vert,
+                    vert_bytes,
+                    frag,
+                    frag_bytes,
+                    depth_stencil,
+                    VK_COMPARE_OP_GREATER,
+                    VK_CULL_MODE_NONE,
+                    VK_FRONT_FACE_COUNTER_CLOCKWISE,
+                    false,
+                    false};
+    g.vertex_input = VertexInput::vec4;
+    g.colour_format = VK_FORMAT_UNDEFINED;
+    g.stencil_attachment = true;
+    return g;
 }
 
 // What the family keeps of one light between renders: the volumes depend on the light and the
@@ -430,7 +337,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                 VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
             // The camera's depth again, through the volumes' vertex shader (the session's pass
             // keeps no depth, and a D32 target has no stencil).
-            begin(cmd, VK_NULL_HANDLE, depth_.view.get(), W, H, true, true);
+            begin_depth_stencil_rendering(cmd, VK_NULL_HANDLE, depth_.view.get(), W, H, true, true);
             const glm::mat4 vp = s_.camera_view_proj;
             VkDeviceSize zero = 0;
             if (scene_vertex_count_ > 0) {
@@ -449,7 +356,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                 memory_barrier(
                     cmd, kFragmentTests, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, kFragmentTests,
                     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT);
-                begin(cmd, VK_NULL_HANDLE, depth_.view.get(), W, H, false, true);
+                begin_depth_stencil_rendering(cmd, VK_NULL_HANDLE, depth_.view.get(), W, H, false, true);
                 if (v.vertex_count > 0) {
                     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, volume.get());
                     vkCmdPushConstants(cmd, volume_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
@@ -465,7 +372,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                               VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_COPY_BIT,
                               VK_ACCESS_2_TRANSFER_READ_BIT, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
                               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-                begin(cmd, visibility_.view.get(), depth_.view.get(), W, H, false, false);
+                begin_depth_stencil_rendering(cmd, visibility_.view.get(), depth_.view.get(), W, H, false, false);
                 vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, resolve_.get());
                 vkCmdDraw(cmd, 3, 1, 0, 0);
                 vkCmdEndRendering(cmd);
@@ -583,37 +490,33 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             depth_layout_ =
                 make_pipeline_layout(ctx, depth_sets_.layout(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
             volume_layout_ = make_pipeline_layout(ctx, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
-            PipelineSetup d{kVolumeVert, sizeof(kVolumeVert),
-                            kVolumeFrag, sizeof(kVolumeFrag),
-                            true,        VK_FORMAT_UNDEFINED,
-                            format_,     true,
-                            true,        false,
-                            false};
-            depth_pipeline_ = make_pipeline(ctx, depth_layout_.get(), d);
+            GraphicsSetup d = volume_setup(kVolumeVert, sizeof(kVolumeVert), kVolumeFrag, sizeof(kVolumeFrag), format_);
+            depth_pipeline_ = make_graphics_pipeline(ctx, depth_layout_.get(), d);
             // The volumes: depth-tested against the camera's depth, never written; depth clamp
             // keeps the far caps at infinity (clip w = 0) from being clipped by the far plane.
-            PipelineSetup z{
-                kVolumeVert, sizeof(kVolumeVert), nullptr, 0, true, VK_FORMAT_UNDEFINED, format_, true, false, true,
-                true};
+            GraphicsSetup z = volume_setup(kVolumeVert, sizeof(kVolumeVert), nullptr, 0, format_);
+            z.depth_write = false;
+            z.depth_clamp = true;
+            z.stencil_test = true;
             // Carmack's reverse: behind the surface, a back face (leaving a volume) +1, a front
             // face (entering one) -1.
             z.front = stencil_ops(VK_STENCIL_OP_KEEP, VK_STENCIL_OP_DECREMENT_AND_WRAP);
             z.back = stencil_ops(VK_STENCIL_OP_KEEP, VK_STENCIL_OP_INCREMENT_AND_WRAP);
-            zfail_ = make_pipeline(ctx, volume_layout_.get(), z);
+            zfail_ = make_graphics_pipeline(ctx, volume_layout_.get(), z);
             // Heidmann: in front of the surface, a front face +1, a back face -1.
             z.front = stencil_ops(VK_STENCIL_OP_INCREMENT_AND_WRAP, VK_STENCIL_OP_KEEP);
             z.back = stencil_ops(VK_STENCIL_OP_DECREMENT_AND_WRAP, VK_STENCIL_OP_KEEP);
-            zpass_ = make_pipeline(ctx, volume_layout_.get(), z);
-            PipelineSetup r{kResolveVert, sizeof(kResolveVert),
-                            kResolveFrag, sizeof(kResolveFrag),
-                            false,        kVisibilityFormat,
-                            format_,      false,
-                            false,        false,
-                            true};
+            zpass_ = make_graphics_pipeline(ctx, volume_layout_.get(), z);
+            GraphicsSetup r =
+                volume_setup(kResolveVert, sizeof(kResolveVert), kResolveFrag, sizeof(kResolveFrag), format_);
+            r.vertex_input = VertexInput::none;
+            r.colour_format = kVisibilityFormat;
+            r.depth_test = r.depth_write = false;
+            r.stencil_test = true;
             r.front = r.back = stencil_ops(VK_STENCIL_OP_KEEP, VK_STENCIL_OP_KEEP);
             r.front.compareOp = r.back.compareOp = VK_COMPARE_OP_EQUAL;  // reference 0: outside every volume
             r.front.writeMask = r.back.writeMask = 0;
-            resolve_ = make_pipeline(ctx, volume_layout_.get(), r);
+            resolve_ = make_graphics_pipeline(ctx, volume_layout_.get(), r);
         }
         if (volumes_.size() < lights) volumes_.resize(lights);
         if (!readback_.buffer || readback_lights_ < lights) {
