@@ -76,16 +76,17 @@ nlohmann::json cache_info(const OracleCache& cache, const std::string& key, bool
     return j;
 }
 
-// report.json's `cascades` of a cascaded light (docs/raster.md, "Cascaded shadow maps"): the pixels each
-// cascade's lookups judged, by the layer they recorded, with their counts and rates.
-nlohmann::json cascade_metrics(const raster::RasterLightStats& stats, const RasterLightImage& image,
+// report.json's per-layer metrics of a layered light (the `cascades` of a cascaded one: docs/raster.md,
+// "Cascaded shadow maps"): the pixels each layer's lookups judged, by the layer they recorded, with
+// their counts and rates.
+nlohmann::json layer_metrics(const raster::RasterLightStats& stats, const RasterLightImage& image,
                                const metrics::LightErrorImage& errors, const std::vector<float>& A) {
     const std::size_t n = stats.views.size();
     std::vector<std::array<std::uint64_t, metrics::kErrorClasses.size()>> counts(n);
     std::vector<std::uint64_t> surface(n, 0), scored(n, 0);
     for (std::size_t i = 0; i < A.size(); ++i) {
         const std::uint32_t layer = image.lookups->layer[i];
-        if (A[i] == 0 || layer >= n) continue;  // no surface, or beyond the last cascade
+        if (A[i] == 0 || layer >= n) continue;  // no surface, or beyond the last layer
         ++surface[layer];
         const auto c = static_cast<metrics::PixelClass>(errors.cls[i]);
         const std::size_t k = metrics::error_class_index(c);
@@ -193,11 +194,12 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
 
 void make_report(const Scenario& scenario, ValidateResult& r) {
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
+    const std::string layer_report = raster::family_of(r.technique).hints(r.technique).layer_report;
     for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
         const raster::RasterLightStats& ls = r.raster.stats.lights[li];
         const RasterLightImage& image = r.raster.frame.lights[li];
-        if (ls.views.empty() || ls.views[0].kind != raster::ViewKind::cascade || !image.lookups) continue;
-        r.report["lights"][li]["cascades"] = cascade_metrics(ls, image, r.score.images[li], r.raster.frame.A);
+        if (layer_report.empty() || ls.views.empty() || ls.views[0].split_far <= 0 || !image.lookups) continue;
+        r.report["lights"][li][layer_report] = layer_metrics(ls, image, r.score.images[li], r.raster.frame.A);
         if (const auto& sdsm = ls.projection.sdsm_range)  // SDSM: the range the splits were placed in
             r.report["lights"][li]["sdsm"] = {{"near_m", sdsm->x}, {"far_m", sdsm->y}};
     }

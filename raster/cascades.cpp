@@ -339,6 +339,11 @@ FamilyEntry cascaded_family_entry() {
         t.family_parameters = std::make_shared<const Cascades>(c);
     };
     e.make = make_cascaded_family;
+    e.hints = [](const Technique& t) {
+        ScoringHints h = depth_map_family_entry().hints(t);
+        h.layer_report = "cascades";
+        return h;
+    };
     e.write = [](const Technique& t, nlohmann::json& j) {
         j.update(depth_map_keys_json(t));
         j["area_samples"] = 0;

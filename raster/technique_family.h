@@ -66,6 +66,10 @@ struct ScoringHints {
     // footprint and a bias reach of 0, so no wrong pixel is excused as aliasing or peter-panning
     // (docs/metrics.md).
     bool exact = false;
+    // A layered family whose lookups record the layer each pixel read (cascades): report.json's
+    // light gets the pixels and error rates of each layer under this key (docs/raster.md,
+    // "Cascaded shadow maps"); empty: none.
+    std::string layer_report;
 };
 
 // A registered family (pbrt-v4's `Create` is the model): everything the rest of penumbra asks of
