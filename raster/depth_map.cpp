@@ -29,6 +29,7 @@
 #include "common/memory_estimate.h"
 #include "common/stopwatch.h"
 #include "raster/area_lights.h"
+#include "raster/surface_seen.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
 #include "caster_geom.h"
@@ -427,9 +428,7 @@ gpu::ShadowPush DepthMapCore::caster_push(const Technique& t, const Light& light
     push.view_proj = glm::mat4(map_view_proj(t, projection.view_proj[layer]));
     const bool positional = light.type != LightType::directional;
     if (positional) {
-        const glm::dvec3 light_world =
-            t.precision == Precision::world_float32 ? glm::dvec3(glm::vec3(light.position)) : light.position;
-        push.light = glm::vec4(glm::vec3(light_world - s_.origin), 1.0f);
+        push.light = glm::vec4(glm::vec3(drawn_light_position(light, s_.origin, t.precision)), 1.0f);
         push.texel = glm::vec4(glm::vec3(projection.axis[layer]), projection.metres_per_texel_per_metre);
     } else {
         push.light = glm::vec4(glm::vec3(light.direction), 0.0f);
@@ -545,9 +544,7 @@ gpu::LookupParams DepthMapCore::light_params(const Technique& t, const Light& li
     p.cam_right = glm::vec4(glm::vec3(cam.right), static_cast<float>(plane.x));
     p.cam_up = glm::vec4(glm::vec3(cam.up), static_cast<float>(plane.y));
     p.image = glm::vec4(sc.width, sc.height, 1.0f / sc.width, 1.0f / sc.height);
-    const glm::dvec3 light_world =
-        t.precision == Precision::world_float32 ? glm::dvec3(glm::vec3(light.position)) : light.position;
-    p.light_pos = glm::vec4(glm::vec3(light_world - s_.origin), 0.0f);
+    p.light_pos = glm::vec4(glm::vec3(drawn_light_position(light, s_.origin, t.precision)), 0.0f);
     p.light_dir = glm::vec4(glm::vec3(light.direction), static_cast<float>(std::cos(light.outer_cone_rad)));
     p.bias = glm::vec4(t.bias.world, t.bias.normal_offset, t.bias.shader_depth, t.bias.constant);
     p.bias2 = glm::vec4(t.bias.slope, t.bias.clamp, depth_resolution(t.depth_format), 0.0f);

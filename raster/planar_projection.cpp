@@ -18,6 +18,7 @@
 #include "common/camera.h"
 #include "common/errors.h"
 #include "common/stopwatch.h"
+#include "raster/surface_seen.h"
 #include "raster/technique_family.h"
 #include "raster/vk_check.h"
 #include "shaders/penumbra_shared.h"
@@ -148,11 +149,13 @@ std::vector<float> PlanarProjectionFamily::flattened_casters(const glm::dvec4& p
 
 std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, const Light& light,
                                                       const std::uint32_t* coverage) const {
-    const Scenario& sc = s_.scenario;
-    const Scene& scene = sc.scene;
-    const PrimaryRays rays(s_.camera, sc.width, sc.height);
+    const Scene& scene = s_.scenario.scene;
+    const PrimaryRays rays(s_.camera, s_.width, s_.height);
     const glm::dvec3 plane_n(plane);
-    const double cos_outer = std::cos(light.outer_cone_rad);
+    // In the frame and at the precision the session drew the scene, as the other families judge it.
+    const glm::dvec3 light_position = drawn_light_position(light, s_.origin, s_.precision);
+    const LightReach reach(light, light_position);
+    const std::vector<glm::vec3>& drawn = s_.drawn_positions;
     std::vector<float> V(s_.pixels, 0.0f);
     for (std::uint32_t y = 0; y < s_.height; ++y)
         for (std::uint32_t x = 0; x < s_.width; ++x) {
@@ -160,21 +163,12 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
             if (s_.A[i] == 0) continue;
             const std::uint32_t prim = s_.prim[i];
             const glm::u32vec3 tri = scene.triangles[prim];
-            const glm::dvec3 a = scene.positions[tri.x];
-            glm::dvec3 n = glm::normalize(glm::cross(scene.positions[tri.y] - a, scene.positions[tri.z] - a));
-            // The receiver point as the oracle defines it: the pixel centre's ray on the triangle's plane.
-            const PrimaryRay ray = rays.at(x + 0.5, y + 0.5);
-            const double t = glm::dot(n, a - s_.camera.eye - ray.origin) / glm::dot(n, ray.direction);
-            const glm::dvec3 p = s_.camera.eye + ray.origin + t * ray.direction;
-            if (glm::dot(n, ray.direction) > 0) n = -n;  // facing the camera
-            // The light reaches the point at all (the oracle's `lightable`; V = 0 otherwise, not scored).
-            const glm::dvec3 to_light =
-                light.type == LightType::directional ? -light.direction : glm::normalize(light.position - p);
-            bool lightable = glm::dot(n, to_light) > 0;
-            if (light.type == LightType::spot)
-                lightable = lightable && glm::dot(-to_light, light.direction) >= cos_outer;
-            if (!lightable) continue;
+            const SurfaceSeen seen = surface_seen(rays.at(x + 0.5, y + 0.5), glm::dvec3(drawn[tri.x]),
+                                                  glm::dvec3(drawn[tri.y]), glm::dvec3(drawn[tri.z]));
+            if (!reach.lightable(seen)) continue;  // V = 0, not scored
             // Only the receiver plane takes shadow, and only where the light is on its upper side.
+            const glm::dvec3 to_light =
+                light.type == LightType::directional ? -light.direction : light_position - seen.point;
             const bool receives = on_plane_[prim] && glm::dot(plane_n, to_light) > 0;
             V[i] = receives && coverage[i] != gpu::kNoPrim ? 0.0f : 1.0f;
         }

@@ -8,6 +8,7 @@
 #include "common/camera.h"
 #include "common/errors.h"
 #include "common/stopwatch.h"
+#include "raster/surface_seen.h"
 #include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
@@ -63,17 +64,10 @@ void prepare_scene(SceneOnGpu& s) {
 
     const Scene& scene = sc.scene;
     s.camera_view_proj = camera_matrix(s.camera, sc.width, sc.height, scene.bounds);
-    std::vector<float> pos(scene.positions.size() * 3);
-    const bool world_float32 = s.precision == Precision::world_float32;
-    for (std::size_t i = 0; i < scene.positions.size(); ++i) {
-        // Double subtraction, then float: precision near the camera. world_float32 first rounds
-        // the world position to float, as an engine's vertex buffer holds it.
-        glm::dvec3 p =
-            world_float32 ? glm::dvec3(glm::vec3(scene.positions[i])) - s.origin : scene.positions[i] - s.origin;
-        pos[3 * i] = static_cast<float>(p.x);
-        pos[3 * i + 1] = static_cast<float>(p.y);
-        pos[3 * i + 2] = static_cast<float>(p.z);
-    }
+    // Double subtraction, then float: precision near the camera (world_float32 rounds the world
+    // position to float first, as an engine's vertex buffer holds it).
+    s.drawn_positions = drawn_positions(scene, s.origin, s.precision);
+    static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "positions upload as packed float3");
     std::vector<std::uint32_t> idx(scene.triangles.size() * 3);
     std::vector<std::uint32_t> bits((scene.triangles.size() + 31) / 32 + 1, 0u);
     for (std::size_t t = 0; t < scene.triangles.size(); ++t) {
@@ -83,7 +77,7 @@ void prepare_scene(SceneOnGpu& s) {
         if (scene.double_sided[t]) bits[t / 32] |= 1u << (t % 32);
     }
     s.index_count = static_cast<std::uint32_t>(idx.size());
-    s.positions = upload(ctx, pos.data(), pos.size() * sizeof(float),
+    s.positions = upload(ctx, s.drawn_positions.data(), s.drawn_positions.size() * sizeof(glm::vec3),
                          VK_BUFFER_USAGE_VERTEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     s.indices = upload(ctx, idx.data(), idx.size() * sizeof(std::uint32_t),
                        VK_BUFFER_USAGE_INDEX_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);

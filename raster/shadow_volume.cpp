@@ -18,6 +18,7 @@
 #include "common/errors.h"
 #include "common/json_reader.h"
 #include "common/stopwatch.h"
+#include "raster/surface_seen.h"
 #include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
@@ -217,22 +218,6 @@ const ShadowVolumeParameters& parameters_of(const Technique& t) {
     return p ? *p : kDefault;
 }
 
-// The positions as the session uploaded them (prepare_scene in raster/raster.cpp).
-std::vector<glm::vec3> drawn_positions(const Scene& scene, const glm::dvec3& origin, Precision precision) {
-    std::vector<glm::vec3> out(scene.positions.size());
-    for (std::size_t i = 0; i < out.size(); ++i) {
-        const glm::dvec3 p =
-            precision == Precision::world_float32 ? glm::dvec3(glm::vec3(scene.positions[i])) : scene.positions[i];
-        out[i] = glm::vec3(p - origin);
-    }
-    return out;
-}
-
-glm::dvec3 drawn_light_position(const Light& l, const glm::dvec3& origin, Precision precision) {
-    const glm::dvec3 p = precision == Precision::world_float32 ? glm::dvec3(glm::vec3(l.position)) : l.position;
-    return p - origin;
-}
-
 VkStencilOpState stencil_ops(VkStencilOp pass, VkStencilOp depth_fail) {
     VkStencilOpState s{};
     s.failOp = VK_STENCIL_OP_KEEP;
@@ -291,8 +276,8 @@ class ShadowVolumeFamily final : public TechniqueFamily {
         const ShadowVolumeParameters& p = parameters_of(technique);
         // The volumes are camera-relative: a session moved to another eye (a camera path) or
         // drawing at another precision builds them again.
-        if (positions_.empty() || drawn_origin_ != s_.origin || drawn_precision_ != s_.precision) {
-            positions_ = drawn_positions(s_.scenario.scene, s_.origin, s_.precision);
+        if (!drawn_once_ || drawn_origin_ != s_.origin || drawn_precision_ != s_.precision) {
+            drawn_once_ = true;
             drawn_origin_ = s_.origin;
             drawn_precision_ = s_.precision;
             for (LightVolume& v : volumes_) v.valid = false;
@@ -308,7 +293,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             if (v.reused) continue;
             auto t0 = SteadyClock::now();
             v = LightVolume{};
-            v.geometry = build_shadow_volume(positions_, scene, topology_, l,
+            v.geometry = build_shadow_volume(s_.drawn_positions, scene, topology_, l,
                                              drawn_light_position(l, s_.origin, s_.precision), p.open_meshes);
             v.build_ms = seconds_since(t0) * 1e3;
             v.vertex_count = v.geometry.vertices.size();
@@ -478,7 +463,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             std::vector<glm::vec4> v;
             v.reserve(3 * scene.triangles.size());
             for (const glm::u32vec3& t : scene.triangles)
-                for (std::uint32_t k : {t.x, t.y, t.z}) v.push_back(glm::vec4(positions_[k], 1.0f));
+                for (std::uint32_t k : {t.x, t.y, t.z}) v.push_back(glm::vec4(s_.drawn_positions[k], 1.0f));
             scene_vertex_count_ = static_cast<std::uint32_t>(v.size());
             if (!v.empty())
                 scene_vertices_ =
@@ -532,9 +517,8 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     void unlit_outside_light(const Light& l, std::vector<float>& V) const {
         const Scenario& sc = s_.scenario;
         const PrimaryRays rays(s_.camera, sc.width, sc.height);
-        const bool directional = l.type == LightType::directional;
-        const glm::dvec3 light_rel = drawn_light_position(l, s_.origin, s_.precision);
-        const double cos_outer = l.type == LightType::spot ? std::cos(l.outer_cone_rad) : -2.0;
+        const LightReach reach(l, drawn_light_position(l, s_.origin, s_.precision));
+        const std::vector<glm::vec3>& p = s_.drawn_positions;
         for (int y = 0; y < sc.height; ++y)
             for (int x = 0; x < sc.width; ++x) {
                 const std::size_t i = static_cast<std::size_t>(y) * sc.width + x;
@@ -544,28 +528,16 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                     continue;
                 }
                 const glm::u32vec3 t = sc.scene.triangles[id];
-                const glm::dvec3 a(positions_[t.x]), b(positions_[t.y]), c(positions_[t.z]);
-                glm::dvec3 n = glm::cross(b - a, c - a);
-                const PrimaryRay ray = rays.at(x + 0.5, y + 0.5);
-                const double denom = glm::dot(ray.direction, n);
-                const glm::dvec3 P = std::abs(denom) > 1e-300
-                                         ? ray.origin + ray.direction * (glm::dot(a - ray.origin, n) / denom)
-                                         : (a + b + c) / 3.0;
-                if (denom > 0) n = -n;  // the side the camera sees
-                const glm::dvec3 to_light = directional ? -l.direction : light_rel - P;
-                if (glm::dot(n, to_light) <= 0) {
-                    V[i] = 0.0f;
-                    continue;
-                }
-                if (glm::dot(-glm::normalize(to_light), l.direction) < cos_outer) V[i] = 0.0f;
+                if (!reach.lightable(surface_seen(rays.at(x + 0.5, y + 0.5), glm::dvec3(p[t.x]), glm::dvec3(p[t.y]),
+                                                       glm::dvec3(p[t.z])))) V[i] = 0.0f;
             }
     }
 
   private:
     const SceneOnGpu& s_;
     SceneTopology topology_;
-    std::vector<glm::vec3> positions_;
-    glm::dvec3 drawn_origin_{0.0};  // the frame origin and precision positions_ were made for
+    bool drawn_once_ = false;
+    glm::dvec3 drawn_origin_{0.0};  // the frame origin and precision the volumes were built for
     Precision drawn_precision_ = Precision::camera_relative;
     DescriptorSets depth_sets_;
     VkFormat format_ = VK_FORMAT_UNDEFINED;

@@ -36,8 +36,10 @@ struct SceneOnGpu {
     Precision precision = Precision::camera_relative;  // of the uploaded positions (Technique::precision)
     std::uint32_t width = 0, height = 0;
     std::size_t pixels = 0;
-    // float3 per vertex (camera-relative; world_float32: rounded to float in world space first),
-    // uint3 per triangle, bits
+    // The positions as uploaded (raster/surface_seen.h, drawn_positions): camera-relative floats;
+    // world_float32 rounds to float in world space first. For the families' CPU passes.
+    std::vector<glm::vec3> drawn_positions;
+    // drawn_positions, uint3 per triangle, bits
     GpuBuffer positions, indices, double_sided;
     std::uint32_t index_count = 0;
     GpuImage gbuffer_prim;             // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
