@@ -19,6 +19,7 @@ layout(push_constant) uniform Push { SdsmParams p; };
 shared uint group_min, group_max;
 
 vec3 vertex(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+#include "surface_seen.glsl"
 
 // Float bits in an order uints keep: negatives flipped, positives above them.
 uint ordered(float f) {
@@ -36,16 +37,7 @@ void main() {
     uint W = uint(p.image.x), H = uint(p.image.y);
     uint id = pix.x < W && pix.y < H ? imageLoad(gbuffer_prim, ivec2(pix)).r : kNoPrim;
     if (id != kNoPrim) {
-        // As shaders/lookup_main.glsl's main(): the same float operations give the same point.
-        vec3 v0 = vertex(indices[3 * id]), v1 = vertex(indices[3 * id + 1]), v2 = vertex(indices[3 * id + 2]);
-        vec3 n = normalize(cross(v1 - v0, v2 - v0));
-        vec2 ndc = vec2((float(pix.x) + 0.5) * 2.0 * p.image.z - 1.0, 1.0 - (float(pix.y) + 0.5) * 2.0 * p.image.w);
-        vec3 lateral = ndc.x * p.cam_right.w * p.cam_right.xyz + ndc.y * p.cam_up.w * p.cam_up.xyz;
-        bool perspective = p.cam_forward.w > 0.5;
-        vec3 ray_o = perspective ? vec3(0.0) : lateral;
-        vec3 ray_d = perspective ? p.cam_forward.xyz + lateral : p.cam_forward.xyz;
-        float denom = dot(ray_d, n);
-        vec3 P = abs(denom) > 1e-30 ? ray_o + ray_d * (dot(v0 - ray_o, n) / denom) : (v0 + v1 + v2) / 3.0;
+        vec3 P = surface_seen(pix, id).point;  // as the lookups rebuild it
         uint d = ordered(dot(P, p.cam_forward.xyz));
         atomicMin(group_min, d);
         atomicMax(group_max, d);

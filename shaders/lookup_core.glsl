@@ -40,6 +40,7 @@ void store(uint i, LookupTexel o) {
 }
 
 vec3 vertex(uint i) { return vec3(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]); }
+#include "surface_seen.glsl"
 
 // Suns: light from one direction, in one map or in several layers (a family's, e.g. cascades).
 const bool kDirectional = kLightKind == kLightDirectional;
@@ -239,15 +240,7 @@ uvec2 g_pix;
 vec3 g_plane_point, g_plane_normal;
 
 // The camera ray through image point `pixel` (pixels, y down) against the receiver's plane.
-vec3 on_receiver_plane(vec2 pixel) {
-    vec2 ndc = vec2(pixel.x * 2.0 * p.image.z - 1.0, 1.0 - pixel.y * 2.0 * p.image.w);
-    vec3 lateral = ndc.x * p.cam_right.w * p.cam_right.xyz + ndc.y * p.cam_up.w * p.cam_up.xyz;
-    bool perspective = p.cam_forward.w > 0.5;
-    vec3 ray_o = perspective ? vec3(0.0) : lateral;
-    vec3 ray_d = perspective ? p.cam_forward.xyz + lateral : p.cam_forward.xyz;
-    float denom = dot(ray_d, g_plane_normal);
-    return abs(denom) > 1e-30 ? ray_o + ray_d * (dot(g_plane_point - ray_o, g_plane_normal) / denom) : g_plane_point;
-}
+vec3 on_receiver_plane(vec2 pixel) { return on_plane(camera_ray(pixel), g_plane_point, g_plane_normal, g_plane_point); }
 
 // The depth map's compare filters (none, hw2x2, pcf, poisson, vogel, pcss) at receiver m.
 float depth_filter_visibility(uvec2 pix, uint layer, vec3 m, vec2 dz, float z_receiver) {

@@ -25,18 +25,10 @@ void main() {
     o.flags = kFlagSurface;
 
     // The surface point the oracle uses: the pixel-centre ray against the triangle's plane.
-    vec3 v0 = vertex(indices[3 * id]), v1 = vertex(indices[3 * id + 1]), v2 = vertex(indices[3 * id + 2]);
-    vec3 n = normalize(cross(v1 - v0, v2 - v0));
-    vec2 ndc = vec2((float(pix.x) + 0.5) * 2.0 * p.image.z - 1.0, 1.0 - (float(pix.y) + 0.5) * 2.0 * p.image.w);
-    vec3 lateral = ndc.x * p.cam_right.w * p.cam_right.xyz + ndc.y * p.cam_up.w * p.cam_up.xyz;
-    bool perspective = p.cam_forward.w > 0.5;
-    vec3 ray_o = perspective ? vec3(0.0) : lateral;
-    vec3 ray_d = perspective ? p.cam_forward.xyz + lateral : p.cam_forward.xyz;
-    float denom = dot(ray_d, n);
-    vec3 P = abs(denom) > 1e-30 ? ray_o + ray_d * (dot(v0 - ray_o, n) / denom) : (v0 + v1 + v2) / 3.0;
-    if (denom > 0.0) n = -n;  // the side the camera sees
+    SurfaceSeen seen = surface_seen(pix, id);
+    vec3 P = seen.point, n = seen.normal;
     g_pix = pix;
-    g_plane_point = v0;
+    g_plane_point = seen.plane_point;
     g_plane_normal = n;
 
     vec3 to_light = kDirectional ? -p.light_dir.xyz : normalize(p.light_pos.xyz - P);
