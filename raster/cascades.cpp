@@ -93,7 +93,7 @@ const char* cascade_bias_scaling(const Technique& t, std::string_view key) {
 }
 
 const Cascades* cascades_of(const Technique& t) {
-    return t.family == "cascaded" ? dynamic_cast<const Cascades*>(t.family_parameters.get()) : nullptr;
+    return t.family == "cascaded" ? t.parameters<Cascades>() : nullptr;
 }
 
 namespace {

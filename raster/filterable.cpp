@@ -114,7 +114,7 @@ std::array<double, 4> round_to_unorm16(const std::array<double, 4>& q) {
 }
 
 const MomentParameters* moment_parameters(const Technique& t) {
-    return dynamic_cast<const MomentParameters*>(t.family_parameters.get());
+    return t.parameters<MomentParameters>();
 }
 
 namespace {

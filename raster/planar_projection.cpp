@@ -29,7 +29,7 @@
 namespace penumbra::raster {
 
 const PlanarProjection* planar_of(const Technique& t) {
-    return t.family == "planar_projection" ? dynamic_cast<const PlanarProjection*>(t.family_parameters.get()) : nullptr;
+    return t.family == "planar_projection" ? t.parameters<PlanarProjection>() : nullptr;
 }
 
 std::optional<glm::dvec4> largest_upward_plane(const Scene& scene) {

@@ -37,7 +37,7 @@ const char* to_string(StencilMethod m) {
 }
 
 const ShadowVolumeParameters* shadow_volume_parameters(const Technique& t) {
-    return dynamic_cast<const ShadowVolumeParameters*>(t.family_parameters.get());
+    return t.parameters<ShadowVolumeParameters>();
 }
 
 namespace {

@@ -99,8 +99,9 @@ struct Filter {
     double max_radius_texels = 32;
 };
 
-// The parameters a family registered from outside keeps of its own (technique_family.h): its
-// entry's `parse` makes them, its `write` and its renderer read them back by dynamic_cast.
+// The parameters a family keeps of its own (cascades, moments, shadow volumes, planar projection,
+// or a family registered from outside: technique_family.h): its entry's `parse` makes them, its
+// `write` and its renderer read them back with Technique::parameters<P>().
 struct FamilyParameters {
     virtual ~FamilyParameters() = default;
 };
@@ -145,9 +146,16 @@ struct Technique {
     // Per-light overrides, indexed as the scenario's lights (may be shorter than them): their
     // keys win over `bias` for that light.
     std::vector<LightOverride> lights;
-    // A registered family's own parameters (null for the built-in families, whose keys are the
-    // fields above).
+    // The family's own parameters, made by its entry's `parse` (null for a family whose keys are
+    // all fields above). Read them through parameters<P>().
     std::shared_ptr<const FamilyParameters> family_parameters;
+
+    // The family's parameters as its type P, or null when the technique keeps none of that type:
+    // the one way a family (or its tests) reads its own keys back.
+    template <class P>
+    const P* parameters() const {
+        return dynamic_cast<const P*>(family_parameters.get());
+    }
 
     // The bias light `light` (the scenario's index) is drawn with: `bias` under its overrides.
     Bias bias_for(std::size_t light) const;

@@ -173,7 +173,7 @@ class ConstantShadeFamily final : public raster::TechniqueFamily {
     explicit ConstantShadeFamily(const raster::SceneOnGpu& s) : pixels_(s.pixels) {}
     void render(const raster::Technique& t, std::span<const Light> lights, const raster::RenderOptions&,
                 RasterFrame& frame, raster::RasterStats& stats) override {
-        const auto& p = dynamic_cast<const ConstantShade&>(*t.family_parameters);
+        const auto& p = *t.parameters<ConstantShade>();
         for (std::size_t li = 0; li < lights.size(); ++li) {
             frame.lights.push_back({std::vector<float>(pixels_, static_cast<float>(p.value)), std::nullopt});
             stats.lights.emplace_back();
@@ -197,7 +197,7 @@ void register_constant_shade() {
         t.family_parameters = p;
     };
     e.write = [](const raster::Technique& t, nlohmann::json& j) {
-        j["value"] = dynamic_cast<const ConstantShade&>(*t.family_parameters).value;
+        j["value"] = t.parameters<ConstantShade>()->value;
     };
     e.hints = [](const raster::Technique&) { return raster::ScoringHints{3, 0}; };
     e.memory = [](const raster::Technique&) { return RasterMemory{}; };
@@ -213,7 +213,7 @@ TEST(RegisteredFamily, IsPickedByItsKeyAndParsesAndWritesItsOwnKeys) {
     register_constant_shade();
     const raster::Technique t = parse_technique({{"family", "constant_shade"}, {"value", 0.25}}, "t");
     EXPECT_EQ(t.family, "constant_shade");
-    EXPECT_DOUBLE_EQ(dynamic_cast<const ConstantShade&>(*t.family_parameters).value, 0.25);
+    EXPECT_DOUBLE_EQ(t.parameters<ConstantShade>()->value, 0.25);
     EXPECT_EQ(t.to_json(),
               (nlohmann::json{{"family", "constant_shade"}, {"value", 0.25}, {"precision", "camera_relative"}}));
     EXPECT_EQ(parse_technique(t.to_json(), "t").to_json(), t.to_json());
