@@ -208,10 +208,9 @@ class CascadesVariant final : public DepthMapVariant {
     }
     std::optional<LightProjection> fit(const Technique& t, const Light& l,
                                        const glm::dvec3& fit_origin) const override {
-        const Cascades* c = cascades_for(t, l);
-        if (!c) return std::nullopt;
+        if (!cascades_for(t, l)) return std::nullopt;
         const Scenario& sc = s_.scenario;
-        return fit_cascades(l, sc.scene, s_.camera, sc.width, sc.height, *c, t.resolution, fit_origin, samples_);
+        return fit_for_technique(l, sc.scene, s_.camera, sc.width, sc.height, t, fit_origin, samples_);
     }
     // Every cascade is drawn: slices are cut to what the camera sees.
     bool draws_every_layer(const Technique& t, const Light& l) const override { return cascades_for(t, l) != nullptr; }

@@ -779,8 +779,7 @@ void DepthMapCore::render(const Technique& t, std::span<const Light> all_lights,
         for (const auto& v : variants_)
             if (!fitted) fitted = v->fit(t, light, fit_origin);
         ls.projection = fitted ? std::move(*fitted)
-                               : fit_light(light, sc.scene, s_.camera, sc.width, sc.height, t.fit, t.resolution,
-                                           fit_origin, t.shadow_distance);
+                               : fit_for_technique(light, sc.scene, s_.camera, sc.width, sc.height, t, fit_origin);
         if (world) round_to_world_float32(ls.projection, s_.origin);
         ls.views = shadow_views(ls.projection);
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
