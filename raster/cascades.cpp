@@ -360,6 +360,13 @@ FamilyEntry cascaded_family_entry() {
          {"cascades.count", "cascades.split", "cascades.lambda", "cascades.first_far", "cascades.max_distance",
           "cascades.overlap", "cascades.fit", "cascades.stabilize", "cascades.sdsm", "cascades.texel_scaled_bias"})
         e.sweep_keys.push_back(key);
+    // tune.json says per knob how a cascaded technique applies it per cascade (docs/tune.md).
+    for (KnobDecl& k : e.knobs)
+        k.describe = [key = k.key](const Technique& t) {
+            nlohmann::json j = nlohmann::json::object();
+            if (const char* scaling = cascade_bias_scaling(t, key); *scaling) j["cascades"] = scaling;
+            return j;
+        };
     return e;
 }
 

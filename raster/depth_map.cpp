@@ -936,13 +936,7 @@ FamilyEntry depth_map_family_entry() {
                     "fit",
                     "shadow_distance",
                     "cull",
-                    "bias.constant",
-                    "bias.slope",
-                    "bias.clamp",
-                    "bias.world",
-                    "bias.normal_offset",
                     "bias.shader_depth",
-                    "bias.receiver_plane",
                     "bias.normal_offset_m",
                     "bias.normal_factor",
                     "bias.normal_perpendicular",
@@ -962,8 +956,7 @@ FamilyEntry depth_map_family_entry() {
                     "filter.max_radius_texels",
                     "depth_layer",
                     "precision"};
-    e.tune_knobs = {"bias.constant", "bias.slope",         "bias.clamp",
-                    "bias.world",    "bias.normal_offset", "bias.receiver_plane"};
+    e.knobs = depth_map_bias_knobs();
     e.make = make_depth_map_family;
     return e;
 }
