@@ -7,6 +7,7 @@
 
 #include "common/version.h"
 #include "metrics/metric_table.h"
+#include "raster/technique_family.h"
 
 namespace penumbra::tune {
 namespace {
@@ -201,9 +202,12 @@ nlohmann::json tune_json(const TuneReport& r) {
             info["values"] = {false, true};
         else
             info.update({{"unit", k.unit}, {"range", {k.lower, k.upper}}, {"scale", raster::to_string(k.scale)}});
-        // What the family adds (a cascaded technique: whether the value is scaled by each
-        // cascade's texel, docs/tune.md).
-        if (k.describe) info.update(k.describe(r.start));
+        // What the start's family adds (a cascaded technique: whether the value is scaled by
+        // each cascade's texel, docs/tune.md), from its own declaration of the knob.
+        const auto& declared = raster::family_of(r.start).knobs;
+        auto own =
+            std::find_if(declared.begin(), declared.end(), [&](const raster::KnobDecl& d) { return d.name == k.name; });
+        if (own != declared.end() && own->describe) info.update(own->describe(r.start));
         knob_info.push_back(info);
     }
     nlohmann::json evaluations = nlohmann::json::array();
