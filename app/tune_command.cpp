@@ -104,7 +104,9 @@ int run_tune_command(const TuneArgs& a) {
     const ThreadLimit limit(c);
     // Everything the user wrote is checked before any work starts.
     tune::TuneOptions options;
-    if (!a.knobs.empty()) options.knobs = tune::parse_knobs(a.knobs, "--knobs");
+    // The names first (unknown, repeated, none that adds bias), the technique's family's after.
+    std::vector<std::string> knobs;
+    if (!a.knobs.empty()) knobs = tune::parse_knobs(a.knobs, "--knobs");
     options.budget = a.budget;
     options.precision = a.precision;
     options.lookups = !a.visibility_only;
@@ -119,8 +121,8 @@ int run_tune_command(const TuneArgs& a) {
     for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
     for (const auto& f : a.holdout) holdout.push_back(load_for_command(f, c));
     const raster::Technique start = resolve_technique(scenarios.front(), a.technique);
-    if (a.knobs.empty()) options.knobs = tune::parse_knobs(tune::default_knobs(start), "--knobs");
-    tune::check_family_knobs(start, options.knobs, "--knobs");
+    if (a.knobs.empty()) knobs = tune::parse_knobs(tune::default_knobs(start), "--knobs");
+    options.knobs = tune::knob_set(start, knobs, "--knobs");
     std::optional<EngineUnitsPlan> engine_units;
     if (!a.units.empty()) engine_units = plan_engine_units(a.units, scenarios, start);
     for (const auto* list : {&scenarios, &holdout})

@@ -33,8 +33,8 @@ void print_result(const char* name, const tune::TuneResult& r, const tune::TuneO
     }
     const auto& e = r.evaluations[*r.winner];
     std::printf("%-7s %5zu evaluations: constant %.4g slope %.4g  worst acne %.5f  %s %.6f  %s %.4g m\n", name,
-                r.evaluations.size(), e.setting[tune::Knob::constant], e.setting[tune::Knob::slope], e.worst_acne,
-                o.objective.minimize.c_str(), e.minimized, o.objective.then.c_str(), e.then);
+                r.evaluations.size(), e.setting[0], e.setting[1], e.worst_acne, o.objective.minimize.c_str(),
+                e.minimized, o.objective.then.c_str(), e.then);
 }
 
 }  // namespace
@@ -106,9 +106,9 @@ int main(int argc, char** argv) {
         std::vector<double> eval_s, render_s, count_s, v_s, bare_s, cpu_s, cpu_count_s;
         std::vector<double> bare_setup_s, bare_submit_s, bare_gpu_ms;  // where a bare render's wall clock goes
         for (int r = 0; r < repeat + 1; ++r) {
-            tune::Setting s;
-            s[tune::Knob::constant] = 1000;
-            s[tune::Knob::slope] = r % 2 ? 1.5 : 2.5;
+            tune::Setting s(options.knobs.size());  // constant, slope
+            s[0] = 1000;
+            s[1] = r % 2 ? 1.5 : 2.5;
             const tune::Evaluation e = ev.evaluate(s);
             const tune::Evaluation e_cpu = ev_cpu.evaluate(s);
             if (e_cpu.lights.size() != e.lights.size() || e_cpu.worst_acne != e.worst_acne ||

@@ -35,7 +35,7 @@ set(penumbra_public_headers
   metrics/classification.h metrics/gate.h metrics/metric_table.h
   oracle/oracle.h
   pipeline/validate.h pipeline/validate_files.h pipeline/compare.h pipeline/compare_files.h
-  raster/cascades.h raster/depth_map.h raster/gpu_passes.h raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h
+  raster/cascades.h raster/depth_map.h raster/gpu_passes.h raster/knobs.h raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h
   raster/technique_family.h raster/vk_check.h raster/vulkan_context.h
   report/report.h shaders/penumbra_shared.h
   stress/cases.h stress/stress_files.h stress/suite.h

@@ -8,7 +8,6 @@
 #include <tuple>
 
 #include "common/errors.h"
-#include "raster/cascades.h"
 #include "raster/light_projection.h"
 #include "raster/technique_family.h"
 
@@ -565,13 +564,9 @@ std::vector<MapContext> map_contexts(const Scenario& s, const raster::Technique&
             fmt::format("--light: {} is not a light of {} (it has {})", light_index, s.label, s.lights.size()));
     Light light = s.lights[light_index];
     if (is_area_light(light.type)) light.type = LightType::point;  // drawn from its centre
-    const raster::Cascades* cascades = raster::cascades_of(t);
     const glm::dvec3 origin = s.camera.eye;
     const raster::LightProjection lp =
-        light.type == LightType::directional && cascades
-            ? raster::fit_cascades(light, s.scene, s.camera, s.width, s.height, *cascades, t.resolution, origin)
-            : raster::fit_light(light, s.scene, s.camera, s.width, s.height, t.fit, t.resolution, origin,
-                                t.shadow_distance);
+        raster::fit_for_technique(light, s.scene, s.camera, s.width, s.height, t, origin);
     const auto views = raster::shadow_views(lp);
     const glm::dvec3 p_rel = ref.point - origin;
     std::vector<MapContext> out;

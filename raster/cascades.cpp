@@ -208,10 +208,9 @@ class CascadesVariant final : public DepthMapVariant {
     }
     std::optional<LightProjection> fit(const Technique& t, const Light& l,
                                        const glm::dvec3& fit_origin) const override {
-        const Cascades* c = cascades_for(t, l);
-        if (!c) return std::nullopt;
+        if (!cascades_for(t, l)) return std::nullopt;
         const Scenario& sc = s_.scenario;
-        return fit_cascades(l, sc.scene, s_.camera, sc.width, sc.height, *c, t.resolution, fit_origin, samples_);
+        return fit_for_technique(l, sc.scene, s_.camera, sc.width, sc.height, t, fit_origin, samples_);
     }
     // Every cascade is drawn: slices are cut to what the camera sees.
     bool draws_every_layer(const Technique& t, const Light& l) const override { return cascades_for(t, l) != nullptr; }
@@ -366,6 +365,13 @@ FamilyEntry cascaded_family_entry() {
          {"cascades.count", "cascades.split", "cascades.lambda", "cascades.first_far", "cascades.max_distance",
           "cascades.overlap", "cascades.fit", "cascades.stabilize", "cascades.sdsm", "cascades.texel_scaled_bias"})
         e.sweep_keys.push_back(key);
+    // tune.json says per knob how a cascaded technique applies it per cascade (docs/tune.md).
+    for (KnobDecl& k : e.knobs)
+        k.describe = [key = k.key](const Technique& t) {
+            nlohmann::json j = nlohmann::json::object();
+            if (const char* scaling = cascade_bias_scaling(t, key); *scaling) j["cascades"] = scaling;
+            return j;
+        };
     return e;
 }
 

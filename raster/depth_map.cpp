@@ -776,8 +776,7 @@ void DepthMapCore::render(const Technique& t, std::span<const Light> all_lights,
         for (const auto& v : variants_)
             if (!fitted) fitted = v->fit(t, light, fit_origin);
         ls.projection = fitted ? std::move(*fitted)
-                               : fit_light(light, sc.scene, s_.camera, sc.width, sc.height, t.fit, t.resolution,
-                                           fit_origin, t.shadow_distance);
+                               : fit_for_technique(light, sc.scene, s_.camera, sc.width, sc.height, t, fit_origin);
         if (world) round_to_world_float32(ls.projection, s_.origin);
         ls.views = shadow_views(ls.projection);
         for (const auto& w : ls.projection.warnings) stats.warnings.push_back(w);
@@ -934,13 +933,7 @@ FamilyEntry depth_map_family_entry() {
                     "fit",
                     "shadow_distance",
                     "cull",
-                    "bias.constant",
-                    "bias.slope",
-                    "bias.clamp",
-                    "bias.world",
-                    "bias.normal_offset",
                     "bias.shader_depth",
-                    "bias.receiver_plane",
                     "bias.normal_offset_m",
                     "bias.normal_factor",
                     "bias.normal_perpendicular",
@@ -960,8 +953,7 @@ FamilyEntry depth_map_family_entry() {
                     "filter.max_radius_texels",
                     "depth_layer",
                     "precision"};
-    e.tune_knobs = {"bias.constant", "bias.slope",         "bias.clamp",
-                    "bias.world",    "bias.normal_offset", "bias.receiver_plane"};
+    e.knobs = depth_map_bias_knobs();
     e.make = make_depth_map_family;
     return e;
 }

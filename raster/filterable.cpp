@@ -10,11 +10,13 @@
 
 #include <fmt/format.h>
 
+#include <limits>
 #include <map>
 
 #include "common/errors.h"
 #include "common/json_reader.h"
 #include "raster/depth_map.h"
+#include "raster/knobs.h"
 #include "raster/technique_family.h"
 // SPIR-V compiled from raster/filterable_*.comp at build time.
 #include "filterable_lookup_comp.h"
@@ -520,6 +522,48 @@ std::unique_ptr<TechniqueFamily> make_moment_family(const SceneOnGpu& scene) {
     return make_depth_map_core(scene, std::move(variants));
 }
 
+// A moment knob: the MomentParameters field `field`, drawn at most at `most`.
+KnobDecl moment_knob(const char* name, std::string key, const char* unit, double lower, double upper,
+                     double MomentParameters::*field, double most = std::numeric_limits<double>::infinity()) {
+    KnobDecl k;
+    k.name = name;
+    k.key = std::move(key);
+    k.unit = unit;
+    k.lower = lower;
+    k.upper = upper;
+    k.scope = KnobScope::technique;
+    k.by_default = true;
+    k.read = [field](const Technique& t) { return parameters_of(t).*field; };
+    k.write = [field, most](Technique& t, double v) {
+        auto p = std::make_shared<MomentParameters>(parameters_of(t));
+        p.get()->*field = std::min(v, most);
+        t.family_parameters = std::move(p);
+    };
+    return k;
+}
+
+// The family's tune knobs (docs/tune.md, "Knobs"), each the technique's (one value for every
+// light), ranged around its default up to where it stops making sense: the variance floor and
+// the light-bleed reduction (vsm, evsm; the reduction drawn at most 0.999), the exponent (esm's
+// c up to its float32 cap; evsm's positive one, searched over the same range and drawn at most
+// at its own cap of 42), msm's moment bias.
+std::vector<KnobDecl> moment_knobs(MomentKind kind) {
+    if (kind == MomentKind::esm)
+        return {moment_knob("exponent", "esm.exponent", "exponent", 1, kMaxEsmExponent, &MomentParameters::exponent,
+                            kMaxEsmExponent)};
+    if (kind == MomentKind::msm)
+        return {moment_knob("moment_bias", "msm.moment_bias", "fraction", 1e-7, 1e-2, &MomentParameters::moment_bias)};
+    const std::string own = kind == MomentKind::vsm ? "vsm" : "evsm";
+    std::vector<KnobDecl> k = {moment_knob("min_variance", own + ".min_variance", "squared depth units", 1e-9, 1e-2,
+                                           &MomentParameters::min_variance),
+                               moment_knob("light_bleed", own + ".light_bleed", "fraction", 1e-2, 0.95,
+                                           &MomentParameters::light_bleed, 0.999)};
+    if (kind != MomentKind::vsm)
+        k.push_back(moment_knob("exponent", "evsm.exponents", "exponent", 1, kMaxEsmExponent,
+                                &MomentParameters::exponent, kMaxEvsmExponent));
+    return k;
+}
+
 FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
     FamilyEntry e = depth_map_family_entry();
     e.name = to_string(kind);
@@ -551,7 +595,6 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
               {"sampled", p.mipmaps ? "trilinear" : "bilinear"},
               {"gathered_in_lookup", false}}}};
     };
-    for (const char* k : {"blur", "mipmaps"}) e.sweep_keys.push_back(k);
     e.memory = [](const Technique& t) {
         // The depth map, and the moment texture with the blur's scratch (a third more with the
         // mip chain), counted as bytes of a map texel.
@@ -564,31 +607,13 @@ FamilyEntry moment_family_entry(MomentKind kind, std::string description) {
         m.depth_bytes += texel + (p.mipmaps ? (texel * 4 + 2) / 3 : texel);
         return m;
     };
-    const std::string own = kind == MomentKind::vsm   ? "vsm"
-                            : kind == MomentKind::esm ? "esm"
-                            : kind == MomentKind::msm ? "msm"
-                                                      : "evsm";
+    // The depth-map biases stay keys, not knobs: the family's defaults leave them off.
+    e.sweep_keys = sweep_keys_of(depth_map_family_entry());
     std::erase_if(e.sweep_keys, [](const std::string& k) { return k.rfind("filter.", 0) == 0; });
-    // tune searches the family's own knobs (tune/tune.h): the variance floor, the light-bleed
-    // reduction, the exponent, the moment bias. The depth-map biases stay keys, not knobs: the
-    // family's defaults leave them off.
-    e.tune_knobs.clear();
-    if (kind == MomentKind::esm) {
-        e.sweep_keys.push_back("esm.exponent");
-        e.tune_knobs.push_back("esm.exponent");
-    } else if (kind == MomentKind::msm) {
-        for (const char* k : {"msm.variant", "msm.storage", "msm.moment_bias"}) e.sweep_keys.push_back(k);
-        e.tune_knobs.push_back("msm.moment_bias");
-    } else {
-        for (const char* k : {".min_variance", ".light_bleed"}) {
-            e.sweep_keys.push_back(own + k);
-            e.tune_knobs.push_back(own + k);
-        }
-        if (kind != MomentKind::vsm) {
-            e.sweep_keys.push_back("evsm.exponents");
-            e.tune_knobs.push_back("evsm.exponents");
-        }
-    }
+    for (const char* k : {"blur", "mipmaps"}) e.sweep_keys.push_back(k);
+    if (kind == MomentKind::msm)
+        for (const char* k : {"msm.variant", "msm.storage"}) e.sweep_keys.push_back(k);
+    e.knobs = moment_knobs(kind);
     return e;
 }
 

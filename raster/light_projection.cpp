@@ -203,6 +203,14 @@ void perspective_range(const glm::dvec3& pos, const Scene& scene, std::span<cons
 
 }  // namespace
 
+LightProjection fit_for_technique(const Light& light, const Scene& scene, const Camera& camera, int image_width,
+                                  int image_height, const Technique& t, const glm::dvec3& origin,
+                                  const std::optional<glm::dvec2>& samples) {
+    if (const Cascades* c = light.type == LightType::directional ? cascades_of(t) : nullptr)
+        return fit_cascades(light, scene, camera, image_width, image_height, *c, t.resolution, origin, samples);
+    return fit_light(light, scene, camera, image_width, image_height, t.fit, t.resolution, origin, t.shadow_distance);
+}
+
 void round_to_world_float32(LightProjection& lp, const glm::dvec3& origin) {
     glm::dmat4 to_world(1.0);
     to_world[3] = glm::dvec4(origin, 1.0);

@@ -90,6 +90,14 @@ LightProjection fit_cascades(const Light& light, const Scene& scene, const Camer
                              int image_height, const Cascades& cascades, int resolution, const glm::dvec3& origin,
                              const std::optional<glm::dvec2>& samples = std::nullopt);
 
+// The fit technique `t` draws `light` with, and every command that reasons about its map uses
+// (the depth-map core, engines/engine_units.cpp): the cascades of a cascaded technique's sun
+// (fit_cascades, with SDSM's `samples` when given), else fit_light with the technique's fit,
+// resolution and shadow distance.
+LightProjection fit_for_technique(const Light& light, const Scene& scene, const Camera& camera, int image_width,
+                                  int image_height, const Technique& t, const glm::dvec3& origin,
+                                  const std::optional<glm::dvec2>& samples = std::nullopt);
+
 // Technique precision world_float32 (docs/raster.md, "precision"): `lp` was fitted with origin 0,
 // so its matrices map world positions; each is rounded to float32, as an engine keeps it, and
 // then re-expressed in double for positions relative to `origin` (the camera eye). The rounding

@@ -23,6 +23,13 @@ const std::deque<FamilyEntry>& technique_families() {
     return registry();
 }
 
+std::vector<std::string> sweep_keys_of(const FamilyEntry& family) {
+    std::vector<std::string> keys;
+    for (const KnobDecl& k : family.knobs) keys.push_back(k.key);
+    keys.insert(keys.end(), family.sweep_keys.begin(), family.sweep_keys.end());
+    return keys;
+}
+
 const FamilyEntry* find_technique_family(std::string_view name) {
     for (const FamilyEntry& f : registry())
         if (f.name == name) return &f;

@@ -21,6 +21,7 @@
 #include "common/memory_estimate.h"
 #include "common/scene.h"
 #include "raster/gpu_passes.h"
+#include "raster/knobs.h"
 #include "raster/raster.h"
 #include "raster/technique.h"
 
@@ -96,15 +97,20 @@ struct FamilyEntry {
     std::function<RasterMemory(const Technique& t)> memory;
     // Keys the family adds to light `light`'s object in raster.json (may be unset: none).
     std::function<nlohmann::json(const Technique& t, const Light& light, const RasterLightStats& stats)> describe_light;
-    // Technique keys (dotted paths) that sweep may vary and tune may search, for help and docs.
+    // The knobs tune searches (raster/knobs.h: name, technique key, range, unit, scale, how the
+    // value is read and written), declared by the family: tune has no list of its own.
+    std::vector<KnobDecl> knobs;
+    // Technique keys (dotted paths) sweep may vary besides the knobs' keys, for help and docs;
+    // sweep_keys_of gives both.
     std::vector<std::string> sweep_keys;
-    std::vector<std::string> tune_knobs;
     std::function<std::unique_ptr<TechniqueFamily>(const SceneOnGpu&)> make;
 };
 
 // Every family, the built-in ones (depth_map, averaged_area) first, then those registered.
 // References stay valid for the program's life.
 const std::deque<FamilyEntry>& technique_families();
+// Every technique key sweep may vary for `family`: its knobs' keys, then its sweep_keys.
+std::vector<std::string> sweep_keys_of(const FamilyEntry& family);
 // The family called `name`, or null.
 const FamilyEntry* find_technique_family(std::string_view name);
 // The family of `t` (its `family` must be registered: parse_technique makes sure of that).

@@ -5,55 +5,52 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "common/errors.h"
 #include "common/stopwatch.h"
 #include "metrics/gpu_classification.h"
 #include "metrics/metric_table.h"
-#include "raster/filterable.h"
 #include "raster/technique_family.h"
 
 namespace penumbra::tune {
 namespace {
 
-constexpr std::array<const char*, 10> kKnobNames = {"constant",      "slope",         "clamp",       "world",
-                                                    "normal_offset", "min_variance",  "light_bleed", "exponent",
-                                                    "moment_bias",   "receiver_plane"};
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::size_t index_of(Knob k) {
-    return static_cast<std::size_t>(k);
+bool is_continuous(const raster::KnobDecl& k) {
+    return k.scale == raster::KnobScale::log;
 }
-bool is_continuous(Knob k) {
-    return k != Knob::receiver_plane;
+// A knob that cures acne by growing (not the clamp, not a switch).
+bool adds_bias(const raster::KnobDecl& k) {
+    return is_continuous(k) && !k.caps;
 }
 
 // A knob's place on its log scale, growing with the bias it adds: "off" is -inf for the
-// additive knobs and +inf for clamp (0 = unclamped, the most bias).
-double position(Knob k, double v) {
-    if (v <= 0) return k == Knob::clamp ? kInf : -kInf;
+// additive knobs and +inf for a cap (the clamp: 0 = unclamped, the most bias).
+double position(const raster::KnobDecl& k, double v) {
+    if (v <= 0) return k.caps ? kInf : -kInf;
     return std::log10(v);
 }
-double value_at(Knob k, double pos) {
-    const KnobRange r = knob_range(k);
-    if (k == Knob::clamp) return pos >= std::log10(r.hi) + 1e-9 ? 0.0 : std::pow(10.0, std::max(pos, std::log10(r.lo)));
-    if (pos < std::log10(r.lo) - 1e-9) return 0.0;
-    return std::pow(10.0, std::min(pos, std::log10(r.hi)));
+double value_at(const raster::KnobDecl& k, double pos) {
+    if (k.caps) return pos >= std::log10(k.upper) + 1e-9 ? 0.0 : std::pow(10.0, std::max(pos, std::log10(k.lower)));
+    if (pos < std::log10(k.lower) - 1e-9) return 0.0;
+    return std::pow(10.0, std::min(pos, std::log10(k.upper)));
 }
 
 // How much bias a setting adds, for ties: each knob's position in [0, 1] of its range (off: 0;
 // unclamped: 1), summed.
-double bias_size(const Setting& s, std::span<const Knob> knobs) {
+double bias_size(const Setting& s, const KnobSet& knobs) {
     double sum = 0;
-    for (Knob k : knobs) {
+    for (std::size_t i = 0; i < knobs.size(); ++i) {
+        const raster::KnobDecl& k = knobs[i];
         if (!is_continuous(k)) continue;
-        const KnobRange r = knob_range(k);
-        const double p = position(k, s[k]);
+        const double p = position(k, s[i]);
         if (std::isinf(p)) {
             sum += p > 0 ? 1.0 : 0.0;
             continue;
         }
-        sum += 1e-3 + (p - std::log10(r.lo)) / (std::log10(r.hi) - std::log10(r.lo));
+        sum += 1e-3 + (p - std::log10(k.lower)) / (std::log10(k.upper) - std::log10(k.lower));
     }
     return sum;
 }
@@ -106,97 +103,112 @@ Evaluation project(const Evaluation& all, std::size_t light, const Objective& ob
 }
 
 // Writes the tuned knobs of `b` into a light's override.
-void set_override(raster::BiasOverride& o, const raster::Bias& b, std::span<const Knob> knobs) {
-    for (Knob k : knobs) switch (k) {
-            case Knob::constant: o.constant = b.constant; break;
-            case Knob::slope: o.slope = b.slope; break;
-            case Knob::clamp: o.clamp = b.clamp; break;
-            case Knob::world: o.world = b.world; break;
-            case Knob::normal_offset: o.normal_offset = b.normal_offset; break;
-            case Knob::receiver_plane: o.receiver_plane = b.receiver_plane; break;
-            default: break;  // a family knob is the technique's, never a light's
-        }
+void set_override(raster::BiasOverride& o, const raster::Bias& b, const KnobSet& knobs) {
+    for (const raster::KnobDecl& k : knobs)
+        if (k.scope == raster::KnobScope::light) k.set_override(o, &b);  // a technique's knob is never a light's
 }
 
-void apply_to_bias(raster::Bias& b, std::span<const Knob> knobs, const Setting& s, double footprint_m) {
-    for (Knob k : knobs) switch (k) {
-            case Knob::constant: b.constant = s[k]; break;
-            case Knob::slope: b.slope = s[k]; break;
-            case Knob::clamp: b.clamp = s[k]; break;
-            case Knob::world: b.world = s[k] * footprint_m; break;
-            case Knob::normal_offset: b.normal_offset = s[k]; break;
-            case Knob::receiver_plane: b.receiver_plane = s.receiver_plane; break;
-            default: break;  // apply_to_family
-        }
+void apply_to_bias(raster::Bias& b, const KnobSet& knobs, const Setting& s, double footprint_m) {
+    for (std::size_t i = 0; i < knobs.size(); ++i)
+        if (knobs[i].scope == raster::KnobScope::light) knobs[i].write_bias(b, s[i], footprint_m);
 }
 
-// The family knobs of `s` into a copy of the technique's moment parameters. The exponent is
-// esm's c, or evsm's positive one (its negative one stays), within the storage's safe range.
-void apply_to_family(raster::Technique& t, std::span<const Knob> knobs, const Setting& s) {
-    const raster::MomentParameters* base = raster::moment_parameters(t);
-    if (!base || std::none_of(knobs.begin(), knobs.end(), is_family_knob)) return;
-    auto p = std::make_shared<raster::MomentParameters>(*base);
-    for (Knob k : knobs) switch (k) {
-            case Knob::min_variance: p->min_variance = s[k]; break;
-            case Knob::light_bleed: p->light_bleed = std::min(s[k], 0.999); break;
-            case Knob::exponent:
-                p->exponent = std::min(
-                    s[k], p->kind == raster::MomentKind::esm ? raster::kMaxEsmExponent : raster::kMaxEvsmExponent);
-                break;
-            case Knob::moment_bias: p->moment_bias = s[k]; break;
-            default: break;
-        }
-    t.family_parameters = std::move(p);
+// The technique's knobs of `s` into `t` (its family's parameters).
+void apply_to_technique(raster::Technique& t, const KnobSet& knobs, const Setting& s) {
+    for (std::size_t i = 0; i < knobs.size(); ++i)
+        if (knobs[i].scope == raster::KnobScope::technique) knobs[i].write(t, s[i]);
+}
+
+// An invariant, not input: a setting holds a value for each knob of its set.
+void check_size(const Setting& s, const KnobSet& knobs) {
+    if (s.value.size() != knobs.size())
+        throw std::logic_error(fmt::format("tune: a setting of {} values for {} knobs", s.value.size(), knobs.size()));
+}
+
+// "a, b, c", or with `last` before the last name: "a, b or c".
+std::string join(const std::vector<std::string>& names, const char* sep = ", ", const char* last = nullptr) {
+    std::string text;
+    for (std::size_t i = 0; i < names.size(); ++i)
+        text += (i == 0 ? "" : i + 1 == names.size() && last ? last : sep) + names[i];
+    return text;
+}
+
+// Every registered family's knob of each name, the first declared (they agree on what the
+// name means: a range and whether it adds bias).
+std::vector<const raster::KnobDecl*> known_knobs() {
+    std::vector<const raster::KnobDecl*> known;
+    for (const raster::FamilyEntry& f : raster::technique_families())
+        for (const raster::KnobDecl& k : f.knobs)
+            if (std::none_of(known.begin(), known.end(), [&](const raster::KnobDecl* x) { return x->name == k.name; }))
+                known.push_back(&k);
+    return known;
+}
+
+// The names of the knobs of `known` that `keep` keeps: the default family's, and the others'.
+template <typename Keep>
+std::pair<std::vector<std::string>, std::vector<std::string>> by_default_family(
+    const std::vector<const raster::KnobDecl*>& known, Keep keep) {
+    const raster::FamilyEntry* def = raster::find_technique_family(raster::kDefaultFamily);
+    std::pair<std::vector<std::string>, std::vector<std::string>> names;
+    for (const raster::KnobDecl* k : known) {
+        if (!keep(*k)) continue;
+        const bool own = def && std::any_of(def->knobs.begin(), def->knobs.end(),
+                                            [&](const raster::KnobDecl& d) { return d.name == k->name; });
+        (own ? names.first : names.second).push_back(k->name);
+    }
+    return names;
 }
 
 }  // namespace
 
-const char* to_string(Knob k) {
-    return kKnobNames[index_of(k)];
+std::optional<std::size_t> KnobSet::index(std::string_view name) const {
+    for (std::size_t i = 0; i < knobs_.size(); ++i)
+        if (knobs_[i].name == name) return i;
+    return std::nullopt;
 }
 
-bool is_family_knob(Knob k) {
-    return k == Knob::min_variance || k == Knob::light_bleed || k == Knob::exponent || k == Knob::moment_bias;
+bool KnobSet::has_technique_knob() const {
+    return std::any_of(knobs_.begin(), knobs_.end(),
+                       [](const raster::KnobDecl& k) { return k.scope == raster::KnobScope::technique; });
 }
 
-void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option) {
+KnobSet knob_set(const raster::Technique& technique, std::span<const std::string> names, const std::string& option) {
     const raster::FamilyEntry& family = raster::family_of(technique);
-    for (Knob k : knobs) {
-        // A bias knob is "bias.<knob>"; a family knob "<family>.<knob>" (evsm's "exponents").
-        const std::string name = to_string(k);
-        auto listed = [&](const std::string& key) {
-            if (!is_family_knob(k)) return key == "bias." + name;
-            const std::size_t dot = key.find('.');
-            if (dot == std::string::npos || key.starts_with("bias.")) return false;
-            const std::string own = key.substr(dot + 1);
-            return own == name || (k == Knob::exponent && own == "exponents");
-        };
-        if (std::any_of(family.tune_knobs.begin(), family.tune_knobs.end(), listed)) continue;
-        std::string have;
-        for (const auto& n : family.tune_knobs) have += fmt::format("{}{}", have.empty() ? "" : ", ", n);
-        throw InputError(fmt::format("{}: {} is not a knob of technique family \"{}\" (its knobs: {})", option,
-                                     to_string(k), family.name, have.empty() ? "none" : have));
+    std::vector<raster::KnobDecl> chosen;
+    for (const std::string& name : names) {
+        auto it = std::find_if(family.knobs.begin(), family.knobs.end(),
+                               [&](const raster::KnobDecl& k) { return k.name == name; });
+        if (it != family.knobs.end()) {
+            chosen.push_back(*it);
+            continue;
+        }
+        std::vector<std::string> keys;
+        for (const raster::KnobDecl& k : family.knobs) keys.push_back(k.key);
+        throw InputError(fmt::format("{}: {} is not a knob of technique family \"{}\" (its knobs: {})", option, name,
+                                     family.name, keys.empty() ? "none" : join(keys)));
     }
+    return KnobSet(std::move(chosen));
 }
 
 std::string default_knobs(const raster::Technique& technique) {
-    const raster::FamilyEntry& family = raster::family_of(technique);
-    std::string own;
-    for (const std::string& key : family.tune_knobs) {
-        if (key.starts_with("bias.")) return "constant,slope";
-        std::string name = key.substr(key.find('.') + 1);
-        if (name == "exponents") name = "exponent";
-        own += (own.empty() ? "" : ",") + name;
-    }
-    return own.empty() ? "constant,slope" : own;
+    auto defaults = [](const raster::FamilyEntry& family) {
+        std::vector<std::string> names;
+        for (const raster::KnobDecl& k : family.knobs)
+            if (k.by_default) names.push_back(k.name);
+        return names;
+    };
+    std::vector<std::string> names = defaults(raster::family_of(technique));
+    if (names.empty()) names = defaults(*raster::find_technique_family(raster::kDefaultFamily));
+    return join(names, ",");
 }
 
-std::string describe(const Setting& s, std::span<const Knob> knobs) {
+std::string describe(const Setting& s, const KnobSet& knobs) {
+    check_size(s, knobs);
     std::string text;
-    for (Knob k : knobs) {
+    for (std::size_t i = 0; i < knobs.size(); ++i) {
         if (!text.empty()) text += " ";
-        text += k == Knob::receiver_plane ? fmt::format("receiver_plane={}", s.receiver_plane)
-                                          : fmt::format("{}={:.4g}", to_string(k), s[k]);
+        text += is_continuous(knobs[i]) ? fmt::format("{}={:.4g}", knobs[i].name, s[i])
+                                        : fmt::format("{}={}", knobs[i].name, s[i] != 0);
     }
     return text;
 }
@@ -210,104 +222,74 @@ double median_at_surface(const std::vector<float>& v, const std::vector<float>& 
     return x[x.size() / 2];
 }
 
-std::vector<Knob> parse_knobs(const std::string& list, const std::string& option) {
-    std::vector<Knob> knobs;
+std::vector<std::string> parse_knobs(const std::string& list, const std::string& option) {
+    const std::vector<const raster::KnobDecl*> known = known_knobs();
+    std::vector<std::string> names;
+    bool any_adds = false;
     std::size_t start = 0;
     while (start <= list.size()) {
         const std::size_t end = std::min(list.find(',', start), list.size());
         const std::string name = list.substr(start, end - start);
-        auto it = std::find(kKnobNames.begin(), kKnobNames.end(), name);
-        if (it == kKnobNames.end())
-            throw InputError(
-                fmt::format("{}: unknown knob \"{}\" (knobs: constant, slope, clamp, world, "
-                            "normal_offset, receiver_plane; a moment family's: min_variance, light_bleed, exponent, "
-                            "moment_bias)",
-                            option, name));
-        const Knob k = static_cast<Knob>(it - kKnobNames.begin());
-        if (std::find(knobs.begin(), knobs.end(), k) != knobs.end())
+        auto it = std::find_if(known.begin(), known.end(), [&](const raster::KnobDecl* k) { return k->name == name; });
+        if (it == known.end()) {
+            const auto [own, others] = by_default_family(known, [](const raster::KnobDecl&) { return true; });
+            throw InputError(fmt::format("{}: unknown knob \"{}\" (knobs: {}{}{})", option, name, join(own),
+                                         others.empty() ? "" : "; other families': ", join(others)));
+        }
+        if (std::find(names.begin(), names.end(), name) != names.end())
             throw InputError(fmt::format("{}: knob \"{}\" is named twice", option, name));
-        knobs.push_back(k);
+        any_adds = any_adds || adds_bias(**it);
+        names.push_back(name);
         start = end + 1;
     }
-    if (std::none_of(knobs.begin(), knobs.end(), [](Knob k) { return k != Knob::clamp && is_continuous(k); }))
-        throw InputError(
-            fmt::format("{}: \"{}\" has no knob that adds bias (constant, slope, world or "
-                        "normal_offset) or a moment family's (min_variance, light_bleed, exponent, moment_bias)",
-                        option, list));
-    return knobs;
-}
-
-KnobRange knob_range(Knob k) {
-    switch (k) {
-        case Knob::constant: return {1e-1, 1e6, "r"};
-        case Knob::slope: return {1e-2, 1e2, "factor"};
-        case Knob::clamp: return {1e-7, 1e-1, "depth units"};
-        case Knob::world: return {1e-2, 1e2, "texel footprints"};
-        case Knob::normal_offset: return {1e-2, 1e1, "texels"};
-        // The moment families' (docs/raster.md, "Filterable shadow maps"): around their defaults,
-        // up to where each stops making sense (the exponent: esm's float32 cap; evsm's values
-        // beyond its own cap of 42 are drawn at 42, apply_to_family).
-        case Knob::min_variance: return {1e-9, 1e-2, "squared depth units"};
-        case Knob::light_bleed: return {1e-2, 0.95, "fraction"};
-        case Knob::exponent: return {1, raster::kMaxEsmExponent, "exponent"};
-        case Knob::moment_bias: return {1e-7, 1e-2, "fraction"};
-        case Knob::receiver_plane: break;
+    if (!any_adds) {
+        const auto [own, others] = by_default_family(known, adds_bias);
+        throw InputError(fmt::format("{}: \"{}\" has no knob that adds bias ({}){}{}{}", option, list,
+                                     join(own, ", ", " or "), others.empty() ? "" : " or another family's (",
+                                     join(others), others.empty() ? "" : ")"));
     }
-    return {0, 0, ""};
+    return names;
 }
 
-raster::Technique apply_setting(const raster::Technique& base, std::span<const Knob> knobs, const Setting& s,
+raster::Technique apply_setting(const raster::Technique& base, const KnobSet& knobs, const Setting& s,
                                 double footprint_m) {
+    check_size(s, knobs);
     raster::Technique t = base;
     t.preset.clear();  // the tuned bias is no longer the preset's
     apply_to_bias(t.bias, knobs, s, footprint_m);
-    apply_to_family(t, knobs, s);
+    apply_to_technique(t, knobs, s);
     // A light's own value of a tuned knob would win over the setting: the setting is for all.
-    for (raster::LightOverride& l : t.lights) {
-        raster::BiasOverride& o = l.bias;
-        for (Knob k : knobs) switch (k) {
-                case Knob::constant: o.constant.reset(); break;
-                case Knob::slope: o.slope.reset(); break;
-                case Knob::clamp: o.clamp.reset(); break;
-                case Knob::world: o.world.reset(); break;
-                case Knob::normal_offset: o.normal_offset.reset(); break;
-                case Knob::receiver_plane: o.receiver_plane.reset(); break;
-                default: break;
-            }
-    }
+    for (raster::LightOverride& l : t.lights)
+        for (const raster::KnobDecl& k : knobs)
+            if (k.scope == raster::KnobScope::light) k.set_override(l.bias, nullptr);
     return t;
 }
 
-raster::Technique apply_settings(const raster::Technique& base, std::span<const Knob> knobs,
+raster::Technique apply_settings(const raster::Technique& base, const KnobSet& knobs,
                                  std::span<const Setting> per_light, double footprint_m) {
     raster::Technique t = base;
     t.preset.clear();
     if (t.lights.size() < per_light.size()) t.lights.resize(per_light.size());
     for (std::size_t li = 0; li < per_light.size(); ++li) {
+        check_size(per_light[li], knobs);
         raster::Bias b = base.bias_for(li);
         apply_to_bias(b, knobs, per_light[li], footprint_m);
         set_override(t.lights[li].bias, b, knobs);
     }
-    if (!per_light.empty()) apply_to_family(t, knobs, per_light[0]);  // one value for all (tune() makes sure)
+    if (!per_light.empty()) apply_to_technique(t, knobs, per_light[0]);  // one value for all (tune() makes sure)
     return t;
 }
 
-Setting setting_of(const raster::Bias& b, std::span<const Knob> knobs, double footprint_m,
+Setting setting_of(const raster::Bias& b, const KnobSet& knobs, double footprint_m,
                    const raster::Technique* technique) {
-    Setting s;
-    const raster::MomentParameters* m = technique ? raster::moment_parameters(*technique) : nullptr;
-    for (Knob k : knobs) switch (k) {
-            case Knob::constant: s[k] = b.constant; break;
-            case Knob::slope: s[k] = b.slope; break;
-            case Knob::clamp: s[k] = b.clamp; break;
-            case Knob::world: s[k] = footprint_m > 0 ? b.world / footprint_m : 0.0; break;
-            case Knob::normal_offset: s[k] = b.normal_offset; break;
-            case Knob::receiver_plane: s.receiver_plane = b.receiver_plane; break;
-            case Knob::min_variance: s[k] = m ? m->min_variance : 0.0; break;
-            case Knob::light_bleed: s[k] = m ? m->light_bleed : 0.0; break;
-            case Knob::exponent: s[k] = m ? m->exponent : 0.0; break;
-            case Knob::moment_bias: s[k] = m ? m->moment_bias : 0.0; break;
-        }
+    Setting s(knobs.size());
+    for (std::size_t i = 0; i < knobs.size(); ++i) {
+        const raster::KnobDecl& k = knobs[i];
+        if (k.scope == raster::KnobScope::light)
+            s[i] = k.read_bias(b, footprint_m);
+        else
+            s[i] = technique ? k.read(*technique) : 0.0;
+    }
     return s;
 }
 
@@ -451,7 +433,7 @@ Evaluation Evaluator::evaluate(const raster::Technique& technique, const Setting
     return e;
 }
 
-bool better(const Evaluation& a, const Evaluation& b, std::span<const Knob> knobs, const Objective& objective) {
+bool better(const Evaluation& a, const Evaluation& b, const KnobSet& knobs, const Objective& objective) {
     if (a.feasible != b.feasible) return a.feasible;
     if (!a.feasible && a.worst_acne != b.worst_acne) return a.worst_acne < b.worst_acne;
     if (std::abs(a.minimized - b.minimized) > objective.tie * std::max(a.minimized, b.minimized))
@@ -460,7 +442,7 @@ bool better(const Evaluation& a, const Evaluation& b, std::span<const Knob> knob
     return bias_size(a.setting, knobs) < bias_size(b.setting, knobs);
 }
 
-void rank(TuneResult& r, std::span<const Knob> knobs, const Objective& objective) {
+void rank(TuneResult& r, const KnobSet& knobs, const Objective& objective) {
     r.winner.reset();
     r.front.clear();
     const auto& ev = r.evaluations;
@@ -505,6 +487,14 @@ class Search {
         }
     }
 
+    // Whether `a` and `b` set the on/off knobs alike.
+    bool same_switches(const Setting& a, const Setting& b) const {
+        if (a.value.size() != b.value.size()) return false;
+        for (std::size_t i = 0; i < opt_.knobs.size(); ++i)
+            if (!is_continuous(opt_.knobs[i]) && a[i] != b[i]) return false;
+        return true;
+    }
+
     bool out_of_budget() const { return static_cast<int>(r_.evaluations.size()) >= opt_.budget; }
 
     // The evaluation of `s`, or none when the budget is spent.
@@ -540,10 +530,11 @@ class Search {
     // goes half a step either side of where the line through their log acne margins crosses it
     // (two probes bracket a good estimate); otherwise, and when a probe did not halve the
     // bracket, the next one bisects it. Returns the feasible setting found.
-    Setting bisect(Setting s, Knob k, double lo, double hi, double step) {
+    Setting bisect(Setting s, std::size_t k, double lo, double hi, double step) {
+        const raster::KnobDecl& knob = opt_.knobs[k];
         auto margin_at = [&](double x) {
             Setting t = s;
-            t[k] = value_at(k, x);
+            t[k] = value_at(knob, x);
             return margin(seen(t));
         };
         std::optional<double> m_lo = margin_at(lo), m_hi = margin_at(hi);
@@ -558,7 +549,7 @@ class Search {
                 x = std::clamp(crossing + (above ? 0.5 : -0.5) * step, lo + 0.05 * width, hi - 0.05 * width);
                 above = !above;
             }
-            s[k] = value_at(k, x);
+            s[k] = value_at(knob, x);
             const Evaluation* e = eval(s);
             if (!e) break;
             if (e->feasible) {
@@ -570,13 +561,12 @@ class Search {
             }
             halved = hi - lo <= 0.5 * width + 1e-12;
         }
-        s[k] = value_at(k, hi);
+        s[k] = value_at(knob, hi);
         return s;
     }
 
-    void run(bool receiver_plane) {
-        Setting zero;
-        zero.receiver_plane = receiver_plane;
+    // The search from `zero`: every knob off but the on/off ones, set as one combination.
+    void run(const Setting& zero) {
         const Evaluation* e0 = eval(zero);
         if (!e0) return;
         std::optional<Setting> at;
@@ -588,7 +578,7 @@ class Search {
             at = zero;
         if (opt_.objective.grows_with_bias()) return;
         // The start, when within the cap and better, is a better place to begin from.
-        if (start_ && start_->receiver_plane == receiver_plane) {
+        if (start_ && same_switches(*start_, zero)) {
             const Evaluation* es = seen(*start_);
             if (es && es->feasible && (!at || is_better(*es, *eval(*at)))) at = start_;
         }
@@ -603,13 +593,14 @@ class Search {
         const double fine = std::log10(1.0 + opt_.precision);
         for (double step = 1.0; step >= fine && !out_of_budget();) {
             bool moved = false;
-            for (Knob k : opt_.knobs) {
-                if (!is_continuous(k) || k == Knob::clamp || moved) continue;
-                const double pk = position(k, at[k]);
+            for (std::size_t k = 0; k < opt_.knobs.size(); ++k) {
+                const raster::KnobDecl& knob = opt_.knobs[k];
+                if (!adds_bias(knob) || moved) continue;
+                const double pk = position(knob, at[k]);
                 for (double dir : {1.0, -1.0}) {
                     if (std::isinf(pk) && dir < 0) continue;  // off: nothing to give up
                     Setting q = at;
-                    q[k] = value_at(k, std::isinf(pk) ? std::log10(knob_range(k).lo) : pk + dir * step);
+                    q[k] = value_at(knob, std::isinf(pk) ? std::log10(knob.lower) : pk + dir * step);
                     if (q[k] == at[k]) continue;
                     const Evaluation* e = eval(q);
                     if (!e) return;
@@ -632,22 +623,21 @@ class Search {
         const double coarse = std::max(fine, 0.2);
 
         // 1. Each knob alone: its least feasible value (the boundary's intercept on its axis).
-        std::array<double, kContinuousKnobs> intercept;
-        intercept.fill(kInf);
+        std::vector<double> intercept(opt_.knobs.size(), kInf);
         std::optional<Setting> best;
         auto consider = [&](const Setting& s) {
             const Evaluation* e = eval(s);
             if (e && e->feasible && (!best || is_better(*e, *eval(*best)))) best = s;
         };
-        for (Knob k : opt_.knobs) {
-            if (!is_continuous(k) || k == Knob::clamp) continue;
-            const KnobRange range = knob_range(k);
+        for (std::size_t k = 0; k < opt_.knobs.size(); ++k) {
+            const raster::KnobDecl& knob = opt_.knobs[k];
+            if (!adds_bias(knob)) continue;
             Setting s = zero;
-            s[k] = range.hi;
+            s[k] = knob.upper;
             const Evaluation* top = eval(s);
             if (!top || !top->feasible) continue;  // this knob alone cannot cure the acne
-            s = bisect(s, k, std::log10(range.lo) - coarse, std::log10(range.hi), coarse);
-            intercept[index_of(k)] = position(k, s[k]);
+            s = bisect(s, k, std::log10(knob.lower) - coarse, std::log10(knob.upper), coarse);
+            intercept[k] = position(knob, s[k]);
             consider(s);
         }
         if (!best) return std::nullopt;
@@ -659,12 +649,13 @@ class Search {
         const bool several = std::count_if(opt_.knobs.begin(), opt_.knobs.end(), is_continuous) >= 2;
         for (double step = 1.0; several && step >= coarse && !out_of_budget();) {
             bool moved = false;
-            for (Knob a : opt_.knobs) {
-                if (!is_continuous(a) || out_of_budget()) continue;
-                const double pa = position(a, at[a]);
-                if (a != Knob::clamp && std::isinf(pa)) continue;  // off: nothing to give up
+            for (std::size_t a = 0; a < opt_.knobs.size(); ++a) {
+                const raster::KnobDecl& ka = opt_.knobs[a];
+                if (!is_continuous(ka) || out_of_budget()) continue;
+                const double pa = position(ka, at[a]);
+                if (!ka.caps && std::isinf(pa)) continue;  // off: nothing to give up
                 Setting q = at;
-                q[a] = value_at(a, std::isinf(pa) ? std::log10(knob_range(a).hi) : pa - step);
+                q[a] = value_at(ka, std::isinf(pa) ? std::log10(ka.upper) : pa - step);
                 if (q[a] == at[a]) continue;
                 const Evaluation* eq = eval(q);
                 if (!eq) break;
@@ -675,17 +666,17 @@ class Search {
                     }
                     continue;
                 }
-                for (Knob b : opt_.knobs) {
-                    if (b == a || !is_continuous(b) || b == Knob::clamp) continue;
-                    const KnobRange rb = knob_range(b);
-                    const double pb = position(b, q[b]);
-                    const double lo = std::isinf(pb) ? std::log10(rb.lo) - coarse : pb;
+                for (std::size_t b = 0; b < opt_.knobs.size(); ++b) {
+                    const raster::KnobDecl& kb = opt_.knobs[b];
+                    if (b == a || !adds_bias(kb)) continue;
+                    const double pb = position(kb, q[b]);
+                    const double lo = std::isinf(pb) ? std::log10(kb.lower) - coarse : pb;
                     // b's own intercept is feasible with any a (acne only falls as a grows).
-                    double hi = intercept[index_of(b)];
+                    double hi = intercept[b];
                     if (std::isinf(hi)) {
-                        hi = std::log10(rb.hi);
+                        hi = std::log10(kb.upper);
                         Setting top = q;
-                        top[b] = rb.hi;
+                        top[b] = kb.upper;
                         const Evaluation* et = eval(top);
                         if (!et || !et->feasible) continue;
                     }
@@ -704,9 +695,9 @@ class Search {
 
         // 3. The best point's knobs, one at a time, down to `precision`.
         if (fine < coarse)
-            for (Knob k : opt_.knobs) {
-                if (!is_continuous(k) || k == Knob::clamp || out_of_budget()) continue;
-                const double pk = position(k, at[k]);
+            for (std::size_t k = 0; k < opt_.knobs.size(); ++k) {
+                if (!adds_bias(opt_.knobs[k]) || out_of_budget()) continue;
+                const double pk = position(opt_.knobs[k], at[k]);
                 if (std::isinf(pk)) continue;
                 const Setting s = bisect(at, k, pk - coarse, pk, fine);
                 const Evaluation* es = eval(s);
@@ -722,9 +713,21 @@ class Search {
     std::optional<Setting> start_;
 };
 
-std::vector<bool> receiver_plane_choices(bool start, std::span<const Knob> knobs) {
-    if (std::find(knobs.begin(), knobs.end(), Knob::receiver_plane) != knobs.end()) return {false, true};
-    return {start};
+// Where the searches start: every knob off, once for each combination of the on/off knobs'
+// values (the first knob's changing slowest).
+std::vector<Setting> zeros(const KnobSet& knobs) {
+    std::vector<Setting> out = {Setting(knobs.size())};
+    for (std::size_t i = 0; i < knobs.size(); ++i) {
+        if (is_continuous(knobs[i])) continue;
+        std::vector<Setting> next;
+        for (const Setting& s : out)
+            for (double v : {0.0, 1.0}) {
+                next.push_back(s);
+                next.back()[i] = v;
+            }
+        out = std::move(next);
+    }
+    return out;
 }
 
 void recommend(TuneResult& r, const Evaluator& ev, const TuneOptions& options) {
@@ -745,34 +748,32 @@ void check_against_start(TuneResult& r) {
 
 }  // namespace
 
-TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane,
-                  const Evaluation* start) {
+TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, const Evaluation* start) {
     if (options.budget < 1) throw InputError(fmt::format("--budget: {} evaluations; at least 1", options.budget));
     TuneResult r;
     Search s(evaluate, options, r, start);
-    for (bool rp : receiver_plane_choices(receiver_plane, options.knobs)) s.run(rp);
+    for (const Setting& zero : zeros(options.knobs)) s.run(zero);
     rank(r, options.knobs, options.objective);
     check_against_start(r);
     return r;
 }
 
-TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels, bool receiver_plane) {
+TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels) {
     TuneResult r;
-    std::vector<Knob> axes;
-    for (Knob k : options.knobs)
-        if (is_continuous(k)) axes.push_back(k);
+    std::vector<std::size_t> axes;
+    for (std::size_t k = 0; k < options.knobs.size(); ++k)
+        if (is_continuous(options.knobs[k])) axes.push_back(k);
     // Level 0 is off (unclamped for clamp); levels 1..n-1 span the range on a log scale.
-    auto value = [&](Knob k, int level) {
-        const KnobRange range = knob_range(k);
+    auto value = [&](std::size_t k, int level) {
+        const raster::KnobDecl& knob = options.knobs[k];
         if (level == 0) return 0.0;
         const double t = levels > 2 ? static_cast<double>(level - 1) / (levels - 2) : 1.0;
-        return std::pow(10.0, std::log10(range.lo) + t * (std::log10(range.hi) - std::log10(range.lo)));
+        return std::pow(10.0, std::log10(knob.lower) + t * (std::log10(knob.upper) - std::log10(knob.lower)));
     };
-    for (bool rp : receiver_plane_choices(receiver_plane, options.knobs)) {
+    for (const Setting& zero : zeros(options.knobs)) {
         std::vector<int> level(axes.size(), 0);
         while (true) {
-            Setting s;
-            s.receiver_plane = rp;
+            Setting s = zero;
             for (std::size_t a = 0; a < axes.size(); ++a) s[axes[a]] = value(axes[a], level[a]);
             r.evaluations.push_back(evaluate(s));
             if (options.progress) options.progress(r.evaluations.back(), r.evaluations.size() - 1);
@@ -800,9 +801,8 @@ TuneResult tune(Evaluator& ev, const TuneOptions& options) {
     const double footprint = ev.footprint_m();
     start.setting = setting_of(base.bias, options.knobs, footprint, &base);
     // A family knob is the technique's: one value for every light, as with a shared bias.
-    if (options.shared_bias || std::any_of(options.knobs.begin(), options.knobs.end(), is_family_knob)) {
-        TuneResult r =
-            search([&](const Setting& s) { return ev.evaluate(s); }, options, base.bias.receiver_plane, &start);
+    if (options.shared_bias || options.knobs.has_technique_knob()) {
+        TuneResult r = search([&](const Setting& s) { return ev.evaluate(s); }, options, &start);
         recommend(r, ev, options);
         return r;
     }
@@ -829,8 +829,8 @@ TuneResult tune(Evaluator& ev, const TuneOptions& options) {
         const raster::Bias own = base.bias_for(li);
         Evaluation own_start = project(start, li, options.objective);
         own_start.setting = setting_of(own, options.knobs, footprint);
-        TuneResult rl = search([&](const Setting& s) { return project(render(s), li, options.objective); }, one,
-                               own.receiver_plane, &own_start);
+        TuneResult rl =
+            search([&](const Setting& s) { return project(render(s), li, options.objective); }, one, &own_start);
         rl.footprint_m = footprint;
         r.budget_exhausted = r.budget_exhausted || rl.budget_exhausted;
         chosen.push_back(rl.evaluations[rl.chosen()].setting);
@@ -865,7 +865,7 @@ void keep_start(TuneResult& r, const raster::Technique& start, const TuneOptions
 TuneResult grid_search(std::span<const Scenario> scenarios, const raster::Technique& base, const TuneOptions& options,
                        const raster::VulkanContext& ctx, int levels) {
     Evaluator ev(scenarios, base, options, ctx);
-    TuneResult r = grid([&](const Setting& s) { return ev.evaluate(s); }, options, levels, base.bias.receiver_plane);
+    TuneResult r = grid([&](const Setting& s) { return ev.evaluate(s); }, options, levels);
     recommend(r, ev, options);  // no start: the grid is the benchmark's reference
     return r;
 }

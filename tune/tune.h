@@ -11,11 +11,13 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/scenario.h"
 #include "metrics/classification.h"
 #include "pipeline/validate.h"
+#include "raster/knobs.h"
 #include "raster/raster.h"
 #include "raster/technique.h"
 #include "raster/vulkan_context.h"
@@ -26,70 +28,68 @@ class GpuScorer;  // metrics/gpu_classification.h
 
 namespace penumbra::tune {
 
-// The bias knobs, each bounded and scaled as it behaves (docs/tune.md, "Knobs"), then the
-// moment families' own (raster/filterable.h): the variance floor (vsm, evsm), the light-bleed
-// reduction (vsm, evsm), the exponent (esm; evsm's positive one) and msm's moment bias. Those are
-// the technique's, not a light's: tune searches them with one value for every light.
-enum class Knob {
-    constant,
-    slope,
-    clamp,
-    world,
-    normal_offset,
-    min_variance,
-    light_bleed,
-    exponent,
-    moment_bias,
-    receiver_plane
+// The knobs tune searches: the declarations (raster/knobs.h) of the technique family's knobs that
+// --knobs names, in the order it names them. tune reads a knob's range, unit, scale and value
+// through its declaration alone (docs/tune.md, "Knobs").
+class KnobSet {
+  public:
+    KnobSet() = default;
+    explicit KnobSet(std::vector<raster::KnobDecl> knobs) : knobs_(std::move(knobs)) {}
+    std::size_t size() const { return knobs_.size(); }
+    bool empty() const { return knobs_.empty(); }
+    const raster::KnobDecl& operator[](std::size_t i) const { return knobs_[i]; }
+    auto begin() const { return knobs_.begin(); }
+    auto end() const { return knobs_.end(); }
+    // The position of the knob called `name`, if the set has it.
+    std::optional<std::size_t> index(std::string_view name) const;
+    // Whether some knob is the technique's rather than a light's (a moment family's): then one
+    // value is searched for every light.
+    bool has_technique_knob() const;
+
+  private:
+    std::vector<raster::KnobDecl> knobs_;
 };
-inline constexpr std::size_t kContinuousKnobs = 9;  // all but receiver_plane
-// A moment family's knob (set in the family's parameters, not in the bias).
-bool is_family_knob(Knob k);
 
-const char* to_string(Knob k);
-// "constant,slope": unknown or repeated names are InputError naming `option` and the name.
-std::vector<Knob> parse_knobs(const std::string& list, const std::string& option);
-
-// Refuses (InputError naming `option`) a knob that the technique's family does not list in its
-// tune_knobs ("bias.<knob>", or "<family>.<knob>": "vsm.light_bleed", "esm.exponent",
-// "evsm.exponents", "msm.moment_bias"): a family without depth-map biases has nothing for it to move.
-void check_family_knobs(const raster::Technique& technique, std::span<const Knob> knobs, const std::string& option);
-// The knobs tune searches when --knobs is not given: "constant,slope" for a family with
-// depth-map biases, else the family's own ("light_bleed,min_variance" style, as parse_knobs reads).
+// "constant,slope": the names, checked against every registered family's knobs. An unknown or
+// repeated name, or a list with no knob that adds bias (or a moment family's), is InputError
+// naming `option` and the name.
+std::vector<std::string> parse_knobs(const std::string& list, const std::string& option);
+// The knobs of the technique's family that `names` name, in that order: a knob the family does
+// not declare is InputError naming `option` ("constant is not a knob of technique family \"vsm\"
+// (its knobs: vsm.min_variance, vsm.light_bleed)"): a family without depth-map biases has nothing
+// for it to move.
+KnobSet knob_set(const raster::Technique& technique, std::span<const std::string> names,
+                 const std::string& option = "--knobs");
+// The knobs tune searches when --knobs is not given, as parse_knobs reads them: those the family
+// declares by_default ("constant,slope" for the depth map's biases, a moment family's own), or
+// the default family's when it declares none.
 std::string default_knobs(const raster::Technique& technique);
 
-// The range a continuous knob is searched over, in its own unit, on a log scale; 0 is "off"
-// (for clamp, 0 is Vulkan's "unclamped", the most bias).
-struct KnobRange {
-    double lo, hi;
-    const char* unit;
-};
-KnobRange knob_range(Knob k);
-
-// One point of the search. Values in the knobs' units: constant in the format's r, slope as
-// Vulkan's factor, clamp in depth units, world in texel footprints (the reference footprint),
-// normal_offset in texels.
+// One point of the search: a value per knob of the KnobSet, in its order and in the knob's unit
+// (an on/off knob's 0 or 1): constant in the format's r, slope as Vulkan's factor, clamp in depth
+// units, world in texel footprints (the reference footprint), normal_offset in texels, …
 struct Setting {
-    std::array<double, kContinuousKnobs> value{};
-    bool receiver_plane = false;
-    double& operator[](Knob k) { return value[static_cast<std::size_t>(k)]; }
-    double operator[](Knob k) const { return value[static_cast<std::size_t>(k)]; }
+    std::vector<double> value;
+    Setting() = default;
+    explicit Setting(std::size_t knobs) : value(knobs, 0.0) {}
+    double& operator[](std::size_t i) { return value[i]; }
+    double operator[](std::size_t i) const { return value[i]; }
     bool operator==(const Setting&) const = default;
 };
 
 // "constant=1.55e+04 slope=3.05 receiver_plane=true": the tuned knobs' values, for people.
-std::string describe(const Setting& s, std::span<const Knob> knobs);
+std::string describe(const Setting& s, const KnobSet& knobs);
 
 // The technique `base` with the tuned knobs of `s` in place for every light (the others are
 // base's own; per-light overrides of the tuned knobs are dropped).
-raster::Technique apply_setting(const raster::Technique& base, std::span<const Knob> knobs, const Setting& s,
+raster::Technique apply_setting(const raster::Technique& base, const KnobSet& knobs, const Setting& s,
                                 double footprint_m);
 // The technique `base` with light i's tuned knobs set to `per_light[i]` in its override.
-raster::Technique apply_settings(const raster::Technique& base, std::span<const Knob> knobs,
+raster::Technique apply_settings(const raster::Technique& base, const KnobSet& knobs,
                                  std::span<const Setting> per_light, double footprint_m);
-// The tuned knobs of a bias, as a setting (world in footprints of `footprint_m`); the family
-// knobs are the technique's (`technique`, when given).
-Setting setting_of(const raster::Bias& bias, std::span<const Knob> knobs, double footprint_m,
+// The tuned knobs of a bias, as a setting (a knob in footprints counted in `footprint_m`); the
+// knobs of the technique are `technique`'s (0 without it).
+Setting setting_of(const raster::Bias& bias, const KnobSet& knobs, double footprint_m,
                    const raster::Technique* technique = nullptr);
 
 // The default objective: visible acne plus visible peter-panning per scored pixel, the error the
@@ -144,7 +144,7 @@ struct Evaluation {
 };
 
 struct TuneOptions {
-    std::vector<Knob> knobs = {Knob::constant, Knob::slope};
+    KnobSet knobs = knob_set(raster::Technique{}, std::vector<std::string>{"constant", "slope"});
     Objective objective;
     int budget = 80;          // most evaluations
     double precision = 0.05;  // bisection stops when the bracket's ratio is below 1 + precision
@@ -186,7 +186,7 @@ class Evaluator {
     std::size_t light_count() const;
     double footprint_m() const { return footprint_m_; }  // the reference footprint (world knob's unit)
     const raster::Technique& base() const { return base_; }
-    std::span<const Knob> knobs() const { return options_.knobs; }
+    const KnobSet& knobs() const { return options_.knobs; }
     // The scenes with their oracle and warm session, for re-validating on the same ones.
     std::span<TuneScene> scenes() { return scenes_; }
 
@@ -201,7 +201,7 @@ class Evaluator {
 
 // Lexicographic: feasible first; then `minimize` (ties within objective.tie), `then`, and the
 // smaller bias. True when a is better than b.
-bool better(const Evaluation& a, const Evaluation& b, std::span<const Knob> knobs, const Objective& objective);
+bool better(const Evaluation& a, const Evaluation& b, const KnobSet& knobs, const Objective& objective);
 
 struct TuneResult {
     std::vector<Evaluation> evaluations;  // in the order they were made
@@ -236,17 +236,16 @@ std::string worse_than(const Evaluation& after, const Evaluation& before);
 // What the search evaluates a setting with: Evaluator::evaluate, or a function in the tests.
 using EvaluateFn = std::function<Evaluation(const Setting&)>;
 
-// The search (docs/tune.md, "Search") over `evaluate`, within options.budget. Deterministic: the
-// same inputs give the same evaluations in the same order. `receiver_plane` is the starting
-// technique's (used unless the knob is tuned). Fills evaluations, winner, front; not recommended.
-// `start`, when given, is the starting technique's evaluation: it goes first, and the result keeps
-// it (kept_start) when the best found is worse on some light.
-TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, bool receiver_plane = false,
-                  const Evaluation* start = nullptr);
+// The search (docs/tune.md, "Search") over `evaluate`, within options.budget, once for each
+// combination of the on/off knobs' values. Deterministic: the same inputs give the same
+// evaluations in the same order. Fills evaluations, winner, front; not recommended. `start`, when
+// given, is the starting technique's evaluation: it goes first, and the result keeps it
+// (kept_start) when the best found is worse on some light.
+TuneResult search(const EvaluateFn& evaluate, const TuneOptions& options, const Evaluation* start = nullptr);
 
-// The same objective over an exhaustive grid of `levels` values per knob (off, then levels - 1
-// log-spaced over the range), for the benchmark.
-TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels, bool receiver_plane = false);
+// The same objective over an exhaustive grid of `levels` values per knob on a log scale (off,
+// then levels - 1 log-spaced over the range), for the benchmark.
+TuneResult grid(const EvaluateFn& evaluate, const TuneOptions& options, int levels);
 
 // The search on real scenarios: search() over the evaluator, and the recommended technique.
 TuneResult tune(Evaluator& ev, const TuneOptions& options);
@@ -261,6 +260,6 @@ TuneResult grid_search(std::span<const Scenario> scenarios, const raster::Techni
 double median_at_surface(const std::vector<float>& v, const std::vector<float>& A, bool positive);
 
 // Pareto front and winner of a list of evaluations.
-void rank(TuneResult& r, std::span<const Knob> knobs, const Objective& objective);
+void rank(TuneResult& r, const KnobSet& knobs, const Objective& objective);
 
 }  // namespace penumbra::tune

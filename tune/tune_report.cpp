@@ -7,7 +7,7 @@
 
 #include "common/version.h"
 #include "metrics/metric_table.h"
-#include "raster/cascades.h"
+#include "raster/technique_family.h"
 
 namespace penumbra::tune {
 namespace {
@@ -37,7 +37,7 @@ nlohmann::json light_outcomes(const Evaluation& e) {
     return a;
 }
 
-nlohmann::json evaluation_json(const Evaluation& e, std::span<const Knob> knobs) {
+nlohmann::json evaluation_json(const Evaluation& e, const KnobSet& knobs) {
     return {{"setting", to_json(e.setting, knobs)},
             {"worst_acne", e.worst_acne},
             {"minimized", e.minimized},
@@ -181,32 +181,33 @@ std::vector<ApiBias> api_units(std::span<const Revalidation> revalidations) {
     return out;
 }
 
-nlohmann::json to_json(const Setting& s, std::span<const Knob> knobs) {
+nlohmann::json to_json(const Setting& s, const KnobSet& knobs) {
     nlohmann::json j = nlohmann::json::object();
-    for (Knob k : knobs) {
-        if (k == Knob::receiver_plane)
-            j[to_string(k)] = s.receiver_plane;
+    for (std::size_t i = 0; i < knobs.size(); ++i) {
+        if (knobs[i].scale == raster::KnobScale::on_off)
+            j[knobs[i].name] = s[i] != 0;
         else
-            j[to_string(k)] = s[k];
+            j[knobs[i].name] = s[i];
     }
     return j;
 }
 
 nlohmann::json tune_json(const TuneReport& r) {
     const TuneResult& res = r.result;
-    const auto knobs = std::span<const Knob>(r.options.knobs);
+    const KnobSet& knobs = r.options.knobs;
     nlohmann::json knob_info = nlohmann::json::array();
-    for (Knob k : knobs) {
-        nlohmann::json info = {{"name", to_string(k)}};
-        if (k == Knob::receiver_plane) {
+    for (const raster::KnobDecl& k : knobs) {
+        nlohmann::json info = {{"name", k.name}};
+        if (k.scale == raster::KnobScale::on_off)
             info["values"] = {false, true};
-        } else {
-            const KnobRange range = knob_range(k);
-            info.update({{"unit", range.unit}, {"range", {range.lo, range.hi}}, {"scale", "log"}});
-        }
-        // A cascaded technique: whether the knob's value is scaled by each cascade's texel (docs/tune.md).
-        const std::string key = fmt::format("bias.{}", to_string(k));
-        if (const char* scaling = raster::cascade_bias_scaling(r.start, key); *scaling) info["cascades"] = scaling;
+        else
+            info.update({{"unit", k.unit}, {"range", {k.lower, k.upper}}, {"scale", raster::to_string(k.scale)}});
+        // What the start's family adds (a cascaded technique: whether the value is scaled by
+        // each cascade's texel, docs/tune.md), from its own declaration of the knob.
+        const auto& declared = raster::family_of(r.start).knobs;
+        auto own =
+            std::find_if(declared.begin(), declared.end(), [&](const raster::KnobDecl& d) { return d.name == k.name; });
+        if (own != declared.end() && own->describe) info.update(own->describe(r.start));
         knob_info.push_back(info);
     }
     nlohmann::json evaluations = nlohmann::json::array();
@@ -310,9 +311,9 @@ nlohmann::json tune_json(const TuneReport& r) {
 }
 
 std::string pareto_csv(const TuneReport& r) {
-    const auto knobs = std::span<const Knob>(r.options.knobs);
+    const KnobSet& knobs = r.options.knobs;
     std::string s = "light,evaluation";
-    for (Knob k : knobs) s += fmt::format(",{}", to_string(k));
+    for (const raster::KnobDecl& k : knobs) s += fmt::format(",{}", k.name);
     s += fmt::format(",worst_acne,{},{},feasible,on_front,chosen,start\n", r.options.objective.minimize,
                      r.options.objective.then);
     // One row per evaluation of each light's search (per-light mode), or of the shared search.
@@ -320,9 +321,9 @@ std::string pareto_csv(const TuneReport& r) {
         for (std::size_t i = 0; i < res.evaluations.size(); ++i) {
             const Evaluation& e = res.evaluations[i];
             s += fmt::format("{},{}", light, i);
-            for (Knob k : knobs)
-                s += k == Knob::receiver_plane ? fmt::format(",{}", e.setting.receiver_plane)
-                                               : fmt::format(",{:.9g}", e.setting[k]);
+            for (std::size_t k = 0; k < knobs.size(); ++k)
+                s += knobs[k].scale == raster::KnobScale::on_off ? fmt::format(",{}", e.setting[k] != 0)
+                                                                 : fmt::format(",{:.9g}", e.setting[k]);
             const bool front = std::find(res.front.begin(), res.front.end(), i) != res.front.end();
             s += fmt::format(",{:.9g},{:.9g},{:.9g},{},{},{},{}\n", e.worst_acne, e.minimized, e.then, e.feasible,
                              front, i == res.chosen(), res.start && i == *res.start);

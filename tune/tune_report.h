@@ -70,7 +70,7 @@ struct TuneReport {
     double seconds = 0;
 };
 
-nlohmann::json to_json(const Setting& s, std::span<const Knob> knobs);
+nlohmann::json to_json(const Setting& s, const KnobSet& knobs);
 nlohmann::json tune_json(const TuneReport& r);
 // One row per evaluation: the setting, worst acne, the objective, on_front, chosen.
 std::string pareto_csv(const TuneReport& r);

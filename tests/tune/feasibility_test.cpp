@@ -23,12 +23,12 @@ TEST(TuneFeasibility, AcneExactlyAtTheLimitIsFeasible) {
         {{"preset", "no-bias"}, {"resolution", 512}, {"depth_format", "d24"}, {"fit", "scene_bounds"}}, "test");
     raster::VulkanContext ctx;
     TuneOptions o;
-    o.knobs = {Knob::constant};
+    o.knobs = knob_set(technique, std::vector<std::string>{"constant"});
     o.validate.use_cache = false;
     o.validate.oracle.progress = false;
 
     // No bias: acne on a part of the plane; that part as the limit is feasible, a hair less is not.
-    Setting none;
+    const Setting none(1);
     double acne = 0;
     {
         Evaluator ev(sc, technique, o, ctx);
@@ -47,8 +47,8 @@ TEST(TuneFeasibility, AcneExactlyAtTheLimitIsFeasible) {
     }
     // Ample bias: no acne at all, feasible at a limit of 0.
     o.objective.max_acne = 0;
-    Setting ample;
-    ample[Knob::constant] = 1e5;
+    Setting ample(1);
+    ample[0] = 1e5;
     Evaluator ev(sc, technique, o, ctx);
     const Evaluation e = ev.evaluate(ample);
     ASSERT_EQ(e.worst_acne, 0.0);

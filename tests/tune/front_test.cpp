@@ -11,7 +11,8 @@ TEST(TuneFront, EqualPointsAppearOnceAndTiesOnOneAxisAreDominated) {
     TuneResult r;
     auto add = [&](double acne, double objective) {
         Evaluation e;
-        e.setting[Knob::constant] = static_cast<double>(r.evaluations.size() + 1);  // distinct settings
+        e.setting = Setting(1);
+        e.setting[0] = static_cast<double>(r.evaluations.size() + 1);  // distinct settings
         e.worst_acne = acne;
         e.minimized = objective;
         e.feasible = acne <= 0.001;
@@ -24,7 +25,7 @@ TEST(TuneFront, EqualPointsAppearOnceAndTiesOnOneAxisAreDominated) {
     add(0.05, 1.5);  // 4: on the front
     add(0.05, 1.6);  // 5: equal acne to 4, worse objective: dominated
     add(0.2, 1.0);   // 6: equal objective to 0, more acne: dominated
-    const std::vector<Knob> knobs = {Knob::constant};
+    const KnobSet knobs = knob_set(raster::Technique{}, std::vector<std::string>{"constant"});
     rank(r, knobs, Objective{});
     EXPECT_EQ(r.front, (std::vector<std::size_t>{1, 4, 0}));
 }

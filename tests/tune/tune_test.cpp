@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <glm/geometric.hpp>
 #include <string_view>
+#include <tuple>
 
 #include "common/errors.h"
 #include "raster/cascades.h"
@@ -24,6 +25,12 @@ namespace penumbra::tune {
 namespace {
 
 using test::SceneBuilder;
+
+// The depth map's knobs named by `names`, in that order: a setting holds their values at those
+// positions.
+KnobSet bias_knobs(const std::vector<std::string>& names) {
+    return knob_set(raster::Technique{}, names);
+}
 
 // An evaluation from closed-form acne and peter-panning rates of the setting.
 template <typename Acne, typename PeterPanning>
@@ -66,21 +73,21 @@ EvaluateFn synthetic_visible(Acne acne, PeterPanning pp, double max_acne = 0.001
 std::string trail(const TuneResult& r) {
     std::string t;
     for (const auto& e : r.evaluations)
-        t += fmt::format("  constant {:.4g} slope {:.4g}: acne {:.5f} objective {:.5f}{}\n", e.setting[Knob::constant],
-                         e.setting[Knob::slope], e.worst_acne, e.minimized, e.feasible ? " feasible" : "");
+        t += fmt::format("  {}: acne {:.5f} objective {:.5f}{}\n", fmt::join(e.setting.value, " "), e.worst_acne,
+                         e.minimized, e.feasible ? " feasible" : "");
     return t;
 }
 
 TEST(TuneSearch, OneMonotoneKnobStopsAtItsLeastFeasibleValue) {
     // Acne falls linearly to 0 at constant = 37; feasible from 37 x (1 - 0.002).
-    auto ev = synthetic([](const Setting& s) { return std::max(0.0, 0.5 - 0.5 * s[Knob::constant] / 37.0); },
-                        [](const Setting& s) { return 1e-4 * s[Knob::constant]; });
+    auto ev = synthetic([](const Setting& s) { return std::max(0.0, 0.5 - 0.5 * s[0] / 37.0); },
+                        [](const Setting& s) { return 1e-4 * s[0]; });
     TuneOptions o = boundary_options();
-    o.knobs = {Knob::constant};
+    o.knobs = bias_knobs({"constant"});
     o.precision = 0.02;
     const TuneResult r = search(ev, o);
     ASSERT_TRUE(r.winner);
-    const double c = r.evaluations[*r.winner].setting[Knob::constant];
+    const double c = r.evaluations[*r.winner].setting[0];
     const double least = 37.0 * (1 - 0.002);
     EXPECT_GE(c, least);
     EXPECT_LE(c, least * 1.02);
@@ -90,13 +97,11 @@ TEST(TuneSearch, OneMonotoneKnobStopsAtItsLeastFeasibleValue) {
 TEST(TuneSearch, TwoKnobsReachTheGridOptimumWithATenthOfItsEvaluations) {
     // Either knob cures acne, together they add; peter-panning grows faster with slope, so the
     // optimum is a mix on the boundary c/1000 + s/2 = 1.
-    auto acne = [](const Setting& s) {
-        return std::max(0.0, 0.2 * (1 - s[Knob::constant] / 1000 - s[Knob::slope] / 2));
-    };
-    auto pp = [](const Setting& s) { return 1e-5 * s[Knob::constant] + 0.004 * s[Knob::slope] * s[Knob::slope]; };
+    auto acne = [](const Setting& s) { return std::max(0.0, 0.2 * (1 - s[0] / 1000 - s[1] / 2)); };
+    auto pp = [](const Setting& s) { return 1e-5 * s[0] + 0.004 * s[1] * s[1]; };
     for (const auto& [levels, budget] : {std::pair{30, 90}, std::pair{16, 25}}) {
         TuneOptions o = boundary_options();
-        o.knobs = {Knob::constant, Knob::slope};
+        o.knobs = bias_knobs({"constant", "slope"});
         o.budget = budget;
         o.objective.tie = 0;
         const TuneResult g = grid(synthetic(acne, pp), o, levels);
@@ -114,23 +119,23 @@ TEST(TuneSearch, TwoKnobsReachTheGridOptimumWithATenthOfItsEvaluations) {
 TEST(TuneSearch, TiesGoToTheSmallerBias) {
     // No peter-panning at all: every feasible setting ties, and the least bias wins. constant 10
     // is 2/7 of its range, slope 1 is 2/4 of its: the constant is the smaller bias.
-    auto ev = synthetic([](const Setting& s) { return s[Knob::constant] >= 10 || s[Knob::slope] >= 1 ? 0.0 : 0.3; },
+    auto ev = synthetic([](const Setting& s) { return s[0] >= 10 || s[1] >= 1 ? 0.0 : 0.3; },
                         [](const Setting&) { return 0.0; });
     TuneOptions o = boundary_options();
-    o.knobs = {Knob::constant, Knob::slope};
+    o.knobs = bias_knobs({"constant", "slope"});
     const TuneResult r = search(ev, o);
     ASSERT_TRUE(r.winner);
     const Setting& w = r.evaluations[*r.winner].setting;
-    EXPECT_EQ(w[Knob::slope], 0.0);
-    EXPECT_GE(w[Knob::constant], 10.0);
-    EXPECT_LE(w[Knob::constant], 10.0 * 1.05);
+    EXPECT_EQ(w[1], 0.0);
+    EXPECT_GE(w[0], 10.0);
+    EXPECT_LE(w[0], 10.0 * 1.05);
 }
 
 TEST(TuneSearch, InfeasibleConstraintsGiveNoWinnerAndTheBestReachable) {
-    auto ev = synthetic([](const Setting& s) { return 0.5 - 0.4 * std::min(1.0, s[Knob::constant] / 1e6); },
-                        [](const Setting& s) { return 1e-6 * s[Knob::constant]; });
+    auto ev = synthetic([](const Setting& s) { return 0.5 - 0.4 * std::min(1.0, s[0] / 1e6); },
+                        [](const Setting& s) { return 1e-6 * s[0]; });
     TuneOptions o = boundary_options();
-    o.knobs = {Knob::constant};
+    o.knobs = bias_knobs({"constant"});
     const TuneResult r = search(ev, o);
     EXPECT_FALSE(r.winner);
     double least = 1;
@@ -140,12 +145,10 @@ TEST(TuneSearch, InfeasibleConstraintsGiveNoWinnerAndTheBestReachable) {
 }
 
 TEST(TuneSearch, IsDeterministicAndRespectsTheBudget) {
-    auto acne = [](const Setting& s) {
-        return std::max(0.0, 0.3 * (1 - std::sqrt(s[Knob::constant] / 500) - s[Knob::normal_offset]));
-    };
-    auto pp = [](const Setting& s) { return 2e-5 * s[Knob::constant] + 0.01 * s[Knob::normal_offset]; };
+    auto acne = [](const Setting& s) { return std::max(0.0, 0.3 * (1 - std::sqrt(s[0] / 500) - s[1])); };
+    auto pp = [](const Setting& s) { return 2e-5 * s[0] + 0.01 * s[1]; };
     TuneOptions o = boundary_options();
-    o.knobs = {Knob::constant, Knob::normal_offset, Knob::receiver_plane};
+    o.knobs = bias_knobs({"constant", "normal_offset", "receiver_plane"});
     o.budget = 23;
     const TuneResult a = search(synthetic(acne, pp), o), b = search(synthetic(acne, pp), o);
     ASSERT_EQ(a.evaluations.size(), b.evaluations.size());
@@ -158,10 +161,10 @@ TEST(TuneSearch, IsDeterministicAndRespectsTheBudget) {
 }
 
 TEST(TuneSearch, TheFrontHoldsNoDominatedPoint) {
-    auto ev = synthetic([](const Setting& s) { return std::max(0.0, 0.2 - 0.01 * std::log1p(s[Knob::slope] * 100)); },
-                        [](const Setting& s) { return 0.001 * s[Knob::slope]; });
+    auto ev = synthetic([](const Setting& s) { return std::max(0.0, 0.2 - 0.01 * std::log1p(s[0] * 100)); },
+                        [](const Setting& s) { return 0.001 * s[0]; });
     TuneOptions o = boundary_options();
-    o.knobs = {Knob::slope};
+    o.knobs = bias_knobs({"slope"});
     const TuneResult r = search(ev, o);
     ASSERT_FALSE(r.front.empty());
     for (std::size_t i : r.front)
@@ -173,14 +176,14 @@ TEST(TuneSearch, TheFrontHoldsNoDominatedPoint) {
 TEST(TuneSearch, TheDefaultObjectiveLooksPastTheAcneCap) {
     // Acne falls to 0 at constant 100, peter-panning grows slowly: the least visible error is at
     // 100, past the least setting within the cap (90), which spends the whole acne allowance.
-    auto ev = synthetic_visible([](const Setting& s) { return std::max(0.0, 0.01 * (1 - s[Knob::constant] / 100)); },
-                                [](const Setting& s) { return 1e-6 * s[Knob::constant]; });
+    auto ev = synthetic_visible([](const Setting& s) { return std::max(0.0, 0.01 * (1 - s[0] / 100)); },
+                                [](const Setting& s) { return 1e-6 * s[0]; });
     TuneOptions o;
-    o.knobs = {Knob::constant};
+    o.knobs = bias_knobs({"constant"});
     ASSERT_EQ(o.objective.minimize, kVisibleBiasError);
     const TuneResult r = search(ev, o);
     ASSERT_TRUE(r.winner);
-    const double c = r.evaluations[*r.winner].setting[Knob::constant];
+    const double c = r.evaluations[*r.winner].setting[0];
     EXPECT_GE(c, 100.0) << trail(r);
     EXPECT_LE(c, 110.0) << trail(r);
     EXPECT_LE(r.evaluations[*r.winner].minimized, 1.1e-4);
@@ -189,24 +192,24 @@ TEST(TuneSearch, TheDefaultObjectiveLooksPastTheAcneCap) {
 TEST(TuneSearch, KeepsTheStartWhenTheBestFoundIsWorse) {
     // Peter-panning of at least 0.002 wherever the cap holds: the start (acne 0.0015, above the
     // cap, no peter-panning) has less visible error than anything within the cap.
-    auto acne = [](const Setting& s) { return s[Knob::constant] >= 10 ? 0.0 : 0.01; };
+    auto acne = [](const Setting& s) { return s[0] >= 10 ? 0.0 : 0.01; };
     TuneOptions o;
-    o.knobs = {Knob::constant};
+    o.knobs = bias_knobs({"constant"});
     Evaluation start;
-    start.setting[Knob::constant] = 3;
+    start.setting = Setting(1);
+    start.setting[0] = 3;
     start.visible = {0.0015, 0.0};
     start.worst_acne = 0.0015;
     start.minimized = 0.0015;
-    const TuneResult kept = search(
-        synthetic_visible(acne, [](const Setting& s) { return 0.002 + 1e-6 * s[Knob::constant]; }), o, false, &start);
+    const TuneResult kept =
+        search(synthetic_visible(acne, [](const Setting& s) { return 0.002 + 1e-6 * s[0]; }), o, &start);
     ASSERT_EQ(kept.start, std::optional<std::size_t>(0));
     EXPECT_TRUE(kept.winner);
     EXPECT_TRUE(kept.kept_start);
     EXPECT_EQ(kept.chosen(), 0u);
     EXPECT_NE(kept.why.find("the start's 0.0015"), std::string::npos) << kept.why;
     // Where the search finds less visible error than the start, its result stands.
-    const TuneResult better =
-        search(synthetic_visible(acne, [](const Setting& s) { return 1e-6 * s[Knob::constant]; }), o, false, &start);
+    const TuneResult better = search(synthetic_visible(acne, [](const Setting& s) { return 1e-6 * s[0]; }), o, &start);
     EXPECT_FALSE(better.kept_start);
     ASSERT_TRUE(better.winner);
     EXPECT_EQ(better.chosen(), *better.winner);
@@ -224,80 +227,195 @@ TEST(TuneKnobs, UnknownRepeatedOrBiaslessListsAreRefusedByName) {
         return std::string("accepted");
     };
     EXPECT_NE(message("constant,slop").find("--knobs: unknown knob \"slop\""), std::string::npos);
+    // The names known are every registered family's.
+    EXPECT_EQ(message("constant,slop"),
+              "--knobs: unknown knob \"slop\" (knobs: constant, slope, clamp, world, normal_offset, receiver_plane; "
+              "other families': min_variance, light_bleed, exponent, moment_bias)");
+    EXPECT_EQ(message("clamp,receiver_plane"),
+              "--knobs: \"clamp,receiver_plane\" has no knob that adds bias (constant, slope, world or normal_offset) "
+              "or another family's (min_variance, light_bleed, exponent, moment_bias)");
     EXPECT_NE(message("slope,slope").find("\"slope\" is named twice"), std::string::npos);
     EXPECT_NE(message("clamp,receiver_plane").find("no knob that adds bias"), std::string::npos);
     EXPECT_NE(message("").find("unknown knob \"\""), std::string::npos);
+    EXPECT_EQ(parse_knobs("light_bleed", "--knobs"), std::vector<std::string>{"light_bleed"});
 }
 
-// The knobs are the technique family's: a family that lists none (a registered one without
-// depth-map biases) has nothing for tune to move, and says so before any work.
+// Each family declares its knobs (raster/knobs.h): the depth map's six biases, shared by the
+// families that draw them; each moment family its own, with its technique key, range and unit.
+TEST(TuneKnobs, EachFamilyDeclaresItsKnobs) {
+    auto names = [](const char* family) {
+        std::vector<std::string> n;
+        for (const raster::KnobDecl& k : raster::find_technique_family(family)->knobs)
+            n.push_back(k.name + "=" + k.key);
+        return n;
+    };
+    const std::vector<std::string> biases = {"constant=bias.constant",
+                                             "slope=bias.slope",
+                                             "clamp=bias.clamp",
+                                             "world=bias.world",
+                                             "normal_offset=bias.normal_offset",
+                                             "receiver_plane=bias.receiver_plane"};
+    for (const char* f : {"depth_map", "averaged_area", "cascaded"}) EXPECT_EQ(names(f), biases) << f;
+    EXPECT_EQ(names("vsm"), (std::vector<std::string>{"min_variance=vsm.min_variance", "light_bleed=vsm.light_bleed"}));
+    EXPECT_EQ(names("esm"), (std::vector<std::string>{"exponent=esm.exponent"}));
+    for (const char* f : {"evsm2", "evsm4"})
+        EXPECT_EQ(names(f), (std::vector<std::string>{"min_variance=evsm.min_variance", "light_bleed=evsm.light_bleed",
+                                                      "exponent=evsm.exponents"}))
+            << f;
+    EXPECT_EQ(names("msm"), (std::vector<std::string>{"moment_bias=msm.moment_bias"}));
+    EXPECT_TRUE(names("shadow_volume").empty());
+    EXPECT_TRUE(names("planar_projection").empty());
+
+    // Ranges, units and scales as docs/tune.md's tables give them.
+    const KnobSet d = bias_knobs({"constant", "slope", "clamp", "world", "normal_offset", "receiver_plane"});
+    const std::vector<std::tuple<double, double, std::string>> ranges = {{1e-1, 1e6, "r"},
+                                                                         {1e-2, 1e2, "factor"},
+                                                                         {1e-7, 1e-1, "depth units"},
+                                                                         {1e-2, 1e2, "texel footprints"},
+                                                                         {1e-2, 1e1, "texels"}};
+    for (std::size_t i = 0; i < ranges.size(); ++i) {
+        EXPECT_EQ(d[i].scale, raster::KnobScale::log) << d[i].name;
+        EXPECT_EQ(std::tuple(d[i].lower, d[i].upper, d[i].unit), ranges[i]) << d[i].name;
+        EXPECT_EQ(d[i].caps, d[i].name == "clamp");
+        EXPECT_EQ(d[i].scope, raster::KnobScope::light);
+    }
+    EXPECT_EQ(d[5].scale, raster::KnobScale::on_off);
+    const KnobSet evsm = knob_set(raster::parse_technique({{"family", "evsm4"}, {"filter", {{"type", "none"}}}}, "t"),
+                                  std::vector<std::string>{"min_variance", "light_bleed", "exponent"});
+    EXPECT_EQ(std::tuple(evsm[0].lower, evsm[0].upper, evsm[0].unit), std::tuple(1e-9, 1e-2, "squared depth units"));
+    EXPECT_EQ(std::tuple(evsm[1].lower, evsm[1].upper, evsm[1].unit), std::tuple(1e-2, 0.95, "fraction"));
+    EXPECT_EQ(std::tuple(evsm[2].lower, evsm[2].upper), std::tuple(1.0, raster::kMaxEsmExponent));
+    for (const raster::KnobDecl& k : evsm) EXPECT_EQ(k.scope, raster::KnobScope::technique) << k.name;
+
+    // sweep's keys are the knobs' keys and the family's others, each once.
+    for (const raster::FamilyEntry& f : raster::technique_families()) {
+        const std::vector<std::string> keys = raster::sweep_keys_of(f);
+        for (const raster::KnobDecl& k : f.knobs)
+            EXPECT_EQ(std::count(keys.begin(), keys.end(), k.key), 1) << f.name << ": " << k.key;
+        for (const std::string& k : f.sweep_keys)
+            EXPECT_EQ(std::count(keys.begin(), keys.end(), k), 1) << f.name << ": " << k;
+    }
+    // A moment family's depth-map biases are keys sweep may vary, not knobs.
+    const std::vector<std::string> vsm_keys = raster::sweep_keys_of(*raster::find_technique_family("vsm"));
+    EXPECT_NE(std::find(vsm_keys.begin(), vsm_keys.end(), "bias.constant"), vsm_keys.end());
+}
+
+// The world knob counts texel footprints, the bias metres; the clamp's "off" is unclamped.
+TEST(TuneKnobs, TheDeclarationsReadAndWriteTheTechnique) {
+    const KnobSet k = bias_knobs({"world", "receiver_plane", "constant"});
+    raster::Technique t =
+        raster::parse_technique({{"bias", {{"world", 0.5}, {"constant", 7}}},
+                                 {"lights", nlohmann::json::array({nlohmann::json{{"bias", {{"constant", 3}}}}})}},
+                                "t");
+    const Setting s = setting_of(t.bias, k, 0.25, &t);
+    EXPECT_EQ(s.value, (std::vector<double>{2.0, 0.0, 7.0}));
+    Setting u = s;
+    u[0] = 4;
+    u[1] = 1;
+    const raster::Technique a = apply_setting(t, k, u, 0.25);
+    EXPECT_DOUBLE_EQ(a.bias.world, 1.0);
+    EXPECT_TRUE(a.bias.receiver_plane);
+    EXPECT_FALSE(a.lights[0].bias.constant.has_value()) << "a light's own value of a tuned knob is dropped";
+    EXPECT_EQ(describe(u, k), "world=4 receiver_plane=true constant=7");
+    const std::vector<Setting> per_light = {u};
+    const raster::Technique b = apply_settings(t, k, per_light, 0.25);
+    EXPECT_DOUBLE_EQ(b.bias_for(0).world, 1.0);
+    EXPECT_DOUBLE_EQ(b.bias_for(0).constant, 7.0);
+    EXPECT_DOUBLE_EQ(b.bias.world, 0.5) << "the technique's own bias stays";
+}
+
+// The knobs are the technique family's: a family that declares none (a registered one without
+// depth-map biases) has nothing for tune to move, and says so, naming the family, before any work.
 TEST(TuneKnobs, KnobsTheTechniquesFamilyDoesNotHaveAreRefused) {
-    const std::vector<Knob> knobs = {Knob::constant, Knob::normal_offset};
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique(nlohmann::json::object(), "t"), knobs, "--knobs"));
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"area_samples", 4}}, "t"), knobs, "--knobs"));
+    const std::vector<std::string> knobs = {"constant", "normal_offset"};
+    EXPECT_NO_THROW(knob_set(raster::parse_technique(nlohmann::json::object(), "t"), knobs, "--knobs"));
+    EXPECT_NO_THROW(knob_set(raster::parse_technique({{"area_samples", 4}}, "t"), knobs, "--knobs"));
     if (!raster::find_technique_family("tune_test_unbiased")) {
         raster::FamilyEntry e = *raster::find_technique_family("depth_map");
         e.name = "tune_test_unbiased";
-        e.tune_knobs = {"bias.slope"};
+        e.knobs = {raster::depth_map_bias_knobs()[1]};  // slope alone
         raster::register_technique_family(std::move(e));
     }
     const raster::Technique unbiased = raster::parse_technique({{"family", "tune_test_unbiased"}}, "t");
     try {
-        check_family_knobs(unbiased, knobs, "--knobs");
+        knob_set(unbiased, knobs, "--knobs");
         ADD_FAILURE() << "accepted a knob the family does not have";
     } catch (const InputError& e) {
         EXPECT_STREQ(e.what(),
                      "--knobs: constant is not a knob of technique family \"tune_test_unbiased\" (its knobs: "
                      "bias.slope)");
     }
-    const std::vector<Knob> slope = {Knob::slope};
-    EXPECT_NO_THROW(check_family_knobs(unbiased, slope, "--knobs"));
+    EXPECT_EQ(knob_set(unbiased, std::vector<std::string>{"slope"}, "--knobs").size(), 1u);
+    try {
+        knob_set(raster::parse_technique({{"preset", "rtr-shadow-volume"}}, "t"), std::vector<std::string>{"constant"},
+                 "--knobs");
+        ADD_FAILURE() << "accepted a knob of a family without any";
+    } catch (const InputError& e) {
+        EXPECT_STREQ(e.what(),
+                     "--knobs: constant is not a knob of technique family \"shadow_volume\" (its knobs: none)");
+    }
+    // Without --knobs a family without knobs gets the default family's, refused as above.
+    EXPECT_EQ(default_knobs(raster::parse_technique({{"preset", "rtr-shadow-volume"}}, "t")), "constant,slope");
 }
 
 // A moment family's knobs are its own keys: vsm lists its variance floor and light-bleed
 // reduction, esm its exponent, evsm both and its exponents, msm its moment bias; none lists a
 // depth-map bias.
 TEST(TuneKnobs, MomentFamiliesListTheirOwnKnobs) {
-    const std::vector<Knob> bleed = {Knob::light_bleed, Knob::min_variance};
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"family", "vsm"}}, "t"), bleed, "--knobs"));
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"family", "evsm4"}}, "t"), bleed, "--knobs"));
-    const std::vector<Knob> exponent = {Knob::exponent};
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"family", "esm"}}, "t"), exponent, "--knobs"));
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"family", "evsm2"}}, "t"), exponent, "--knobs"));
-    const std::vector<Knob> moment_bias = {Knob::moment_bias};
-    EXPECT_NO_THROW(check_family_knobs(raster::parse_technique({{"family", "msm"}}, "t"), moment_bias, "--knobs"));
-    auto refusal = [](const nlohmann::json& j, std::vector<Knob> knobs) {
+    const nlohmann::json none = {{"type", "none"}};
+    auto family = [&](const char* f) { return raster::parse_technique({{"family", f}, {"filter", none}}, "t"); };
+    using Names = std::vector<std::string>;
+    EXPECT_NO_THROW(knob_set(family("vsm"), Names{"light_bleed", "min_variance"}));
+    EXPECT_NO_THROW(knob_set(family("evsm4"), Names{"light_bleed", "min_variance"}));
+    EXPECT_NO_THROW(knob_set(family("esm"), Names{"exponent"}));
+    EXPECT_NO_THROW(knob_set(family("evsm2"), Names{"exponent"}));
+    EXPECT_NO_THROW(knob_set(family("msm"), Names{"moment_bias"}));
+    auto refusal = [&](const raster::Technique& t, const Names& knobs) {
         try {
-            check_family_knobs(raster::parse_technique(j, "t"), knobs, "--knobs");
+            knob_set(t, knobs, "--knobs");
         } catch (const InputError& e) {
             return std::string(e.what());
         }
         return std::string("accepted");
     };
-    EXPECT_EQ(refusal({{"family", "vsm"}}, {Knob::constant}),
+    EXPECT_EQ(refusal(family("vsm"), {"constant"}),
               "--knobs: constant is not a knob of technique family \"vsm\" (its knobs: vsm.min_variance, "
               "vsm.light_bleed)");
-    EXPECT_NE(refusal({{"family", "esm"}}, {Knob::light_bleed}).find("esm.exponent"), std::string::npos);
-    EXPECT_NE(refusal({{"family", "vsm"}}, {Knob::exponent}).find("not a knob"), std::string::npos);
-    EXPECT_NE(refusal(nlohmann::json::object(), {Knob::light_bleed}).find("not a knob"), std::string::npos);
-    EXPECT_EQ(parse_knobs("light_bleed", "--knobs"), std::vector<Knob>{Knob::light_bleed});
+    EXPECT_EQ(refusal(family("evsm4"), {"moment_bias"}),
+              "--knobs: moment_bias is not a knob of technique family \"evsm4\" (its knobs: evsm.min_variance, "
+              "evsm.light_bleed, evsm.exponents)");
+    EXPECT_NE(refusal(family("esm"), {"light_bleed"}).find("esm.exponent"), std::string::npos);
+    EXPECT_NE(refusal(family("vsm"), {"exponent"}).find("not a knob"), std::string::npos);
+    EXPECT_NE(refusal(raster::parse_technique(nlohmann::json::object(), "t"), {"light_bleed"}).find("not a knob"),
+              std::string::npos);
     // Without --knobs: the bias knobs for a depth map, the family's own for a moment family.
     EXPECT_EQ(default_knobs(raster::parse_technique(nlohmann::json::object(), "t")), "constant,slope");
-    EXPECT_EQ(default_knobs(raster::parse_technique({{"family", "vsm"}}, "t")), "min_variance,light_bleed");
-    EXPECT_EQ(default_knobs(raster::parse_technique({{"family", "evsm4"}}, "t")), "min_variance,light_bleed,exponent");
-    EXPECT_EQ(default_knobs(raster::parse_technique({{"family", "msm"}}, "t")), "moment_bias");
+    EXPECT_EQ(default_knobs(family("vsm")), "min_variance,light_bleed");
+    EXPECT_EQ(default_knobs(family("evsm4")), "min_variance,light_bleed,exponent");
+    EXPECT_EQ(default_knobs(family("msm")), "moment_bias");
     for (const char* f : {"vsm", "esm", "evsm2", "evsm4", "msm"}) {
-        const raster::Technique t = raster::parse_technique({{"family", f}}, "t");
-        EXPECT_NO_THROW(check_family_knobs(t, parse_knobs(default_knobs(t), "--knobs"), "--knobs")) << f;
+        const raster::Technique t = family(f);
+        EXPECT_NO_THROW(knob_set(t, parse_knobs(default_knobs(t), "--knobs"), "--knobs")) << f;
+        EXPECT_TRUE(knob_set(t, parse_knobs(default_knobs(t), "--knobs")).has_technique_knob()) << f;
     }
+    EXPECT_FALSE(bias_knobs({"constant", "slope"}).has_technique_knob());
     // The setting carries the family's value in and out of the technique.
-    const raster::Technique vsm = raster::parse_technique({{"family", "vsm"}, {"vsm", {{"light_bleed", 0.2}}}}, "t");
-    const std::vector<Knob> lb = {Knob::light_bleed};
+    const raster::Technique vsm =
+        raster::parse_technique({{"family", "vsm"}, {"filter", none}, {"vsm", {{"light_bleed", 0.2}}}}, "t");
+    const KnobSet lb = knob_set(vsm, Names{"light_bleed"});
     Setting s = setting_of(vsm.bias, lb, 1.0, &vsm);
-    EXPECT_DOUBLE_EQ(s[Knob::light_bleed], 0.2);
-    s[Knob::light_bleed] = 0.5;
+    EXPECT_DOUBLE_EQ(s[0], 0.2);
+    s[0] = 0.5;
     EXPECT_DOUBLE_EQ(raster::moment_parameters(apply_setting(vsm, lb, s, 1.0))->light_bleed, 0.5);
     EXPECT_DOUBLE_EQ(raster::moment_parameters(vsm)->light_bleed, 0.2) << "the start is not changed";
+    // Drawn within what the family can: light_bleed below 1, evsm's exponent at most 42.
+    s[0] = 5;
+    EXPECT_DOUBLE_EQ(raster::moment_parameters(apply_setting(vsm, lb, s, 1.0))->light_bleed, 0.999);
+    const raster::Technique evsm = family("evsm2");
+    const KnobSet ex = knob_set(evsm, Names{"exponent"});
+    Setting high(1);
+    high[0] = 80;
+    EXPECT_DOUBLE_EQ(raster::moment_parameters(apply_setting(evsm, ex, high, 1.0))->exponent, raster::kMaxEvsmExponent);
 }
 
 // A plate halfway between a roof and the ground (tests/validate/verdict_test.cpp): a blurred
@@ -314,7 +432,7 @@ TEST(TuneMomentKnobs, VsmLightBleedIsSearchedAndNeverWorseThanTheStart) {
     const raster::Technique start = raster::parse_technique(
         {{"family", "vsm"}, {"resolution", 256}, {"blur", 4}, {"vsm", {{"light_bleed", 0.0}}}}, "test");
     TuneOptions o;
-    o.knobs = {Knob::light_bleed};
+    o.knobs = knob_set(start, std::vector<std::string>{"light_bleed"});
     o.budget = 16;
     o.validate.use_cache = false;
     o.validate.oracle.progress = false;
@@ -326,10 +444,9 @@ TEST(TuneMomentKnobs, VsmLightBleedIsSearchedAndNeverWorseThanTheStart) {
     const Evaluation& chosen = r.evaluations[r.chosen()];
     std::size_t values = 0;
     for (const Evaluation& e : r.evaluations) {
-        std::printf("light_bleed %.4g: visible acne %.5f peter-panning %.5f light bleeding %.5f%s\n",
-                    e.setting[Knob::light_bleed], e.visible.acne, e.visible.peter_panning, e.visible.light_bleeding,
-                    e.feasible ? " feasible" : "");
-        values += e.setting[Knob::light_bleed] > 0;
+        std::printf("light_bleed %.4g: visible acne %.5f peter-panning %.5f light bleeding %.5f%s\n", e.setting[0],
+                    e.visible.acne, e.visible.peter_panning, e.visible.light_bleeding, e.feasible ? " feasible" : "");
+        values += e.setting[0] > 0;
     }
     EXPECT_GT(first.visible.light_bleeding, 0.0) << "the start bleeds: else the test shows nothing";
     EXPECT_GE(values, 3u) << "light_bleed was searched";
@@ -338,7 +455,7 @@ TEST(TuneMomentKnobs, VsmLightBleedIsSearchedAndNeverWorseThanTheStart) {
     const raster::MomentParameters* tuned = raster::moment_parameters(r.recommended);
     ASSERT_NE(tuned, nullptr);
     EXPECT_GT(tuned->light_bleed, 0.0);
-    EXPECT_DOUBLE_EQ(tuned->light_bleed, chosen.setting[Knob::light_bleed]);
+    EXPECT_DOUBLE_EQ(tuned->light_bleed, chosen.setting[0]);
 }
 
 // A 20 m plane, lit from azimuth +x at `theta` from its normal, and a pole at its +x edge whose
@@ -380,9 +497,9 @@ double depth_per_texel(const Scenario& sc, int resolution) {
 
 class TunePlane : public ::testing::TestWithParam<PlaneCase> {};
 
-TuneOptions plane_options(std::vector<Knob> knobs) {
+TuneOptions plane_options(const std::vector<std::string>& knobs) {
     TuneOptions o;
-    o.knobs = std::move(knobs);
+    o.knobs = bias_knobs(knobs);
     o.precision = 0.02;
     o.objective.minimize = "rates.peter_panning";  // the least bias that cures acne
     o.validate.use_cache = false;
@@ -410,7 +527,7 @@ double found_over_analytic(double theta, const char* format) {
     const double r = raster::depth_resolution(t.depth_format);
     const double analytic = 0.5 * depth_per_texel(sc[0], t.resolution) / r;
     raster::VulkanContext ctx;
-    const TuneResult res = tune(sc, t, plane_options({Knob::constant}), ctx);
+    const TuneResult res = tune(sc, t, plane_options({"constant"}), ctx);
     EXPECT_TRUE(res.winner);
     return res.recommended.bias_for(0).constant / analytic;
 }
@@ -461,7 +578,7 @@ TEST_P(TunePlane, TheLeastSlopeBiasIsHalfATexel) {
     const auto [theta, format] = GetParam();
     const std::vector<Scenario> sc = {plane_scenario(theta)};
     raster::VulkanContext ctx;
-    const TuneResult res = tune(sc, plane_technique(format), plane_options({Knob::slope}), ctx);
+    const TuneResult res = tune(sc, plane_technique(format), plane_options({"slope"}), ctx);
     ASSERT_TRUE(res.winner);
     EXPECT_NEAR(res.recommended.bias_for(0).slope / 0.5, 1.0, 0.10) << "found " << res.recommended.bias_for(0).slope;
 }
