@@ -246,6 +246,8 @@ int OutputTransaction::open_staged(const fs::path& tmp) {
 std::string OutputTransaction::written_bytes(const std::string& name) const {
     for (const Staged& f : files_) {
         if (f.final_path.filename() != name) continue;
+        // Only the file this transaction wrote, never what a link put at its name points to.
+        if (!committed_ && !is_same_file(f.tmp, f.device, f.inode)) break;
         std::ifstream in(committed_ ? f.final_path : f.tmp, std::ios::binary);
         std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
         if (!in && !in.eof()) break;
