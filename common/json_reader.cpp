@@ -200,9 +200,9 @@ class StrictDomBuilder : public json::json_sax_t {
         return true;
     }
     bool key(string_t& k) override {
-        json& object = *open_.back();
-        if (object.contains(k) && duplicate_.empty()) duplicate_ = k;
-        member_ = &object[k];
+        auto [it, fresh] = open_.back()->get_ref<json::object_t&>().emplace(std::move(k), nullptr);
+        if (!fresh && duplicate_.empty()) duplicate_ = it->first;
+        member_ = &it->second;
         return true;
     }
     bool end_object() override {
