@@ -10,6 +10,7 @@
 #include "common/output_files.h"
 #include "oracle/oracle_cache.h"
 #include "pipeline/validate.h"
+#include "raster/cascades.h"
 #include "raster/technique_family.h"
 
 namespace penumbra::cli {
@@ -171,14 +172,42 @@ nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, 
         label = t.file.filename().string();
     }
     if (!t.preset.empty()) j["preset"] = t.preset;
-    for (const auto& s : t.sets) raster::apply_override(j, s);
+    for (const auto& s : t.sets) {
+        // A technique file's null is refused; a null given here would otherwise stand for "the
+        // default" on one path and for an error on the other.
+        if (const auto eq = s.find('='); eq != std::string::npos) {
+            bool is_null = false;
+            try {
+                is_null = parse_json_strict(s.substr(eq + 1), "--set").is_null();
+            } catch (const InputError&) {
+            }
+            if (is_null)
+                throw InputError(fmt::format(
+                    "--set {}: null is not a value for a technique key (a technique file's null is refused too); "
+                    "leave the key out to keep its default",
+                    s));
+        }
+        raster::apply_override(j, s);
+    }
     return j;
 }
 
 raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArgs& t) {
     std::string label;
     nlohmann::json j = technique_json(scenario, t, label);
-    return raster::parse_technique(j, label, scenario.lights);
+    raster::Technique technique = raster::parse_technique(j, label, scenario.lights);
+    // Checked against the scenario's cameras now, not once the oracle has traced (#50).
+    if (const raster::Cascades* c = raster::cascades_of(technique); c && c->max_distance) {
+        std::vector<const Camera*> cameras{&scenario.camera};
+        if (scenario.camera_path)
+            for (const CameraKey& k : scenario.camera_path->keys) cameras.push_back(&k.camera);
+        for (const Camera* cam : cameras)
+            if (!(*c->max_distance > cam->znear))
+                throw InputError(
+                    fmt::format("{}: cascades.max_distance: {} m is not beyond the camera's znear {} m (scenario {})",
+                                label, *c->max_distance, cam->znear, scenario.label));
+    }
+    return technique;
 }
 
 int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet) {

@@ -159,6 +159,10 @@ int run_init_command(const InitArgs& a) {
         throw InputError(fmt::format("--out {}: is a folder; expected the scenario file to write", out_text));
     if (fs::exists(a.out, ec) && !a.force)
         throw InputError(fmt::format("--out {}: exists; pass --force to overwrite it", out_text));
+    // --force replaces a regular file only, never a FIFO, a device or a link (#50): refused now,
+    // before the model is read.
+    if (std::string why = replaceable_target_problem(a.out); !why.empty())
+        throw InputError(fmt::format("--out {}", why));
     if (fs::equivalent(a.out, a.model, ec))  // --force would replace the model with its scenario
         throw InputError(fmt::format("--out {}: is the model itself", out_text));
     const fs::path out_parent = fs::absolute(a.out).parent_path();

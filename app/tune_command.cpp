@@ -58,8 +58,12 @@ EngineUnitsPlan plan_engine_units(const std::string& engine, std::span<const Sce
     for (const Scenario& s : scenarios) {
         auto& per_light = plan.maps.emplace_back();
         for (std::size_t li = 0; li < s.lights.size(); ++li)
-            per_light.push_back(
-                engines::map_contexts(s, t, li, engines::reference_receiver(s, s.lights[li], std::nullopt)));
+            per_light.push_back(engines::map_contexts(
+                s, t, li,
+                engines::reference_receiver(
+                    s, s.lights[li], std::nullopt,
+                    "tune --units needs a receiver plane that faces the light; `penumbra units` converts this "
+                    "light's bias at an angle you give")));
     }
     return plan;
 }

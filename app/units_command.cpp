@@ -24,6 +24,19 @@ struct UnitsArgs {
     TechniqueArgs technique;
 };
 
+// The JSON path of the first number in `j` that is not finite ("" when all are): a conversion of
+// huge inputs (1e308) overflows, and must be refused rather than printed as inf or null.
+std::string non_finite_at(const nlohmann::json& j, const std::string& path) {
+    if (j.is_number_float() && !std::isfinite(j.get<double>())) return path.empty() ? "(top level)" : path;
+    if (j.is_object())
+        for (auto it = j.begin(); it != j.end(); ++it)
+            if (auto p = non_finite_at(*it, path.empty() ? it.key() : path + "." + it.key()); !p.empty()) return p;
+    if (j.is_array())
+        for (std::size_t i = 0; i < j.size(); ++i)
+            if (auto p = non_finite_at(j[i], fmt::format("{}[{}]", path, i)); !p.empty()) return p;
+    return {};
+}
+
 std::string describe_values(const nlohmann::json& values) {
     std::string s;
     for (auto it = values.begin(); it != values.end(); ++it)
@@ -74,6 +87,11 @@ int run_units_command(const UnitsArgs& a) {
         j["clearance_m"] = {{"constant", cl.constant_m}, {"angular", cl.angular_m}, {"total", cl.total()}};
         j["values"] = a.to == "penumbra" ? engines::nested_bias(to.values) : to.values;
         j["assumptions"] = to.assumptions;
+        if (const std::string at = non_finite_at(j, ""); !at.empty())
+            throw InputError(fmt::format(
+                "--from {} {}: the conversion overflows ({} is not a finite number); the values are far beyond any "
+                "shadow bias",
+                from.engine, describe_values(from.values), at));
         out_maps.push_back(j);
     }
     const double angle_deg = ref.angle_rad * 180.0 / 3.14159265358979323846;
@@ -131,7 +149,7 @@ Subcommand add_units_command(CLI::App& parent) {
     cmd->add_option("PARAMS", a->assignments,
                     "KEY=VALUE: the --from engine's parameters and assumptions (the rest keep that engine's defaults)")
         ->check(kUserName);
-    cmd->add_option("--light", a->light, "The scenario's light (index, default 0)");
+    cmd->add_option("--light", a->light, "The scenario's light (index, default 0)")->check(CLI::NonNegativeNumber);
     std::string engines;
     for (const auto& e : engines::engine_names()) engines += (engines.empty() ? "" : ", ") + e;
     cmd->add_option("--from", a->from, "Engine the values are in: " + engines)->required()->check(kUserName);

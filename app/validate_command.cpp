@@ -1,6 +1,7 @@
 // `penumbra validate`: oracle + raster + metrics, the verdict per pixel, reports and CI gates.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <memory>
 
 #include "app/cli.h"
@@ -15,6 +16,7 @@
 #include "pipeline/camera_path_files.h"
 #include "pipeline/validate.h"
 #include "pipeline/validate_files.h"
+#include "sweep/sweep_table.h"
 
 namespace penumbra::cli {
 namespace {
@@ -42,6 +44,14 @@ std::optional<std::string> cache_line(const nlohmann::json& oracle_info) {
                        format_bytes(c.at("bytes").get<std::uint64_t>()), held);
 }
 
+// A camera path's wall clock before it starts: every frame traces the oracle and takes a verdict
+// (~1 s each even at 16 x 9, sweep's kVerdictSeconds) and a render, both growing with the pixels
+// beyond 1280 x 720. Beyond sweep's 12 hours a run is refused, as sweep refuses one (#50).
+double camera_path_seconds(const Scenario& s) {
+    const double pixels = static_cast<double>(s.width) * s.height;
+    return s.camera_path->frames * (sweep::kVerdictSeconds + sweep::kRenderSeconds) * std::max(1.0, pixels / 921600.0);
+}
+
 int run_validate_command(const std::filesystem::path& scenario_file, const Common& c, const TechniqueArgs& t,
                          const ValidateArgs& v) {
     const ThreadLimit limit(c);
@@ -56,6 +66,18 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
                             v.gate_file.empty() ? metrics::GateOrigin::scenario : metrics::GateOrigin::file,
                             scenario.camera_path.has_value());
     check_run_memory(scenario, c, true, &technique, true);
+    if (scenario.camera_path) {
+        const double seconds = camera_path_seconds(scenario);
+        if (seconds > sweep::kMaxRunSeconds)
+            throw InputError(fmt::format(
+                "{}: camera_path: {} frames at {}x{} px: about {:.1f} h at ~{} s a frame (more beyond 1280x720); "
+                "beyond {:.0f} h a run; judge fewer frames or a smaller image",
+                scenario.label, scenario.camera_path->frames, scenario.width, scenario.height, seconds / 3600,
+                sweep::kVerdictSeconds + sweep::kRenderSeconds, sweep::kMaxRunSeconds / 3600));
+        if (!c.quiet && seconds >= 600)
+            fmt::print(stderr, "validate: camera_path of {} frames: about {:.1f} h (estimated before it starts)\n",
+                       scenario.camera_path->frames, seconds / 3600);
+    }
 
     ValidateOptions options = validate_options(c, v.verdict);
     options.keep_oracle_frame = v.frames;

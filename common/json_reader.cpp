@@ -177,6 +177,79 @@ std::string read_regular_file(const std::filesystem::path& file, std::uint64_t m
     return bytes;
 }
 
+namespace {
+
+// Builds the document from nlohmann's SAX events, refusing duplicate keys on the way. Its own
+// callback parser (json::parse with a callback) scans the enclosing array or object again at
+// the end of every object, which made an array of N objects cost N^2 (#50); here every event
+// is constant work (a key's check is one lookup in its object).
+class StrictDomBuilder : public json::json_sax_t {
+  public:
+    bool null() override { return add(nullptr); }
+    bool boolean(bool v) override { return add(v); }
+    bool number_integer(number_integer_t v) override { return add(v); }
+    bool number_unsigned(number_unsigned_t v) override { return add(v); }
+    bool number_float(number_float_t v, const string_t&) override {
+        if (!std::isfinite(v)) non_finite_ = true;
+        return add(v);
+    }
+    bool string(string_t& v) override { return add(std::move(v)); }
+    bool binary(binary_t& v) override { return add(std::move(v)); }
+    bool start_object(std::size_t) override {
+        open_.push_back(add(json::object()));
+        return true;
+    }
+    bool key(string_t& k) override {
+        auto [it, fresh] = open_.back()->get_ref<json::object_t&>().emplace(std::move(k), nullptr);
+        if (!fresh && duplicate_.empty()) duplicate_ = it->first;
+        member_ = &it->second;
+        return true;
+    }
+    bool end_object() override {
+        open_.pop_back();
+        return true;
+    }
+    bool start_array(std::size_t) override {
+        open_.push_back(add(json::array()));
+        return true;
+    }
+    bool end_array() override {
+        open_.pop_back();
+        return true;
+    }
+    bool parse_error(std::size_t position, const std::string&, const json::exception& e) override {
+        error_position_ = position;
+        error_ = e.what();
+        syntax_error_ = e.id >= 100 && e.id < 200;  // json::parse_error's ids
+        return false;
+    }
+
+    json result;
+    std::string duplicate_, error_;
+    std::size_t error_position_ = 0;
+    bool syntax_error_ = false, non_finite_ = false;
+
+  private:
+    template <class V>
+    json* add(V&& v) {
+        if (open_.empty()) {
+            result = json(std::forward<V>(v));
+            return &result;
+        }
+        json& parent = *open_.back();
+        if (parent.is_array()) {
+            parent.get_ref<json::array_t&>().emplace_back(std::forward<V>(v));
+            return &parent.get_ref<json::array_t&>().back();
+        }
+        *member_ = json(std::forward<V>(v));
+        return member_;
+    }
+    std::vector<json*> open_;  // the arrays and objects being filled, innermost last
+    json* member_ = nullptr;   // the value the last key named
+};
+
+}  // namespace
+
 json parse_json_strict(const std::string& text, const std::string& file_label) {
     // nlohmann stops at a NUL byte as if the text ended there; JSON text never contains one.
     if (auto nul = text.find('\0'); nul != std::string::npos)
@@ -184,35 +257,17 @@ json parse_json_strict(const std::string& text, const std::string& file_label) {
     check_json_nesting(text, file_label);
     // Duplicate keys are silently merged by nlohmann; a strict reader refuses them, since
     // which of two "bias" objects the user meant cannot be guessed.
-    std::vector<std::set<std::string>> open_objects;
-    std::string duplicate;
-    auto callback = [&](int, json::parse_event_t event, json& parsed) {
-        switch (event) {
-            case json::parse_event_t::object_start: open_objects.emplace_back(); break;
-            case json::parse_event_t::object_end: open_objects.pop_back(); break;
-            case json::parse_event_t::key:
-                if (!open_objects.empty() && !open_objects.back().insert(parsed.get<std::string>()).second &&
-                    duplicate.empty())
-                    duplicate = parsed.get<std::string>();
-                break;
-            case json::parse_event_t::value:
-                if (parsed.is_number_float() && !std::isfinite(parsed.get<double>()))
-                    throw InputError(fmt::format("{}: number out of range (not finite)", file_label));
-                break;
-            default: break;
-        }
-        return true;
-    };
-    json result;
-    try {
-        result = json::parse(text, callback, /*allow_exceptions=*/true, /*ignore_comments=*/false);
-    } catch (const json::parse_error& e) {
-        throw InputError(fmt::format("{}: invalid JSON at byte {}: {}", file_label, e.byte, e.what()));
-    } catch (const json::exception& e) {  // e.g. out_of_range for 1e999
-        throw InputError(fmt::format("{}: invalid JSON: {}", file_label, e.what()));
+    StrictDomBuilder builder;
+    if (!json::sax_parse(text, &builder, json::input_format_t::json, /*strict=*/true, /*ignore_comments=*/false)) {
+        if (builder.syntax_error_)
+            throw InputError(
+                fmt::format("{}: invalid JSON at byte {}: {}", file_label, builder.error_position_, builder.error_));
+        throw InputError(fmt::format("{}: invalid JSON: {}", file_label, builder.error_));  // e.g. 1e999
     }
-    if (!duplicate.empty()) throw InputError(fmt::format("{}: duplicate key \"{}\"", file_label, duplicate));
-    return result;
+    if (builder.non_finite_) throw InputError(fmt::format("{}: number out of range (not finite)", file_label));
+    if (!builder.duplicate_.empty())
+        throw InputError(fmt::format("{}: duplicate key \"{}\"", file_label, builder.duplicate_));
+    return std::move(builder.result);
 }
 
 json read_json_file(const std::filesystem::path& file) {

@@ -3,11 +3,14 @@
 #include <fcntl.h>
 #include <fmt/format.h>
 #include <stdio.h>  // renameat2
+#include <sys/random.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
 
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <climits>
 #include <csignal>
 #include <cstdint>
@@ -87,6 +90,70 @@ bool exchange_unsupported(const std::error_code& ec) {
 
 }  // namespace
 
+ExclusiveTemporary create_exclusive_temporary(const fs::path& dir, const std::string& name) {
+    for (int attempt = 0; attempt < 32; ++attempt) {
+        std::uint64_t random = 0;
+        if (::getrandom(&random, sizeof random, 0) != sizeof random)
+            random = static_cast<std::uint64_t>(::getpid()) << 32 ^ static_cast<std::uint64_t>(attempt) ^
+                     static_cast<std::uint64_t>(std::chrono::steady_clock::now().time_since_epoch().count());
+        ExclusiveTemporary t;
+        t.path = dir / fmt::format(".{}.tmp-{}-{:016x}", name, ::getpid(), random);
+        // O_EXCL with O_NOFOLLOW: a name someone planted (a symbolic link, a file) is never
+        // opened, let alone written through; 0666 leaves the permissions to the umask, as any
+        // file the user creates.
+        t.fd = ::open(t.path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+        if (t.fd < 0 && errno == EEXIST) continue;
+        if (t.fd < 0)
+            throw EnvironmentError(
+                fmt::format("{}: cannot create a temporary file there: {}", dir.string(), std::strerror(errno)));
+        struct stat st {};
+        if (::fstat(t.fd, &st) != 0) {
+            ::close(t.fd);
+            throw EnvironmentError(fmt::format("{}: cannot create a temporary file there", dir.string()));
+        }
+        t.device = st.st_dev;
+        t.inode = st.st_ino;
+        return t;
+    }
+    throw EnvironmentError(fmt::format("{}: cannot create a temporary file there (every name taken)", dir.string()));
+}
+
+bool is_same_file(const fs::path& path, std::uint64_t device, std::uint64_t inode) {
+    struct stat st {};
+    return ::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && st.st_dev == device && st.st_ino == inode;
+}
+
+void remove_if_same_file(const fs::path& path, std::uint64_t device, std::uint64_t inode) {
+    if (is_same_file(path, device, inode)) ::unlink(path.c_str());
+}
+
+int open_staged_for_writing(const fs::path& path, std::uint64_t device, std::uint64_t inode) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_TRUNC | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) return -1;
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_dev != device || st.st_ino != inode) {
+        ::close(fd);
+        errno = EEXIST;
+        return -1;
+    }
+    return fd;
+}
+
+std::string replaceable_target_problem(const fs::path& target) {
+    struct stat st {};
+    if (::lstat(target.c_str(), &st) != 0) return {};  // nothing there (or not reachable: the rename says)
+    if (S_ISREG(st.st_mode)) return {};
+    const char* what = S_ISLNK(st.st_mode)    ? "a symbolic link"
+                       : S_ISDIR(st.st_mode)  ? "a folder"
+                       : S_ISFIFO(st.st_mode) ? "a FIFO"
+                       : S_ISCHR(st.st_mode)  ? "a character device"
+                       : S_ISBLK(st.st_mode)  ? "a block device"
+                       : S_ISSOCK(st.st_mode) ? "a socket"
+                                              : "not a regular file";
+    return fmt::format("{}: is {}; penumbra replaces only regular files, so it is left as it is", target.string(),
+                       what);
+}
+
 int track_for_interrupt(const fs::path& path, bool folder) {
     const std::string& p = path.native();
     if (p.size() >= PATH_MAX) return -1;
@@ -121,7 +188,7 @@ OutputTransaction::OutputTransaction(fs::path dir) : dir_(std::move(dir)) {}
 OutputTransaction::~OutputTransaction() {
     std::error_code ec;
     for (const Staged& f : files_) {
-        if (!committed_) fs::remove(f.tmp, ec);
+        if (!committed_) remove_if_same_file(f.tmp, f.device, f.inode);
         untrack_for_interrupt(f.tracked);
     }
     if (created_dir_ && !committed_) fs::remove(dir_, ec);  // only succeeds if empty
@@ -142,9 +209,10 @@ fs::path OutputTransaction::stage(const std::string& name) {
     const fs::path final_path = dir_ / name;
     for (const Staged& f : files_)
         if (f.final_path == final_path) return f.tmp;  // staged twice: one temporary, moved once
-    fs::path tmp = dir_ / fmt::format(".{}.tmp-{}", name, ::getpid());
-    files_.push_back({tmp, final_path, track_for_interrupt(tmp, false)});
-    return tmp;
+    ExclusiveTemporary t = create_exclusive_temporary(dir_, name);
+    ::close(t.fd);
+    files_.push_back({t.path, final_path, track_for_interrupt(t.path, false), t.device, t.inode});
+    return t.path;
 }
 
 void OutputTransaction::write_json(const std::string& name, const nlohmann::json& value) {
@@ -154,16 +222,32 @@ void OutputTransaction::write_json(const std::string& name, const nlohmann::json
 }
 
 void OutputTransaction::write_text(const std::string& name, const std::string& text) {
-    fs::path tmp = stage(name);
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw EnvironmentError(fmt::format("{}: cannot write", (dir_ / name).string()));
+    const fs::path tmp = stage(name);
+    const int fd = open_staged(tmp);
+    bool ok = fd >= 0;
+    for (std::size_t done = 0; ok && done < text.size();) {
+        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        ok = n > 0;
+        if (ok) done += static_cast<std::size_t>(n);
+    }
+    if (fd >= 0 && ::close(fd) != 0) ok = false;
+    if (!ok) throw EnvironmentError(fmt::format("{}: cannot write", (dir_ / name).string()));
+}
+
+int OutputTransaction::open_staged(const fs::path& tmp) {
+    std::lock_guard lock(stage_mutex_);
+    for (const Staged& f : files_)
+        if (f.tmp == tmp) return open_staged_for_writing(tmp, f.device, f.inode);
+    errno = ENOENT;
+    return -1;
 }
 
 std::string OutputTransaction::written_bytes(const std::string& name) const {
     for (const Staged& f : files_) {
         if (f.final_path.filename() != name) continue;
+        // Only the file this transaction wrote, never what a link put at its name points to.
+        if (!committed_ && !is_same_file(f.tmp, f.device, f.inode)) break;
         std::ifstream in(committed_ ? f.final_path : f.tmp, std::ios::binary);
         std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
         if (!in && !in.eof()) break;
@@ -248,12 +332,11 @@ void OutputTransaction::commit() {
     std::error_code ec;
     // Every target is checked before the first move: a failure must not leave half the set
     // replaced.
+    // Only a regular file (or nothing) is replaced: a symbolic link, folder, device or FIFO of
+    // that name is the user's, and is refused before anything moves.
     for (const Staged& f : files_) {
-        const fs::file_status st = fs::symlink_status(f.final_path, ec);
-        if (fs::exists(st) && fs::is_directory(st))
-            throw InputError(
-                fmt::format("{}: is a folder; the output file of that name cannot replace it", f.final_path.string()));
-        if (!fs::is_regular_file(fs::symlink_status(f.tmp, ec)))
+        if (std::string why = replaceable_target_problem(f.final_path); !why.empty()) throw InputError(why);
+        if (!is_same_file(f.tmp, f.device, f.inode))
             throw EnvironmentError(fmt::format("{}: was not written", f.final_path.string()));
     }
     struct Moved {
@@ -273,6 +356,10 @@ void OutputTransaction::commit() {
     for (const Staged& f : files_) {
         ec.clear();
         bool exchanged = false;
+        if (std::string why = replaceable_target_problem(f.final_path); !why.empty()) {  // changed since
+            undo();
+            throw InputError(why);
+        }
         if (fs::exists(fs::symlink_status(f.final_path, ec))) {
             exchanged = exchange(f.tmp, f.final_path, ec);
             if (!exchanged && exchange_unsupported(ec)) {

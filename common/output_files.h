@@ -3,6 +3,7 @@
 // (docs/outputs.md). Temporaries and a folder the run made are removed when it is interrupted.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -35,6 +36,10 @@ class OutputTransaction {
     // what had moved. Interrupts wait until the set is in place.
     void commit();
     const std::filesystem::path& dir() const { return dir_; }
+    // The temporary stage() gave, opened for writing (truncated) only while it is still the file
+    // stage() created (not a symbolic link or another file put there since): a file descriptor,
+    // or -1 with errno set. The caller closes it.
+    int open_staged(const std::filesystem::path& tmp);
 
   private:
     std::filesystem::path dir_;
@@ -42,12 +47,33 @@ class OutputTransaction {
     bool committed_ = false;
     struct Staged {
         std::filesystem::path tmp, final_path;
-        int tracked = -1;  // its slot in the interrupt cleanup's registry
+        int tracked = -1;                     // its slot in the interrupt cleanup's registry
+        std::uint64_t device = 0, inode = 0;  // the file stage() created there
     };
     std::vector<Staged> files_;
     int tracked_dir_ = -1;
     std::mutex stage_mutex_;  // guards files_ and the folder's creation in stage()
 };
+
+// A temporary made for `name` in `dir`: `.NAME.tmp-PID-<16 random hex digits>`, created with
+// O_CREAT|O_EXCL|O_NOFOLLOW, so that nothing already at that name (a symbolic link someone
+// planted) is opened or followed. Every file penumbra writes starts as one (docs/outputs.md).
+// Throws EnvironmentError when none can be made. The caller closes `fd`.
+struct ExclusiveTemporary {
+    std::filesystem::path path;
+    int fd = -1;
+    std::uint64_t device = 0, inode = 0;
+};
+ExclusiveTemporary create_exclusive_temporary(const std::filesystem::path& dir, const std::string& name);
+// Whether `path` is (without following a symbolic link) the regular file device:inode.
+bool is_same_file(const std::filesystem::path& path, std::uint64_t device, std::uint64_t inode);
+// Removes `path` only while it is that file: what a process removes is what it created.
+void remove_if_same_file(const std::filesystem::path& path, std::uint64_t device, std::uint64_t inode);
+// `path` opened O_WRONLY|O_TRUNC|O_NOFOLLOW when it is still the file device:inode, else -1.
+int open_staged_for_writing(const std::filesystem::path& path, std::uint64_t device, std::uint64_t inode);
+// Why a result may not be moved onto `target` ("" when it may): penumbra renames only over a
+// regular file or nothing, never over a symbolic link, folder, device, FIFO or socket.
+std::string replaceable_target_problem(const std::filesystem::path& target);
 
 // Checks, before any work starts, that a result file such as --junit can be written once the
 // --out folder was: it is neither that folder nor a folder, and the folder it goes into exists

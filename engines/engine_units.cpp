@@ -274,6 +274,7 @@ EngineBias parse_engine_bias(std::string_view engine, const std::vector<std::str
                              const std::string& where, bool assumptions_only) {
     const EngineInfo& e = engine_info(engine, where);
     EngineBias b = engine_defaults(engine);
+    std::map<std::string, std::string> given;  // each key's assignment, by the key's own name
     for (const std::string& a : assignments) {
         const auto eq = a.find('=');
         if (eq == std::string::npos || eq == 0) throw InputError(fmt::format("{}: \"{}\" is not KEY=VALUE", where, a));
@@ -287,6 +288,11 @@ EngineBias parse_engine_bias(std::string_view engine, const std::vector<std::str
         if (!k || (assumptions_only && !k->assumption))
             throw InputError(fmt::format("{}: {} has no {}key \"{}\" (its keys: {})", where, e.name,
                                          assumptions_only ? "assumption " : "", key, join(names)));
+        // A key given twice (or under both spellings) would silently take the last: which was meant
+        // cannot be guessed.
+        if (const auto [it, fresh] = given.emplace(k->name, a); !fresh)
+            throw InputError(
+                fmt::format("{}: {} \"{}\" is given twice (\"{}\" and \"{}\")", where, e.name, k->name, it->second, a));
         json value = json::parse(raw, nullptr, false);
         if (value.is_discarded()) value = raw;
         const auto bad = [&](std::string_view want) {
@@ -502,7 +508,8 @@ EngineBias convert(const EngineBias& from, std::string_view to, const MapContext
     return from_clearance(to, clearance(from, c), c, to_assumptions);
 }
 
-ReferenceReceiver reference_receiver(const Scenario& s, const Light& light, std::optional<double> angle_deg) {
+ReferenceReceiver reference_receiver(const Scenario& s, const Light& light, std::optional<double> angle_deg,
+                                     std::string_view edge_on_hint) {
     const Scene& scene = s.scene;
     if (scene.triangles.empty()) throw InputError(fmt::format("{}: the scene has no triangle", s.label));
     const double radius = std::max(scene.bounds.radius(), 1e-9);
@@ -545,9 +552,8 @@ ReferenceReceiver reference_receiver(const Scenario& s, const Light& light, std:
     }
     const double cos_t = std::clamp(glm::dot(r.normal, to_light), -1.0, 1.0);
     if (!(cos_t > std::cos(89.0 * kPi / 180.0)))
-        throw InputError(fmt::format(
-            "{}: the scene's largest plane ({:.4g} m^2) is edge-on to {}; give the reference angle with --angle-deg",
-            s.label, r.area_m2, light.origin));
+        throw InputError(fmt::format("{}: the scene's largest plane ({:.4g} m^2) is edge-on to {}; {}", s.label,
+                                     r.area_m2, light.origin, edge_on_hint));
     r.angle_rad = std::acos(cos_t);
     r.source = "largest receiver plane";
     return r;

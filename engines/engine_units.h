@@ -121,8 +121,9 @@ struct ReferenceReceiver {
 };
 // InputError when the scene has no triangle or its largest plane is edge-on to the light (give
 // an angle instead). `angle_deg` (in [0, 89]) replaces the plane's angle; the plane still gives
-// the point.
-ReferenceReceiver reference_receiver(const Scenario& s, const Light& light, std::optional<double> angle_deg);
+// the point. `edge_on_hint` ends the edge-on message: what the calling command lets the user do.
+ReferenceReceiver reference_receiver(const Scenario& s, const Light& light, std::optional<double> angle_deg,
+                                     std::string_view edge_on_hint = "give the reference angle with --angle-deg");
 
 // The maps of light `light_index` of `s` under technique `t` (the depth map, or one per cascade),
 // each as a context at `ref`: penumbra's own fit (raster/light_projection.h), no device. An area

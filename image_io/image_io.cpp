@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <csetjmp>
 #include <cstdio>
@@ -26,6 +27,8 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <utility>
 
@@ -100,6 +103,56 @@ void srgb_bytes(const float* linear, unsigned char* out, std::size_t n) {
 
 }  // namespace
 
+namespace {
+
+// OpenEXR's output through a file descriptor: the temporary stage() created, opened without
+// following a symbolic link (OpenEXR's own file stream opens by name). Buffered, since OpenEXR
+// writes a line block in several small pieces.
+class FdOStream : public Imf::OStream {
+  public:
+    FdOStream(int fd, const char* name) : Imf::OStream(name), fd_(fd) {}
+    ~FdOStream() override {
+        if (fd_ >= 0) ::close(fd_);
+    }
+    void write(const char c[], int n) override {
+        buffer_.append(c, static_cast<std::size_t>(n));
+        if (buffer_.size() >= (1u << 20)) flush();
+    }
+    std::uint64_t tellp() override { return position_ + buffer_.size(); }
+    void seekp(std::uint64_t pos) override {
+        flush();
+        if (::lseek(fd_, static_cast<off_t>(pos), SEEK_SET) < 0) throw std::runtime_error(std::strerror(errno));
+        position_ = pos;
+    }
+    // Writes what is buffered and closes the file; false when any write or the close failed.
+    bool finish() {
+        try {
+            flush();
+        } catch (const std::exception&) {
+            return false;
+        }
+        const int fd = std::exchange(fd_, -1);
+        return ::close(fd) == 0;
+    }
+
+  private:
+    void flush() {
+        for (std::size_t done = 0; done < buffer_.size();) {
+            const ssize_t n = ::write(fd_, buffer_.data() + done, buffer_.size() - done);
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) throw std::runtime_error(std::strerror(n < 0 ? errno : ENOSPC));
+            done += static_cast<std::size_t>(n);
+        }
+        position_ += buffer_.size();
+        buffer_.clear();
+    }
+    int fd_;
+    std::uint64_t position_ = 0;
+    std::string buffer_;
+};
+
+}  // namespace
+
 void write_exr(OutputTransaction& out, const std::string& name, int width, int height,
                const std::vector<ExrChannelView>& channels, ExrCompression compression) {
     const fs::path tmp = out.stage(name);
@@ -112,54 +165,60 @@ void write_exr(OutputTransaction& out, const std::string& name, int width, int h
         Imf::Header header(width, height);
         header.compression() = compression == ExrCompression::zip ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
         for (const ExrChannelView& c : channels) header.channels().insert(c.name, Imf::Channel(pixel_type(c.storage)));
-        Imf::OutputFile file(tmp.c_str(), header);
-        // OpenEXR reads float and uint channels where they lie (strided views, no copy). A
-        // half channel must be handed over as half: converted a strip of scanlines at a time
-        // (Imath's round to nearest even), so memory stays at one strip.
-        // The conversion runs on the command's threads (tbb, row by row): done serially it was
-        // ~0.02 s of a 2048^2 oracle frame's write, one of the parts that did not scale (#39).
-        constexpr int kStripRows = 64;
-        const std::size_t w = static_cast<std::size_t>(width);
-        std::vector<const ExrChannelView*> halves;
-        for (const ExrChannelView& c : channels)
-            if (c.storage == ExrStorage::half) halves.push_back(&c);
-        std::vector<Imath::half> strip(halves.size() * kStripRows * w);
-        for (int y0 = 0; y0 < height; y0 += kStripRows) {
-            const int rows = std::min(kStripRows, height - y0);
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, halves.size() * static_cast<std::size_t>(rows)),
-                              [&](const tbb::blocked_range<std::size_t>& r) {
-                                  const auto n = static_cast<std::size_t>(rows);
-                                  for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                                      const std::size_t h = k / n, y = k % n;
-                                      const ExrChannelView& c = *halves[h];
-                                      Imath::half* dst = strip.data() + (h * kStripRows + y) * w;
-                                      const float* src =
-                                          static_cast<const float*>(c.data) +
-                                          (c.same_row ? 0 : (static_cast<std::size_t>(y0) + y) * w * c.stride);
-                                      for (std::size_t x = 0; x < w; ++x) dst[x] = Imath::half(src[x * c.stride]);
-                                  }
-                              });
-            Imf::FrameBuffer frame;
-            std::size_t h = 0;
-            for (const ExrChannelView& c : channels) {
-                const std::size_t x_stride = 4 * c.stride;
-                auto* base = static_cast<char*>(const_cast<void*>(c.data));
-                if (c.storage != ExrStorage::half) {
-                    // A y stride of 0 reads row 0 for every row (an x stride of 0 would never end
-                    // OpenEXR's copy loop, which steps by it).
-                    frame.insert(c.name,
-                                 Imf::Slice(pixel_type(c.storage), base, x_stride, c.same_row ? 0 : x_stride * w));
-                    continue;
+        const int fd = out.open_staged(tmp);
+        if (fd < 0) throw std::runtime_error(std::strerror(errno));
+        FdOStream stream(fd, tmp.c_str());
+        {
+            Imf::OutputFile file(stream, header);
+            // OpenEXR reads float and uint channels where they lie (strided views, no copy). A
+            // half channel must be handed over as half: converted a strip of scanlines at a time
+            // (Imath's round to nearest even), so memory stays at one strip.
+            // The conversion runs on the command's threads (tbb, row by row): done serially it was
+            // ~0.02 s of a 2048^2 oracle frame's write, one of the parts that did not scale (#39).
+            constexpr int kStripRows = 64;
+            const std::size_t w = static_cast<std::size_t>(width);
+            std::vector<const ExrChannelView*> halves;
+            for (const ExrChannelView& c : channels)
+                if (c.storage == ExrStorage::half) halves.push_back(&c);
+            std::vector<Imath::half> strip(halves.size() * kStripRows * w);
+            for (int y0 = 0; y0 < height; y0 += kStripRows) {
+                const int rows = std::min(kStripRows, height - y0);
+                tbb::parallel_for(tbb::blocked_range<std::size_t>(0, halves.size() * static_cast<std::size_t>(rows)),
+                                  [&](const tbb::blocked_range<std::size_t>& r) {
+                                      const auto n = static_cast<std::size_t>(rows);
+                                      for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                                          const std::size_t h = k / n, y = k % n;
+                                          const ExrChannelView& c = *halves[h];
+                                          Imath::half* dst = strip.data() + (h * kStripRows + y) * w;
+                                          const float* src =
+                                              static_cast<const float*>(c.data) +
+                                              (c.same_row ? 0 : (static_cast<std::size_t>(y0) + y) * w * c.stride);
+                                          for (std::size_t x = 0; x < w; ++x) dst[x] = Imath::half(src[x * c.stride]);
+                                      }
+                                  });
+                Imf::FrameBuffer frame;
+                std::size_t h = 0;
+                for (const ExrChannelView& c : channels) {
+                    const std::size_t x_stride = 4 * c.stride;
+                    auto* base = static_cast<char*>(const_cast<void*>(c.data));
+                    if (c.storage != ExrStorage::half) {
+                        // A y stride of 0 reads row 0 for every row (an x stride of 0 would never end
+                        // OpenEXR's copy loop, which steps by it).
+                        frame.insert(c.name,
+                                     Imf::Slice(pixel_type(c.storage), base, x_stride, c.same_row ? 0 : x_stride * w));
+                        continue;
+                    }
+                    Imath::half* dst = strip.data() + h++ * kStripRows * w;
+                    // The slice's origin is pixel (0, 0): this strip's buffer shifted back by y0 rows.
+                    frame.insert(c.name, Imf::Slice(Imf::HALF,
+                                                    reinterpret_cast<char*>(dst - static_cast<std::ptrdiff_t>(y0) * w),
+                                                    sizeof(Imath::half), sizeof(Imath::half) * w));
                 }
-                Imath::half* dst = strip.data() + h++ * kStripRows * w;
-                // The slice's origin is pixel (0, 0): this strip's buffer shifted back by y0 rows.
-                frame.insert(c.name,
-                             Imf::Slice(Imf::HALF, reinterpret_cast<char*>(dst - static_cast<std::ptrdiff_t>(y0) * w),
-                                        sizeof(Imath::half), sizeof(Imath::half) * w));
+                file.setFrameBuffer(frame);
+                file.writePixels(rows);
             }
-            file.setFrameBuffer(frame);
-            file.writePixels(rows);
-        }
+        }  // the file's destructor writes the line offsets: before the stream finishes
+        if (!stream.finish()) throw std::runtime_error("cannot finish writing the file");
     } catch (const std::exception& e) {
         throw EnvironmentError(fmt::format("{}: cannot write EXR: {}", (out.dir() / name).string(), e.what()));
     }
@@ -239,7 +298,7 @@ std::size_t exr_pixel_bytes(std::int32_t type) {
 void patch_exr_channels(OutputTransaction& out, const std::string& name, int width, int height,
                         const std::vector<ExrChannelView>& channels) {
     const fs::path file = out.stage(name);  // the temporary write_exr wrote (stage gives it again)
-    Fd fd{::open(file.c_str(), O_RDWR | O_CLOEXEC)};
+    Fd fd{::open(file.c_str(), O_RDWR | O_NOFOLLOW | O_CLOEXEC)};
     struct stat st {};
     if (fd.fd < 0 || ::fstat(fd.fd, &st) != 0)
         throw EnvironmentError(
@@ -597,7 +656,10 @@ void write_png(OutputTransaction& out, const std::string& name, int width, int h
                PngRows order) {
     const fs::path tmp = out.stage(name);
     char error[256] = "cannot open the file";
-    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(tmp.c_str(), "wb"), &std::fclose);
+    // Through the file stage() created, never a symbolic link put at its name since.
+    const int fd = out.open_staged(tmp);
+    std::unique_ptr<FILE, int (*)(FILE*)> file(fd >= 0 ? ::fdopen(fd, "wb") : nullptr, &std::fclose);
+    if (fd >= 0 && !file) ::close(fd);
     bool ok = false;
     if (file && order == PngRows::parallel_deflate) {
         const std::size_t line = static_cast<std::size_t>(width) * 3 + 1;

@@ -44,7 +44,12 @@ extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_r
         }
         std::vector<float> data(n * nc);
         if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data())) {
-            *error = "cannot read the pixels: " + in->geterror();
+            // Some readers (PNG, TIFF) fail a truncated file without a message of their own.
+            std::string why = in->geterror();
+            if (why.empty()) why = OIIO::geterror();
+            if (why.empty()) why = "the file ends before its last pixel, or its data is damaged";
+            while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+            *error = "cannot read the pixels: " + why;
             return OiioReadStatus::bad_input;
         }
         in->close();

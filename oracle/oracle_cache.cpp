@@ -1,7 +1,9 @@
 #include "oracle/oracle_cache.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
 
@@ -16,6 +18,7 @@
 #include <memory>
 
 #include "common/errors.h"
+#include "common/json_reader.h"
 #include "common/output_files.h"
 
 namespace penumbra {
@@ -78,17 +81,56 @@ void for_each_channel(Frame& f, Fn&& fn) {
     }
 }
 
-// `.oracle-KEY.tmp-PID` of a store that no longer runs: its process is gone, or it is older
-// than any store takes (the PID may have been reused since).
-bool is_stale_temporary(const std::string& name, fs::file_time_type written, fs::file_time_type now) {
-    const auto dash = name.rfind(".tmp-");
-    if (dash == std::string::npos) return false;
-    const std::string digits = name.substr(dash + 5);
-    if (digits.empty() || digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos)
-        return false;
-    const auto pid = static_cast<pid_t>(std::stol(digits));
+bool is_hex(std::string_view s) {
+    return !s.empty() && s.find_first_not_of("0123456789abcdef") == std::string_view::npos;
+}
+
+// The process id in `.oracle-<32 hex>.tmp-<PID>-<16 hex>`, the only name a store gives its
+// temporary (create_exclusive_temporary), or -1 for any other name.
+pid_t pid_of_temporary_name(std::string_view name) {
+    constexpr std::string_view kStart = ".oracle-", kMiddle = ".bin.tmp-";
+    if (!name.starts_with(kStart) || name.size() < kStart.size() + 32 + kMiddle.size() + 3 + 16) return -1;
+    if (!is_hex(name.substr(kStart.size(), 32))) return -1;
+    name.remove_prefix(kStart.size() + 32);
+    if (!name.starts_with(kMiddle)) return -1;
+    name.remove_prefix(kMiddle.size());
+    const auto dash = name.find('-');
+    if (dash == std::string_view::npos || dash == 0 || dash > 9 || name.size() - dash - 1 != 16 ||
+        !is_hex(name.substr(dash + 1)) ||
+        name.substr(0, dash).find_first_not_of("0123456789") != std::string_view::npos)
+        return -1;
+    return static_cast<pid_t>(std::stol(std::string(name.substr(0, dash))));
+}
+
+// A temporary of a store that no longer runs: its process is gone, or it is older than any
+// store takes (the PID may have been reused since).
+bool is_stale_temporary(pid_t pid, fs::file_time_type written, fs::file_time_type now) {
     const bool gone = pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH;
     return gone || now - written > kStaleTemporary;
+}
+
+// `path` opened for reading without following a symbolic link or blocking on a FIFO, when it
+// is a regular file (`st` its status); else -1 (errno ENOENT when nothing is there).
+int open_regular(const fs::path& path, struct stat& st) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return -1;
+    if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        ::close(fd);
+        errno = EINVAL;
+        return -1;
+    }
+    return fd;
+}
+
+// What lies at `path`, for a message: "a symbolic link", "a folder", ...
+std::string kind_of(const fs::path& path) {
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) != 0) return "nothing";
+    return S_ISLNK(st.st_mode)    ? "a symbolic link"
+           : S_ISDIR(st.st_mode)  ? "a folder"
+           : S_ISFIFO(st.st_mode) ? "a FIFO"
+           : S_ISREG(st.st_mode)  ? "a file"
+                                  : "a device or socket";
 }
 
 // `oracle-<32 lowercase hex>.bin`: the key, or empty when the name is not an entry's.
@@ -99,11 +141,17 @@ std::string key_of_entry_name(const std::string& name) {
     return key.find_first_not_of("0123456789abcdef") == std::string::npos ? key : std::string();
 }
 
+// A regular file (not followed through a symbolic link) that starts with the entry format's
+// magic: one of penumbra's entries, whatever its format version.
 bool starts_with_magic(const fs::path& file) {
-    File f(std::fopen(file.c_str(), "rb"));
+    struct stat st {};
+    const int fd = open_regular(file, st);
+    if (fd < 0) return false;
     char head[7];
-    return f && std::fread(head, 1, sizeof head, f.get()) == sizeof head &&
-           std::string_view(head, sizeof head) == kMagicFamily;
+    const bool ours = ::read(fd, head, sizeof head) == static_cast<ssize_t>(sizeof head) &&
+                      std::string_view(head, sizeof head) == kMagicFamily;
+    ::close(fd);
+    return ours;
 }
 
 void add_camera(KeyBytes& k, const Camera& c) {
@@ -161,19 +209,21 @@ std::uint64_t parse_cache_size(const std::string& text, const std::string& what)
     const std::string number = text.substr(0, digits);
     if (number.find_first_of("0123456789") == std::string::npos || number.find('.') != number.rfind('.')) return bad();
     const double value = std::strtod(number.c_str(), nullptr);
-    std::string suffix = text.substr(digits);
-    if (!suffix.empty() && (suffix.back() == 'B' || suffix.back() == 'b')) suffix.pop_back();
-    if (!suffix.empty() && suffix.back() == 'i') suffix.pop_back();
+    // The suffix: none, B, or one of K M G T followed by nothing, B or iB ("1iB" is not a size).
+    const std::string suffix = text.substr(digits);
     double scale = 1;
-    if (suffix.size() > 1) return bad();
-    if (suffix.size() == 1) {
+    if (!suffix.empty() && suffix != "B" && suffix != "b") {
         const auto k =
             std::string_view("KMGT").find(static_cast<char>(std::toupper(static_cast<unsigned char>(suffix[0]))));
-        if (k == std::string_view::npos) return bad();
+        const std::string rest = suffix.substr(1);
+        if (k == std::string_view::npos ||
+            !(rest.empty() || rest == "B" || rest == "b" || rest == "iB" || rest == "ib"))
+            return bad();
         scale = std::ldexp(1.0, 10 * static_cast<int>(k + 1));
     }
     const double bytes = value * scale;
-    if (!std::isfinite(bytes) || bytes >= 1.8e19) return bad();
+    // A cap is a whole number of bytes: 0.5 would truncate to 0, which means no cap at all.
+    if (!std::isfinite(bytes) || bytes >= 1.8e19 || bytes != std::floor(bytes)) return bad();
     return static_cast<std::uint64_t>(bytes);
 }
 
@@ -211,11 +261,61 @@ fs::path OracleCache::entry(const std::string& key) const {
     return dir_ / ("oracle-" + key + ".bin");
 }
 
-std::optional<CachedOracle> OracleCache::load(const std::string& key, std::string* damaged) const {
+namespace {
+
+// Why a cached frame cannot be the answer to `request` ("" when it can): every value the
+// metrics read must be one the oracle could have written, whatever bytes the file held.
+std::string cached_frame_problem(const CachedOracle& c, const CacheRequest& request) {
+    const OracleFrame& f = c.frame;
+    const std::size_t n = f.pixel_count();
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!(f.A[i] == 0.0f || f.A[i] == 1.0f)) return "a coverage value that is not 0 or 1";
+        if (f.prim[i] != kNoPrimitive && f.prim[i] >= request.triangles) return "a triangle index beyond the scene's";
+    }
+    for (const OracleLightImage& l : f.lights)
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!(l.V[i] >= 0.0f && l.V[i] <= 1.0f)) return "a visibility outside [0, 1] (or NaN)";
+            if (!(l.E[i] >= 0.0f && std::isfinite(l.E[i]))) return "a negative or non-finite error bound";
+            if (!(l.U[i] == 0.0f || l.U[i] == 1.0f) || !(l.lightable[i] == 0.0f || l.lightable[i] == 1.0f))
+                return "a mask value that is not 0 or 1";
+            if (!(l.occluder_m[i] >= 0.0f) || !(l.boundary_m[i] >= 0.0f)) return "a negative or NaN distance";
+        }
+    if (!c.info.is_object()) return "oracle metadata that is not an object";
+    const auto lights = c.info.find("lights");
+    if (lights == c.info.end() || !lights->is_array() || lights->size() != request.light_types.size())
+        return "oracle metadata for another number of lights";
+    for (std::size_t i = 0; i < request.light_types.size(); ++i) {
+        const nlohmann::json& l = (*lights)[i];
+        if (!l.is_object() || !l.contains("type") || !l["type"].is_string() ||
+            l["type"].get<std::string>() != request.light_types[i])
+            return fmt::format("oracle metadata whose light {} is not a {} light", i, request.light_types[i]);
+    }
+    return {};
+}
+
+}  // namespace
+
+std::optional<CachedOracle> OracleCache::load(const std::string& key, std::string* damaged,
+                                              const CacheRequest* request) const {
     if (dir_.empty()) return std::nullopt;
     const fs::path file = entry(key);
-    File f(std::fopen(file.c_str(), "rb"));
-    if (!f) return std::nullopt;
+    auto warn = [&](const std::string& what) {
+        if (damaged) *damaged = what;
+        return std::nullopt;
+    };
+    // O_NOFOLLOW and O_NONBLOCK: a symbolic link is never followed and a FIFO never waited on.
+    struct stat st {};
+    const int fd = open_regular(file, st);
+    if (fd < 0) {
+        if (errno == ENOENT) return std::nullopt;
+        return warn(fmt::format("{}: is {}, not a cache entry; left as it is, and the oracle traced afresh",
+                                file.string(), kind_of(file)));
+    }
+    File f(::fdopen(fd, "rb"));
+    if (!f) {
+        ::close(fd);
+        return std::nullopt;
+    }
     XXH3_state_t* sum = XXH3_createState();
     XXH3_64bits_reset(sum);
     auto read = [&](void* dst, std::size_t n) {
@@ -229,10 +329,27 @@ std::optional<CachedOracle> OracleCache::load(const std::string& key, std::strin
     std::uint32_t lights = 0;
     std::uint64_t info_len = 0;
     CachedOracle c;
-    bool ok = std::fread(magic, 1, 8, f.get()) == 8 && std::memcmp(magic, kMagic, 8) == 0 && read(stored_key, 32) &&
+    const bool ours = std::fread(magic, 1, 8, f.get()) == 8 && std::string_view(magic, 7) == kMagicFamily;
+    std::string why;
+    bool ok = ours && std::memcmp(magic, kMagic, 8) == 0 && read(stored_key, 32) &&
               std::string_view(stored_key, 32) == key && read(size, sizeof size) && size[0] > 0 && size[1] > 0 &&
               size[0] <= kMaxImageSide && size[1] <= kMaxImageSide && read(&lights, 4) && lights < 4096 &&
               read(&c.frame.frame_origin, sizeof c.frame.frame_origin) && read(&info_len, 8) && info_len < (1u << 26);
+    if (ok && request &&
+        (size[0] != request->width || size[1] != request->height || lights != request->light_types.size())) {
+        ok = false;
+        why = fmt::format("it holds a {}x{} frame with {} lights, not {}x{} with {}", size[0], size[1], lights,
+                          request->width, request->height, request->light_types.size());
+    }
+    // The whole size follows from the header: checked before anything is allocated for it.
+    const std::uint64_t pixels = ok ? static_cast<std::uint64_t>(size[0]) * static_cast<std::uint64_t>(size[1]) : 0;
+    const std::uint64_t header_bytes = 8 + 32 + sizeof size + 4 + sizeof c.frame.frame_origin + 8;
+    const std::uint64_t expected_bytes =
+        header_bytes + info_len + pixels * (sizeof(float) + sizeof(std::uint32_t) + lights * 6 * sizeof(float)) + 8;
+    if (ok && expected_bytes != static_cast<std::uint64_t>(st.st_size)) {
+        ok = false;
+        why = fmt::format("{} bytes where its header makes {}", st.st_size, expected_bytes);
+    }
     std::string info(ok ? info_len : 0, '\0');
     ok = ok && read(info.data(), info.size());
     if (ok) {
@@ -249,24 +366,31 @@ std::optional<CachedOracle> OracleCache::load(const std::string& key, std::strin
         ok = ok && std::fread(&stored, 1, sizeof stored, f.get()) == sizeof stored && stored == expected &&
              std::fgetc(f.get()) == EOF;
         if (ok) {
-            c.info = nlohmann::json::parse(info, nullptr, false);
-            ok = !c.info.is_discarded();
+            try {
+                c.info = parse_json_strict(info, file.string());
+            } catch (const InputError&) {
+                ok = false;
+            }
+        }
+        if (ok && request) {
+            why = cached_frame_problem(c, *request);
+            ok = why.empty();
         }
     }
     XXH3_freeState(sum);
     if (!ok) {
         f.reset();
-        std::error_code ec;
-        fs::remove(file, ec);
-        if (damaged)
-            *damaged = fmt::format(
-                "{}: the cached oracle was damaged (its checksum or layout did not match) and was "
-                "removed; traced again",
-                file.string());
-        return std::nullopt;
+        if (!ours)  // not penumbra's: never removed (docs/outputs.md)
+            return warn(fmt::format(
+                "{}: is named like a cache entry but is not one of penumbra's; left as it is, and the oracle "
+                "traced afresh",
+                file.string()));
+        remove_if_same_file(file, st.st_dev, st.st_ino);
+        return warn(fmt::format(
+            "{}: the cached oracle was damaged or does not match this scenario ({}) and was removed; traced again",
+            file.string(), why.empty() ? "its checksum or layout did not match" : why));
     }
-    std::error_code ec;
-    fs::last_write_time(file, fs::file_time_type::clock::now(), ec);  // recently used: kept longest
+    ::futimens(::fileno(f.get()), nullptr);  // recently used: kept longest
     return c;
 }
 
@@ -276,11 +400,30 @@ std::optional<std::string> OracleCache::store(const std::string& key, const Orac
     std::error_code ec;
     fs::create_directories(dir_, ec);
     const fs::path final_path = entry(key);
-    const fs::path tmp = dir_ / fmt::format(".oracle-{}.tmp-{}", key, ::getpid());
+    // Only one of penumbra's own entries (or nothing) is replaced.
+    auto foreign = [&] {
+        struct stat st {};
+        return ::lstat(final_path.c_str(), &st) == 0 && !starts_with_magic(final_path);
+    };
+    auto not_kept = [&] {
+        return fmt::format(
+            "{}: is {} that is not one of penumbra's cache entries; left as it is, and the oracle "
+            "was not cached",
+            final_path.string(), kind_of(final_path));
+    };
+    if (foreign()) return not_kept();
+    ExclusiveTemporary t;
+    try {
+        t = create_exclusive_temporary(dir_, final_path.filename().string());
+    } catch (const EnvironmentError&) {
+        return fmt::format("{}: could not store the oracle in the cache; the next run traces again", dir_.string());
+    }
+    const fs::path tmp = t.path;
     bool ok = false;
     const int tracked = track_for_interrupt(tmp, false);
     {
-        File f(std::fopen(tmp.c_str(), "wb"));
+        File f(::fdopen(t.fd, "wb"));
+        if (!f) ::close(t.fd);
         if (f) {
             XXH3_state_t* sum = XXH3_createState();
             XXH3_64bits_reset(sum);
@@ -306,8 +449,13 @@ std::optional<std::string> OracleCache::store(const std::string& key, const Orac
             ok = std::fclose(f.release()) == 0 && ok;
         }
     }
-    if (ok) fs::rename(tmp, final_path, ec);
-    if (!ok || ec) fs::remove(tmp, ec);
+    if (ok && foreign()) {  // put there while the entry was written
+        remove_if_same_file(tmp, t.device, t.inode);
+        untrack_for_interrupt(tracked);
+        return not_kept();
+    }
+    if (ok && ::rename(tmp.c_str(), final_path.c_str()) != 0) ec = std::error_code(errno, std::generic_category());
+    if (!ok || ec) remove_if_same_file(tmp, t.device, t.inode);
     untrack_for_interrupt(tracked);
     if (!ok || ec)
         return fmt::format("{}: could not store the oracle in the cache; the next run traces again", dir_.string());
@@ -329,7 +477,7 @@ std::vector<CacheEntry> OracleCache::entries() const {
         std::error_code fec;
         CacheEntry c;
         c.key = key_of_entry_name(e.path().filename().string());
-        if (c.key.empty() || !e.is_regular_file(fec) || !starts_with_magic(e.path())) continue;
+        if (c.key.empty() || !fs::is_regular_file(e.symlink_status(fec)) || !starts_with_magic(e.path())) continue;
         c.file = e.path();
         c.bytes = e.file_size(fec);
         c.last_use = fs::last_write_time(e.path(), fec);
@@ -373,13 +521,25 @@ std::vector<CacheEntry> OracleCache::clear() const {
 }
 
 void OracleCache::sweep_temporaries() const {
+    // Only a store's own temporaries go: the exact name a store gives one, a regular file of
+    // this user that starts with the entry format's magic (written first), of a process that is
+    // gone. Anything else of a similar name is the user's, and stays.
     std::error_code ec;
     const auto now = fs::file_time_type::clock::now();
     for (const auto& e : fs::directory_iterator(dir_, ec)) {
-        const std::string name = e.path().filename().string();
+        const pid_t pid = pid_of_temporary_name(e.path().filename().string());
+        if (pid <= 0) continue;
+        struct stat st {};
+        const int fd = open_regular(e.path(), st);
+        if (fd < 0) continue;
+        char head[7];
+        const bool ours = st.st_uid == ::getuid() &&
+                          ::read(fd, head, sizeof head) == static_cast<ssize_t>(sizeof head) &&
+                          std::string_view(head, sizeof head) == kMagicFamily;
+        ::close(fd);
         std::error_code fec;
-        if (name.starts_with(".oracle-") && is_stale_temporary(name, fs::last_write_time(e.path(), fec), now))
-            fs::remove(e.path(), fec);
+        if (ours && is_stale_temporary(pid, fs::last_write_time(e.path(), fec), now) && !fec)
+            remove_if_same_file(e.path(), st.st_dev, st.st_ino);
     }
 }
 

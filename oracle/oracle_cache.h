@@ -39,6 +39,13 @@ struct CachedOracle {
     nlohmann::json info;  // the oracle.json of the run that produced it
 };
 
+// What the run asks the cache for, beyond the key: a cached frame must be of this shape.
+struct CacheRequest {
+    int width = 0, height = 0;
+    std::vector<std::string> light_types;  // to_string(Light::type), in the scenario's order
+    std::uint64_t triangles = 0;           // the scene's triangle count: every prim is below it
+};
+
 // One entry of the cache: a file `oracle-<32 hex>.bin` that starts with the cache's magic.
 struct CacheEntry {
     std::string key;
@@ -58,12 +65,19 @@ class OracleCache {
     // Default cap: $PENUMBRA_CACHE_MAX (InputError when it is not a size), else 2 GiB.
     static std::uint64_t default_max_bytes();
 
-    // A damaged or foreign entry is a miss (and is removed), never an error; every entry ends
-    // with a checksum of its bytes, so flipped bytes are found. `damaged`, when given, is set
-    // to a warning naming the entry when one was removed.
-    std::optional<CachedOracle> load(const std::string& key, std::string* damaged = nullptr) const;
-    // Written to a temporary name and renamed, so readers never see half an entry (the
-    // temporary is removed on an interrupt, and one left by a killed run is swept later); then
+    // A damaged or foreign entry is a miss, never an error; `damaged`, when given, is set to a
+    // warning naming it. The entry is opened without following a symbolic link or waiting on a
+    // FIFO, must be a regular file whose size its header accounts for (checked before anything
+    // is allocated), end with the checksum of its bytes and, given `request`, hold a frame of
+    // that size, light count and light types whose every value is one the oracle writes (no
+    // NaN). A bad entry of penumbra's (one that starts with the format's magic) is removed;
+    // anything else at that name is left as it is.
+    std::optional<CachedOracle> load(const std::string& key, std::string* damaged = nullptr,
+                                     const CacheRequest* request = nullptr) const;
+    // Written to an exclusive temporary (create_exclusive_temporary) and renamed, so readers
+    // never see half an entry (the temporary is removed on an interrupt, and one left by a
+    // killed run is swept later); a name held by anything but one of penumbra's entries is not
+    // replaced (a warning says so). Then
     // the cap is applied (prune). Failures to write only cost the reuse: they return a warning,
     // as does an entry larger than the cap by itself (it is not kept).
     std::optional<std::string> store(const std::string& key, const OracleFrame& frame,

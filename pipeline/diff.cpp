@@ -67,8 +67,17 @@ std::vector<LightNumbers> parse_lights(JsonObject& owner, const std::string& fil
     const nlohmann::json& lights = owner.get("lights");
     if (!lights.is_array()) owner.fail("lights", "expected an array of lights");
     std::vector<LightNumbers> out;
-    for (std::size_t i = 0; i < lights.size(); ++i)
-        out.push_back(parse_light(lights[i], file, fmt::format("{}lights[{}]", path, i), case_name, dir));
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+        const std::string at = fmt::format("{}lights[{}]", path, i);
+        out.push_back(parse_light(lights[i], file, at, case_name, dir));
+        // Lights are paired across the two runs by index: a run that lists one twice, or out of
+        // order, would pair a spot light with a directional one (#50).
+        if (out.back().index != static_cast<int>(i))
+            throw InputError(
+                fmt::format("{}: {}.index: {} where {} was expected (report.json lists light i as "
+                            "lights[i]; an index twice or out of order cannot be paired)",
+                            file, at, out.back().index, i));
+    }
     return out;
 }
 
@@ -267,6 +276,9 @@ DiffResult diff_runs(const Run& a, const Run& b, double tolerance) {
         if (!lb)  // the checks above make the lights match; a run naming one index twice does not
             throw InputError(
                 fmt::format("{}: {} has no counterpart in {}", path_text(a.file), la.label(), path_text(b.file)));
+        if (la.type != lb->type)
+            throw InputError(fmt::format("{} is a {} light in {} and a {} light in {}: diff compares like with like",
+                                         la.label(), la.type, path_text(a.file), lb->type, path_text(b.file)));
         LightChange c;
         c.a = la;
         c.b = *lb;

@@ -2,6 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cstdint>
+#include <string_view>
+
 #include "common/json_reader.h"
 #include "report/html_page.h"
 #include "report/report.h"
@@ -15,17 +19,31 @@ using report::escape_markup;
 
 // Larger class maps are not embedded: the page would be unwieldy (a 16384² map is far below this).
 constexpr std::uint64_t kMaxEmbeddedImage = 64ull << 20;
+// Nor more than this in all: 300 lights of 60 MB maps would make a 24 GB page (#50).
+constexpr std::uint64_t kMaxEmbeddedTotal = 256ull << 20;
 
-std::string class_map(const std::filesystem::path& png, const std::string& alt) {
+// `png` embedded as a data: URI when it is a PNG file of the run's own (a regular file, not a
+// symbolic link to something elsewhere) and the page's budget, `budget` bytes, still has room.
+std::string class_map(const std::filesystem::path& png, const std::string& alt, std::uint64_t& budget) {
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(png, ec))
+    const std::filesystem::file_status st = std::filesystem::symlink_status(png, ec);
+    if (std::filesystem::is_symlink(st))
+        return fmt::format("<p class=\"missing\">no class map: {} is a symbolic link, which is not followed</p>",
+                           escape_markup(path_text(png)));
+    if (!std::filesystem::is_regular_file(st))
         return fmt::format("<p class=\"missing\">no class map: {} is not there</p>", escape_markup(path_text(png)));
     std::string bytes;
     try {
-        bytes = read_regular_file(png, kMaxEmbeddedImage);
+        bytes = read_regular_file(png, std::min(kMaxEmbeddedImage, budget));
     } catch (const std::exception& e) {
-        return fmt::format("<p class=\"missing\">no class map: {}</p>", escape_markup(e.what()));
+        return fmt::format("<p class=\"missing\">no class map: {}{}</p>", escape_markup(e.what()),
+                           budget < kMaxEmbeddedImage ? " (the page's budget for embedded images is spent)" : "");
     }
+    constexpr std::string_view kPngSignature = "\x89PNG\r\n\x1a\n";
+    if (!std::string_view(bytes).starts_with(kPngSignature))
+        return fmt::format("<p class=\"missing\">no class map: {} is not a PNG file</p>",
+                           escape_markup(path_text(png)));
+    budget -= bytes.size();
     return fmt::format(R"(<img src="data:image/png;base64,{}" alt="{}">)", base64_encode(bytes), escape_markup(alt));
 }
 
@@ -48,6 +66,7 @@ std::string html_page(const Run& a, const Run& b, const DiffResult& d) {
                          d.identical() ? "identical to" : "not worse than", 100.0 * d.tolerance);
     }
     for (const auto& w : d.warnings) h += "<p class=\"missing\">warning: " + escape_markup(w) + "</p>\n";
+    std::uint64_t budget = kMaxEmbeddedTotal;
     for (const LightChange& c : d.lights) {
         h += fmt::format("<h2>{}</h2>\n<p>scored {} → {}; wrong {} → {}{}; compared: {}</p>\n",
                          escape_markup(c.a.label()), c.a.scored, c.b.scored, pct(c.a.wrong_fraction),
@@ -69,8 +88,8 @@ std::string html_page(const Run& a, const Run& b, const DiffResult& d) {
         if (c.a.perceptual_mean && c.b.perceptual_mean)
             h += fmt::format("<p>perceptual error: mean {:.5f} → {:.5f}, max {:.5f} → {:.5f}</p>\n",
                              *c.a.perceptual_mean, *c.b.perceptual_mean, *c.a.perceptual_max, *c.b.perceptual_max);
-        h += "<div class=\"grid\"><div><b>A</b>" + class_map(c.a.class_map, "A: " + c.a.label()) +
-             "</div><div><b>B</b>" + class_map(c.b.class_map, "B: " + c.b.label()) + "</div></div>\n";
+        h += "<div class=\"grid\"><div><b>A</b>" + class_map(c.a.class_map, "A: " + c.a.label(), budget) +
+             "</div><div><b>B</b>" + class_map(c.b.class_map, "B: " + c.b.label(), budget) + "</div></div>\n";
     }
     h += report::image_check_script();
     h += "</body></html>\n";

@@ -126,7 +126,9 @@ OracleRun oracle_for(const Scenario& scenario, const ValidateOptions& options) {
     // The cache keeps neither P, N nor depth: a caller that writes oracle.exr traces.
     std::string damaged;
     if (!options.keep_oracle_frame) {
-        if (auto hit = cache.load(key, &damaged)) {
+        CacheRequest request{scenario.width, scenario.height, {}, scenario.scene.triangles.size()};
+        for (const Light& l : scenario.lights) request.light_types.push_back(to_string(l.type));
+        if (auto hit = cache.load(key, &damaged, &request)) {
             o.frame = std::move(hit->frame);
             o.info = std::move(hit->info);
             o.info["cache"] = cache_info(cache, key, true);

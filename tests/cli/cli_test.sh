@@ -172,10 +172,15 @@ check "a cache entry with flipped bytes exits 0" test "$rc" -eq 0
 check "a cache entry with flipped bytes is named in a warning" grep -q "warning: .*oracle-.*damaged" <<<"$err"
 check "a cache entry with flipped bytes is traced again" grep -q '"oracle_cached": false' "$tmp/v8/report.json"
 check "a cache entry with flipped bytes gives the same verdict" cmp -s "$tmp/v2/errors.exr" "$tmp/v8/errors.exr"
-# A temporary of a store that was killed (its process gone) is swept by the next store.
+# A temporary of a store that was killed (its name, its process gone, the entry header it
+# writes first) is swept by the next store; a file of the old, guessable shape is the user's
+# and stays (#50).
+killed="$tmp/cache/.oracle-00000000000000000000000000000000.bin.tmp-4194000-0123456789abcdef"
+printf 'PNBORCL2' >"$killed"
 touch "$tmp/cache/.oracle-00000000000000000000000000000000.tmp-999999999"
 run validate "$tmp/small.json" --out "$tmp/v9" -q --area-max-rays 17
-check "a killed store's temporary is swept" test ! -e "$tmp/cache/.oracle-00000000000000000000000000000000.tmp-999999999"
+check "a killed store's temporary is swept" test ! -e "$killed"
+check "a file of a temporary's old shape stays" test -e "$tmp/cache/.oracle-00000000000000000000000000000000.tmp-999999999"
 
 # A bad --out is refused before any work (no oracle traced, nothing cached).
 touch "$tmp/a-file"

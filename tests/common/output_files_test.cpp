@@ -1,7 +1,9 @@
 // OutputTransaction's commit: files land under their names, replacing what was there.
 #include "common/output_files.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <csignal>
 #include <filesystem>
@@ -43,15 +45,43 @@ TEST(OutputTransaction, CommitReplacesTheFileOfAnEarlierRun) {
     EXPECT_EQ(entries(dir / "out"), 1u);  // no temporary left behind
 }
 
-TEST(OutputTransaction, CommitReplacesASymlinkNotTheFileItPointsTo) {
+// A symbolic link where an output goes is the user's: refused (exit 2) and left, never followed
+// nor replaced (#50).
+TEST(OutputTransaction, CommitRefusesASymlinkAndLeavesWhatItPointsTo) {
     TempDir dir;
     fs::create_directories(dir / "out");
     { std::ofstream(dir / "elsewhere.txt") << "keep me"; }
     fs::create_symlink(dir / "elsewhere.txt", dir / "out" / "a.txt");
+    EXPECT_THROW(commit_text(dir / "out", "a.txt", "new"), InputError);
+    EXPECT_TRUE(fs::is_symlink(dir / "out" / "a.txt"));
+    EXPECT_EQ(read_all(dir / "elsewhere.txt"), "keep me");
+    EXPECT_EQ(entries(dir / "out"), 1u);  // the temporary went too
+}
+
+// A link planted at the name a temporary used to have (.NAME.tmp-PID) is never written through:
+// temporaries have unpredictable names and are created with O_EXCL|O_NOFOLLOW.
+TEST(OutputTransaction, APlantedTemporaryNameIsNotFollowed) {
+    TempDir dir;
+    fs::create_directories(dir / "out");
+    { std::ofstream(dir / "elsewhere.txt") << "keep me"; }
+    fs::create_symlink(dir / "elsewhere.txt", dir / "out" / fmt::format(".a.txt.tmp-{}", ::getpid()));
     commit_text(dir / "out", "a.txt", "new");
-    EXPECT_FALSE(fs::is_symlink(dir / "out" / "a.txt"));
     EXPECT_EQ(read_all(dir / "out" / "a.txt"), "new");
     EXPECT_EQ(read_all(dir / "elsewhere.txt"), "keep me");
+}
+
+TEST(ExclusiveTemporary, NamesAreFreshAndRegular) {
+    TempDir dir;
+    const ExclusiveTemporary a = create_exclusive_temporary(dir.path(), "x.bin");
+    const ExclusiveTemporary b = create_exclusive_temporary(dir.path(), "x.bin");
+    ::close(a.fd);
+    ::close(b.fd);
+    EXPECT_NE(a.path, b.path);
+    EXPECT_TRUE(a.path.filename().string().starts_with(fmt::format(".x.bin.tmp-{}-", ::getpid())));
+    EXPECT_TRUE(is_same_file(a.path, a.device, a.inode));
+    EXPECT_FALSE(is_same_file(b.path, a.device, a.inode));
+    remove_if_same_file(b.path, a.device, a.inode);  // not the file a made: stays
+    EXPECT_TRUE(fs::exists(b.path));
 }
 
 TEST(OutputTransaction, WithoutCommitNothingIsReplaced) {

@@ -7,6 +7,8 @@
 
 #include <chrono>
 #include <fstream>
+#include <iterator>
+#include <limits>
 
 #include "common/errors.h"
 #include "tests/test_support.h"
@@ -124,6 +126,80 @@ TEST(OracleCache, SizesTakeBinarySuffixes) {
     EXPECT_EQ(parse_cache_size("0", "x"), 0u);
     for (const char* bad : {"", "G", ".", "2X", "-1", "1..2", "2 G"})
         EXPECT_THROW(parse_cache_size(bad, "PENUMBRA_CACHE_MAX"), InputError) << bad;
+}
+
+// An entry the oracle could have written: 0/1 masks, V in [0, 1], prims below `triangles`.
+OracleFrame valid_frame(std::size_t lights) {
+    OracleFrame f;
+    f.width = 4;
+    f.height = 2;
+    const std::size_t n = f.pixel_count();
+    f.A.assign(n, 1.0f);
+    f.prim.assign(n, 0u);
+    for (std::size_t li = 0; li < lights; ++li) {
+        OracleLightImage l;
+        for (auto* c : {&l.V, &l.E, &l.U, &l.lightable, &l.occluder_m, &l.boundary_m}) c->assign(n, 0.0f);
+        f.lights.push_back(l);
+    }
+    return f;
+}
+
+nlohmann::json info_of(std::size_t lights) {
+    nlohmann::json l = nlohmann::json::array();
+    for (std::size_t i = 0; i < lights; ++i) l.push_back({{"index", i}, {"type", "directional"}});
+    return {{"lights", l}};
+}
+
+CacheRequest request_of(std::size_t lights) {
+    return {4, 2, std::vector<std::string>(lights, "directional"), 1};
+}
+
+// #50: an entry with a valid checksum is still checked against what the run asks for.
+TEST(OracleCache, AnEntryOfAnotherShapeIsAMissAndIsRemoved) {
+    test::TempDir tmp;
+    OracleCache cache(tmp.path() / "c", 0);
+    ASSERT_FALSE(cache.store(key(1), valid_frame(1), info_of(1)));
+    const CacheRequest one = request_of(1), two = request_of(2);
+    std::string warning;
+    EXPECT_TRUE(cache.load(key(1), &warning, &one));
+    EXPECT_TRUE(warning.empty());
+    EXPECT_FALSE(cache.load(key(1), &warning, &two));
+    EXPECT_NE(warning.find("does not match"), std::string::npos) << warning;
+    EXPECT_FALSE(fs::exists(cache.entry(key(1))));
+}
+
+TEST(OracleCache, NaNTruthIsRefused) {
+    test::TempDir tmp;
+    OracleCache cache(tmp.path() / "c", 0);
+    OracleFrame f = valid_frame(1);
+    f.lights[0].V[3] = std::numeric_limits<float>::quiet_NaN();
+    ASSERT_FALSE(cache.store(key(2), f, info_of(1)));
+    const CacheRequest one = request_of(1);
+    std::string warning;
+    EXPECT_FALSE(cache.load(key(2), &warning, &one));
+    EXPECT_NE(warning.find("NaN"), std::string::npos) << warning;
+}
+
+TEST(OracleCache, AFileThatIsNotAnEntryIsLeftAndNotReplaced) {
+    test::TempDir tmp;
+    OracleCache cache(tmp.path() / "c", 0);
+    fs::create_directories(cache.dir());
+    { std::ofstream(cache.entry(key(3))) << "the user's"; }
+    std::string warning;
+    EXPECT_FALSE(cache.load(key(3), &warning));
+    EXPECT_NE(warning.find("not one of penumbra's"), std::string::npos) << warning;
+    EXPECT_TRUE(cache.store(key(3), valid_frame(1), info_of(1)));  // a warning: not cached
+    std::ifstream in(cache.entry(key(3)));
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(text, "the user's");
+}
+
+TEST(OracleCache, SizesAreWholeBytesWithRealSuffixes) {
+    EXPECT_EQ(parse_cache_size("1.5G", "x"), 3ull << 29);
+    EXPECT_EQ(parse_cache_size("512MiB", "x"), 512ull << 20);
+    EXPECT_EQ(parse_cache_size("0", "x"), 0u);
+    for (const char* bad : {"0.5", "1iB", "1.5", "KB", "1KK", "2X"})
+        EXPECT_THROW(parse_cache_size(bad, "x"), InputError) << bad;
 }
 
 }  // namespace
