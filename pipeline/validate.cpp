@@ -80,7 +80,7 @@ nlohmann::json cache_info(const OracleCache& cache, const std::string& key, bool
 // "Cascaded shadow maps"): the pixels each layer's lookups judged, by the layer they recorded, with
 // their counts and rates.
 nlohmann::json layer_metrics(const raster::RasterLightStats& stats, const RasterLightImage& image,
-                               const metrics::LightErrorImage& errors, const std::vector<float>& A) {
+                             const metrics::LightErrorImage& errors, const std::vector<float>& A) {
     const std::size_t n = stats.views.size();
     std::vector<std::array<std::uint64_t, metrics::kErrorClasses.size()>> counts(n);
     std::vector<std::uint64_t> surface(n, 0), scored(n, 0);

@@ -529,7 +529,8 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                 }
                 const glm::u32vec3 t = sc.scene.triangles[id];
                 if (!reach.lightable(surface_seen(rays.at(x + 0.5, y + 0.5), glm::dvec3(p[t.x]), glm::dvec3(p[t.y]),
-                                                       glm::dvec3(p[t.z])))) V[i] = 0.0f;
+                                                  glm::dvec3(p[t.z]))))
+                    V[i] = 0.0f;
             }
     }
 

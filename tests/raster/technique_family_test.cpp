@@ -196,9 +196,7 @@ void register_constant_shade() {
         p->value = o.number_in("value", 1.0, 0.0, 1.0, "a shade in [0, 1]");
         t.family_parameters = p;
     };
-    e.write = [](const raster::Technique& t, nlohmann::json& j) {
-        j["value"] = t.parameters<ConstantShade>()->value;
-    };
+    e.write = [](const raster::Technique& t, nlohmann::json& j) { j["value"] = t.parameters<ConstantShade>()->value; };
     e.hints = [](const raster::Technique&) { return raster::ScoringHints{3, 0}; };
     e.memory = [](const raster::Technique&) { return RasterMemory{}; };
     e.describe_light = [](const raster::Technique&, const Light&, const raster::RasterLightStats&) {
