@@ -11,6 +11,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <vector>
 #include <stdexcept>
 
 #include "app/cli.h"
@@ -19,6 +20,7 @@
 #include "common/gltf_loader.h"
 #include "common/json_reader.h"
 #include "common/memory_estimate.h"
+#include "common/model_placement.h"
 #include "common/output_files.h"
 
 namespace penumbra::cli {
@@ -27,7 +29,8 @@ namespace fs = std::filesystem;
 using ordered_json = nlohmann::ordered_json;
 
 struct InitArgs {
-    fs::path model;
+    std::vector<fs::path> models;
+    std::string up = "auto";  // auto, y or z: which axis of each model is up
     fs::path out;
     bool ground = false;
     std::string sun;  // "ELEV,AZIM" in degrees; empty: the default sun
@@ -122,6 +125,15 @@ std::string scenario_text(const ordered_json& doc) {
     return out + "}\n";
 }
 
+// Rounded up to two significant digits: a far plane that reads well and still lies beyond.
+double rounded_up(double x) {
+    if (!(x > 0)) return x;
+    const double q = std::pow(10.0, std::floor(std::log10(x)) - 1);
+    return std::ceil(x / q) * q;
+}
+// The far plane's margin past the farthest corner the camera looks at.
+constexpr double kInitFarMargin = 1.05;
+
 std::string vec_text(const glm::dvec3& v) {
     return fmt::format("[{:.4g}, {:.4g}, {:.4g}]", v.x, v.y, v.z);
 }
@@ -163,79 +175,159 @@ int run_init_command(const InitArgs& a) {
     // before the model is read.
     if (std::string why = replaceable_target_problem(a.out); !why.empty())
         throw InputError(fmt::format("--out {}", why));
-    if (fs::equivalent(a.out, a.model, ec))  // --force would replace the model with its scenario
-        throw InputError(fmt::format("--out {}: is the model itself", out_text));
+    for (const fs::path& model : a.models)
+        if (fs::equivalent(a.out, model, ec))  // --force would replace the model with its scenario
+            throw InputError(fmt::format("--out {}: is the model itself", out_text));
     const fs::path out_parent = fs::absolute(a.out).parent_path();
     if (std::string p = output_folder_problem(out_parent.string()); !p.empty())
         throw InputError(fmt::format("--out {}: {}", out_text, p));
-    std::string ext = a.model.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-    if (ext != ".gltf" && ext != ".glb")
-        throw InputError(fmt::format("{}: expected a glTF 2.0 file (.gltf or .glb)", path_text(a.model)));
     if (static_cast<long long>(a.width) * a.height > kMaxImagePixels)
         throw InputError(
             fmt::format("--width {} --height {}: more than the {} pixel limit", a.width, a.height, kMaxImagePixels));
+    for (const fs::path& model : a.models) {
+        std::string ext = model.extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+        if (ext != ".gltf" && ext != ".glb")
+            throw InputError(fmt::format("{}: expected a glTF 2.0 file (.gltf or .glb)", path_text(model)));
+    }
 
     GltfLoadOptions options;
     options.allow_external_paths = a.allow_external_paths;
     options.max_memory_bytes = default_memory_budget();
-    Scene scene = load_gltf(a.model, options);
-    const std::string model_label = path_text(a.model.filename());
-    if (scene.triangle_count() == 0)
-        throw InputError(fmt::format("{}: no triangles in the default scene: nothing to frame or shadow", model_label));
-    scale_scene(scene, a.scale);
-    if (!a.quiet)
-        for (const auto& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);
-
     // The scenario's "scene" is relative to the scenario's folder (both resolved, as the
     // loader resolves them, so that symbolic links do not change what ".." means).
-    const fs::path model_abs = fs::weakly_canonical(fs::absolute(a.model));
     const fs::path out_dir = fs::weakly_canonical(fs::absolute(a.out).parent_path());
-    fs::path scene_rel = model_abs.lexically_relative(out_dir);
-    if (scene_rel.empty()) scene_rel = model_abs;
-    const std::string scene_text = scene_rel.generic_string();
-    if (!is_valid_utf8(scene_text))
-        throw InputError(
-            fmt::format("{}: the path to the model from the scenario's folder is not UTF-8, which JSON "
-                        "cannot hold; move or rename it",
-                        path_text(scene_rel)));
+    const bool several = a.models.size() > 1;
+    Scene scene;
+    ordered_json scene_entries = ordered_json::array();
+    bool any_z_up = false;
+    for (std::size_t i = 0; i < a.models.size(); ++i) {
+        const fs::path& model = a.models[i];
+        Scene part = load_gltf(model, options);
+        const std::string model_label = path_text(model.filename());
+        if (part.triangle_count() == 0)
+            throw InputError(
+                fmt::format("{}: no triangles in the default scene: nothing to frame or shadow", model_label));
+        const fs::path model_abs = fs::weakly_canonical(fs::absolute(model));
+        fs::path scene_rel = model_abs.lexically_relative(out_dir);
+        if (scene_rel.empty()) scene_rel = model_abs;
+        const std::string scene_text = scene_rel.generic_string();
+        if (!is_valid_utf8(scene_text))
+            throw InputError(
+                fmt::format("{}: the path to the model from the scenario's folder is not UTF-8, which JSON "
+                            "cannot hold; move or rename it",
+                            path_text(scene_rel)));
+        const std::string where = several ? fmt::format("{} (scene[{}])", model_label, i) : model_label;
+        ModelPlacement placement;
+        placement.scale = a.scale;
+        if (a.up == "auto") {
+            if (auto why = z_up_evidence(part)) {
+                placement.z_up = true;
+                if (!a.quiet)
+                    fmt::print(stderr,
+                               "warning: {} looks modelled with +Z up (a guess: {}); wrote \"up\": \"z\" to stand it "
+                               "upright (init --up y keeps it as it is)\n",
+                               where, *why);
+            }
+        } else {
+            placement.z_up = a.up == "z";
+        }
+        any_z_up |= placement.z_up;
+        const glm::dvec3 size = part.bounds.hi - part.bounds.lo;
+        const double largest = std::max({size.x, size.y, size.z});
+        if (!a.quiet) {
+            fmt::print("{}: {} triangles\n", where, part.triangle_count());
+            const bool site = looks_like_site(part);
+            if (auto hint = unit_hint(size * a.scale, site)) {
+                const std::string line =
+                    several ? fmt::format("\"scale\": {:g} to scene[{}] of {}", hint->scale, i, out_text)
+                            : fmt::format("\"scale\": {:g} to {} (or run init with --scale {:g})", hint->scale * a.scale,
+                                          out_text, hint->scale * a.scale);
+                fmt::print(stderr,
+                           "warning: {} is {:.4g} m across{}, which suggests {} (a guess from its size): if so, add {}; "
+                           "it is then {:.4g} m across\n",
+                           where, largest * a.scale, site ? " and a terrain or site" : "", hint->unit, line,
+                           largest * a.scale * hint->scale);
+            } else if (site && largest * a.scale > kUnitHintAboveM) {
+                fmt::print("{}: {:.4g} m across and flat or one open sheet: read as a terrain or site in metres "
+                           "(glTF's unit, a guess); "
+                           "\"scale\" sets other units\n",
+                           where, largest * a.scale);
+            }
+        }
+        place_model(part, placement);
+        if (several) {
+            ordered_json entry = scene_text;
+            if (placement.z_up) entry = {{"model", scene_text}, {"up", "z"}};
+            scene_entries.push_back(entry);
+        } else {
+            scene_entries = scene_text;
+        }
+        append_model(scene, std::move(part), several ? fmt::format("scene[{}]: {}", i, model_label) : "");
+    }
+    const std::string model_label =
+        several ? fmt::format("{} models", a.models.size()) : path_text(a.models[0].filename());
+    if (!a.quiet)
+        for (const auto& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);
 
     const Bounds& b = scene.bounds;
     const glm::dvec3 size = b.hi - b.lo;
     const double largest = std::max({size.x, size.y, size.z});
     const double quantum = std::floor(std::log10(b.radius())) - 6;  // a millionth of the model, as a power of ten
     if (!a.quiet) {
-        fmt::print("{}: {} triangles\n", model_label, scene.triangle_count());
+        if (several) fmt::print("{}: {} triangles\n", model_label, scene.triangle_count());
         fmt::print("bounds: {} to {} m{}\n", vec_text(b.lo), vec_text(b.hi),
                    a.scale != 1.0 ? fmt::format(" (scaled by {:g})", a.scale) : "");
         fmt::print("size: {:.4g} x {:.4g} x {:.4g} m (bounding sphere radius {:.4g} m)\n", size.x, size.y, size.z,
                    b.radius());
     }
-    if (auto hint = unit_hint(largest); hint && !a.quiet) {
-        fmt::print(stderr,
-                   "warning: the model is {:.4g} m across, which suggests {}: add \"scale\": {:g} to {} (or run init "
-                   "with --scale {:g}); it is then {:.4g} m across\n",
-                   largest, hint->unit, hint->scale * a.scale, out_text, hint->scale * a.scale, largest * hint->scale);
-    }
-
     const ModelView framed = frame_bounds(b, a.width, a.height);
     const Receiver ground = ground_plane(b);
 
     ordered_json doc;
-    doc["scene"] = scene_text;
+    doc["scene"] = scene_entries;
     if (a.scale != 1.0) doc["scale"] = a.scale;
+    if (!several && any_z_up) doc["up"] = "z";
     doc["image"] = {{"width", a.width}, {"height", a.height}};
     std::string camera_line, lights_line;
+    // A far plane past everything the camera can see (cascades and engine presets split the view
+    // up to it): the farthest corner of the scene's box and of the ground along the view.
+    std::vector<glm::dvec3> corners;
+    for (int k = 0; k < 8; ++k) corners.push_back({k & 1 ? b.hi.x : b.lo.x, k & 2 ? b.hi.y : b.lo.y, k & 4 ? b.hi.z : b.lo.z});
+    if (a.ground)
+        for (int k = 0; k < 4; ++k)
+            corners.push_back(ground.center + 0.5 * glm::dvec3(k & 1 ? ground.size.x : -ground.size.x, 0,
+                                                               k & 2 ? ground.size.y : -ground.size.y));
+    const auto far_plane = [&](const glm::dvec3& eye, const glm::dvec3& forward) {
+        double depth = 0;
+        for (const glm::dvec3& c : corners) depth = std::max(depth, glm::dot(c - eye, forward));
+        return rounded_up(kInitFarMargin * depth);
+    };
+    std::string far_line;
     if (auto index = usable_gltf_camera(scene, model_label, a.quiet)) {
         doc["camera"] = {{"gltf_camera", *index}};
         camera_line = fmt::format("the model's own, cameras[{}]", *index);
+        const Camera& c = scene.cameras[*index];
+        if (std::isinf(c.zfar)) {
+            const double zfar = far_plane(c.eye, c.forward);
+            if (zfar > c.znear) {
+                doc["camera"]["zfar"] = zfar;
+                far_line = fmt::format(", zfar {:g} m (the model's camera has none)", zfar);
+            }
+        }
     } else {
         const ModelView& v = framed;
+        const double zfar = far_plane(v.eye, glm::normalize(v.target - v.eye));
         doc["camera"] = {{"type", "perspective"}, {"eye", vec(v.eye, quantum)}, {"target", vec(v.target, quantum)},
                          {"up", vec({0, 1, 0})},  {"yfov_deg", v.yfov_deg},     {"znear", rounded(v.znear, quantum)}};
+        if (zfar > rounded(v.znear, quantum)) {
+            doc["camera"]["zfar"] = zfar;
+            far_line = fmt::format(", zfar {:g} m", zfar);
+        }
         camera_line =
             fmt::format("a 3/4 view from above, {:.4g} m from the centre, yfov {:g} deg", v.distance, v.yfov_deg);
     }
+    camera_line += far_line;
     if (a.sun.empty() && gltf_lights_usable(scene, model_label, a.quiet)) {
         doc["lights"] = "gltf";
         lights_line = fmt::format("the model's {} KHR_lights_punctual lights", scene.lights.size());
@@ -302,11 +394,17 @@ Subcommand add_init_command(CLI::App& parent) {
     auto a = std::make_shared<InitArgs>();
     CLI::App* cmd =
         parent.add_subcommand("init", "Write a scenario for a glTF model: camera framed on it, a sun, a ground plane");
-    cmd->add_option("MODEL", a->model, "glTF 2.0 model (.gltf or .glb)")->required()->check(kUserPath);
+    cmd->add_option("MODEL", a->models, "glTF 2.0 models (.gltf or .glb), placed as they are authored")
+        ->required()
+        ->check(kUserPath);
     cmd->add_option("--out", a->out, "Scenario file to write (refused if it exists, unless --force)")
         ->required()
         ->check(kUserPath);
     cmd->add_flag("--ground", a->ground, "Add a receiver plane under the model");
+    cmd->add_option("--up", a->up,
+                    "Which axis of the models is up: y (glTF's), z (stood upright), or auto (default: a guess per "
+                    "model, said when it is z)")
+        ->check(CLI::IsMember({"auto", "y", "z"}));
     cmd->add_option("--sun", a->sun,
                     fmt::format("Sun elevation and azimuth in degrees, azimuth from +Z towards +X (default {:g},{:g}; "
                                 "replaces the model's own lights)",

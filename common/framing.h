@@ -36,13 +36,31 @@ ModelView frame_bounds(const Bounds& bounds, int width, int height, double yfov_
 Receiver ground_plane(const Bounds& bounds);
 
 // Models are often exported in other units than glTF's metres: a "745 m" engine block is in
-// millimetres, a "0.002 m" house in kilometres. Beyond these sizes (the largest extent), init
-// suggests the scale that brings the model closest to a metre among the usual unit mistakes.
-inline constexpr double kUnitHintAboveM = 100.0, kUnitHintBelowM = 0.01;
+// millimetres, a "0.002 m" house in kilometres. A guess from the extents alone: a compact model
+// (no extent under kFlatShare of the largest) beyond kUnitHintAboveM, a flat one or a site (a
+// terrain, a floor: large in metres is common) beyond kFlatUnitHintAboveM, or either below
+// kUnitHintBelowM; the hint is the scale that brings the largest extent closest to a metre
+// (a compact model) or to a kilometre (a flat one) among the usual unit mistakes.
+inline constexpr double kUnitHintAboveM = 100.0, kFlatUnitHintAboveM = 100e3, kUnitHintBelowM = 0.01;
+inline constexpr double kFlatShare = 0.1;
 struct UnitHint {
     double scale;      // the scenario's "scale" to add
     std::string unit;  // what the size suggests: "millimetres", ...
 };
-std::optional<UnitHint> unit_hint(double size_m);
+bool is_flat(const glm::dvec3& size);
+// `site`: a terrain, floor or site (looks_like_site), judged by the flat model's sizes.
+std::optional<UnitHint> unit_hint(const glm::dvec3& size, bool site = false);
+
+// (area facing +a − area facing −a) / all area, per axis a: 0 for a closed model, near ±1 for
+// one open sheet.
+glm::dvec3 facing_lean(const Scene& scene);
+// Flat (is_flat), or mostly one open sheet facing one way (a heightfield).
+bool looks_like_site(const Scene& scene);
+
+// Whether a model looks modelled with +Z up (many CAD, COLLADA and 3ds Max exports) rather than
+// glTF's +Y: what it saw, for a warning, or nothing. Two signs, both guesses: open surfaces
+// (terrains, floors, roofs) face up, so area-weighted normals lean towards +Z far more than
+// towards +Y; a closed model with no such lean that stands on z = 0 and is centred on y.
+std::optional<std::string> z_up_evidence(const Scene& scene);
 
 }  // namespace penumbra

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <limits>
@@ -27,18 +28,70 @@ glm::dvec3 position(JsonObject& o, const std::string& key) {
     return p;
 }
 
+// "up": "y" (glTF's, the default) or "z" (a Z-up export, stood upright); true for "z".
+bool read_up(JsonObject& o) {
+    if (!o.has("up")) return false;
+    const std::string up = o.string("up");
+    if (up != "y" && up != "z") o.fail("up", fmt::format("\"{}\": expected \"y\" (glTF's) or \"z\" (a Z-up model)", up));
+    return up == "z";
+}
+
+// One entry of a "scene" list: {"model", "translation", "rotation" | "rotation_deg", "scale", "up"}.
+template <typename ModelFile>
+ModelPlacement read_model(JsonObject& o, const ModelFile& model_file, double scenario_scale, bool default_z_up) {
+    o.only_keys({"model", "translation", "rotation", "rotation_deg", "scale", "up"});
+    ModelPlacement m;
+    m.file = model_file(o, "model");
+    if (o.has("translation")) m.translation = position(o, "translation");
+    if (o.has("rotation") && o.has("rotation_deg"))
+        o.fail("rotation_deg", "given with \"rotation\": one rotation, a quaternion or Euler angles");
+    if (o.has("rotation")) {
+        // glTF's order: [x, y, z, w], a unit quaternion (normalised within glTF's tolerance).
+        const nlohmann::json& q = o.get("rotation");
+        if (!q.is_array() || q.size() != 4) o.fail("rotation", "expected a quaternion [x, y, z, w]");
+        double v[4];
+        for (int i = 0; i < 4; ++i) {
+            if (!q[i].is_number() || !std::isfinite(q[i].get<double>()))
+                o.fail("rotation", fmt::format("element {} is not a finite number", i));
+            v[i] = q[i].get<double>();
+        }
+        const double len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]);
+        if (!(std::abs(len - 1.0) < 1e-3))
+            o.fail("rotation", fmt::format("length {:g}; expected a unit quaternion [x, y, z, w]", len));
+        m.rotation = glm::normalize(glm::dquat(v[3], v[0], v[1], v[2]));
+    } else if (o.has("rotation_deg")) {
+        // Euler degrees about X, then Y, then Z (each about the world's axis): R = Rz Ry Rx.
+        const glm::dvec3 e = o.vec3("rotation_deg");
+        for (int c = 0; c < 3; ++c)
+            if (std::abs(e[c]) > 360.0) o.fail("rotation_deg", fmt::format("{:g} is not in [-360, 360] degrees", e[c]));
+        m.rotation = glm::angleAxis(e.z * kDeg, glm::dvec3(0, 0, 1)) * glm::angleAxis(e.y * kDeg, glm::dvec3(0, 1, 0)) *
+                     glm::angleAxis(e.x * kDeg, glm::dvec3(1, 0, 0));
+    }
+    m.scale = scenario_scale * o.number_in("scale", 1.0, kMinScale, kMaxScale,
+                                           "expected a factor in [1e-6, 1e6] (the model's units to metres)");
+    m.z_up = o.has("up") ? read_up(o) : default_z_up;
+    o.finish();
+    return m;
+}
+
 // `target`, when given, receives the look-at target (a glTF camera's: one metre ahead).
 Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_label,
                    glm::dvec3* target_out = nullptr) {
     Camera c;
     if (cam.has("gltf_camera")) {
         long long index = cam.integer("gltf_camera", 0, 1 << 30);
+        std::optional<double> zfar;  // replaces the glTF camera's (init writes one where it has none)
+        if (cam.has("zfar")) zfar = cam.number_in("zfar", 0, kInf, "expected zfar > znear");
         cam.finish();
         if (index >= static_cast<long long>(scene.cameras.size()))
             cam.fail("gltf_camera", fmt::format("the scene has {} cameras", scene.cameras.size()));
         if (!scene.camera_placed[index])
             cam.fail("gltf_camera", fmt::format("camera {} is not used by any node of the scene", index));
         c = scene.cameras[index];
+        if (zfar) {
+            if (!(*zfar > c.znear)) cam.fail("zfar", fmt::format("must exceed the glTF camera's znear ({} <= {})", *zfar, c.znear));
+            c.zfar = *zfar;
+        }
         validate_camera(
             c, fmt::format("{}: cameras[{}] (the scenario's {})", scene_label, index, cam.path_of("gltf_camera")));
         if (target_out) *target_out = c.eye + c.forward;
@@ -234,19 +287,11 @@ std::optional<Camera> path_camera(const CameraPath& path, int frame) {
     return c;
 }
 
-void scale_scene(Scene& scene, double scale) {
-    if (scale == 1.0) return;
-    for (glm::dvec3& p : scene.positions) p *= scale;
-    if (!scene.bounds.empty()) scene.bounds = {scene.bounds.lo * scale, scene.bounds.hi * scale};
-    // The cameras scale with the model so that they show the same picture (inf stays inf).
-    for (Camera& c : scene.cameras) {
-        c.eye *= scale;
-        c.znear *= scale;
-        c.zfar *= scale;
-        c.xmag *= scale;
-        c.ymag *= scale;
-    }
-    for (Light& l : scene.lights) l.position *= scale;
+nlohmann::json scene_files_json(const Scenario& s) {
+    if (s.models.size() <= 1) return s.scene_file.string();
+    nlohmann::json files = nlohmann::json::array();
+    for (const ModelPlacement& m : s.models) files.push_back(m.file.string());
+    return files;
 }
 
 Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
@@ -255,16 +300,45 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     s.label = file.filename().string();
     nlohmann::json root = read_json_file(file);
     JsonObject top(root, s.label, "");
-    top.only_keys({"scene", "scale", "image", "camera", "camera_path", "lights", "receivers", "technique", "gate"});
+    top.only_keys({"scene", "scale", "up", "image", "camera", "camera_path", "lights", "receivers", "technique", "gate"});
 
-    std::string scene_rel = top.string("scene");
-    if (scene_rel.empty()) top.fail("scene", "empty path");
-    s.scene_file = fs::absolute(file).parent_path() / scene_rel;
-    std::error_code ec;
-    if (!fs::exists(s.scene_file, ec)) top.fail("scene", fmt::format("no such file: {}", s.scene_file.string()));
-    if (!fs::is_regular_file(s.scene_file, ec))
-        top.fail("scene",
-                 fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", s.scene_file.string()));
+    // "scene": one glTF file, or a list of models (strings or placements), read after the cheap checks.
+    const nlohmann::json& scene_value = top.get("scene");
+    if (!scene_value.is_string() && !(scene_value.is_array() && !scene_value.empty()))
+        top.fail("scene", "expected a glTF file or a non-empty array of models");
+    if (scene_value.is_array() && scene_value.size() > kMaxModels)
+        top.fail("scene", fmt::format("{} models; at most {}", scene_value.size(), kMaxModels));
+    const fs::path scenario_dir = fs::absolute(file).parent_path();
+    const auto model_file = [&](JsonObject& o, const std::string& key) {
+        const std::string rel = o.string(key);
+        if (rel.empty()) o.fail(key, "empty path");
+        const fs::path f = scenario_dir / rel;
+        std::error_code ec;
+        if (!fs::exists(f, ec)) o.fail(key, fmt::format("no such file: {}", f.string()));
+        if (!fs::is_regular_file(f, ec))
+            o.fail(key, fmt::format("{}: not a regular file (devices, FIFOs and folders are refused)", f.string()));
+        return f;
+    };
+    const bool default_z_up = read_up(top);
+    s.scale =
+        top.number_in("scale", 1.0, kMinScale, kMaxScale, "expected a factor in [1e-6, 1e6] (model units to metres)");
+    if (scene_value.is_string()) {
+        ModelPlacement m;
+        m.file = model_file(top, "scene");
+        m.scale = s.scale;
+        m.z_up = default_z_up;
+        s.models.push_back(m);
+    } else {
+        for (std::size_t i = 0; i < scene_value.size(); ++i) {
+            const std::string path = fmt::format("scene[{}]", i);
+            const nlohmann::json wrapped = {{"model", scene_value[i]}};
+            JsonObject o = scene_value[i].is_string() ? JsonObject(wrapped, s.label, path)
+                                                      : JsonObject(scene_value[i], s.label, path);
+            s.models.push_back(read_model(o, model_file, s.scale, default_z_up));
+            s.models.back().label = fmt::format("{}: {}", path, s.models.back().file.filename().string());
+        }
+    }
+    s.scene_file = s.models[0].file;
 
     JsonObject image = top.object("image");
     image.only_keys({"width", "height"});
@@ -294,8 +368,6 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
             listed.push_back(l);
         }
     }
-    s.scale =
-        top.number_in("scale", 1.0, kMinScale, kMaxScale, "expected a factor in [1e-6, 1e6] (model units to metres)");
     if (top.has("receivers")) {
         const nlohmann::json& receivers = top.get("receivers");
         if (!receivers.is_array()) top.fail("receivers", "expected an array of receivers (planes and boxes)");
@@ -310,14 +382,22 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     GltfLoadOptions gltf_options;
     gltf_options.allow_external_paths = options.allow_external_paths;
     gltf_options.max_memory_bytes = options.max_memory_bytes;
-    s.scene = load_gltf(s.scene_file, gltf_options);
-    scale_scene(s.scene, s.scale);
+    for (const ModelPlacement& m : s.models) {
+        Scene part = load_gltf(m.file, gltf_options);
+        // The budget holds for the scene, not for each model: what this one takes is gone.
+        const std::uint64_t used = part.positions.size() * sizeof(glm::dvec3) +
+                                   part.triangles.size() * (sizeof(glm::u32vec3) + sizeof(std::uint32_t) + 1);
+        gltf_options.max_memory_bytes -= std::min(gltf_options.max_memory_bytes, used);
+        place_model(part, m);
+        append_model(s.scene, std::move(part), s.models.size() > 1 ? m.label : "");
+    }
     if (!s.scene.bounds.empty())
         for (const glm::dvec3& corner : {s.scene.bounds.lo, s.scene.bounds.hi})
             for (int c = 0; c < 3; ++c)
                 if (std::abs(corner[c]) > kMaxCoordinate)
-                    top.fail("scale", fmt::format("the scaled scene reaches {:g} m, beyond the {:g} m coordinate limit",
-                                                  corner[c], kMaxCoordinate));
+                    top.fail(s.models.size() > 1 ? "scene" : "scale",
+                             fmt::format("the {} scene reaches {:g} m, beyond the {:g} m coordinate limit",
+                                         s.models.size() > 1 ? "placed" : "scaled", corner[c], kMaxCoordinate));
     for (const Receiver& r : s.receivers) add_receiver(s.scene, r);
 
     const std::string scene_label = s.scene_file.filename().string();

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "common/model_placement.h"
 #include "common/ranges.h"
 #include "common/receivers.h"
 #include "common/scene.h"
@@ -48,7 +49,8 @@ std::optional<Camera> path_camera(const CameraPath& path, int frame);
 
 struct Scenario {
     std::filesystem::path file;        // the scenario JSON
-    std::filesystem::path scene_file;  // the glTF it names, resolved
+    std::filesystem::path scene_file;  // the (first) glTF it names, resolved
+    std::vector<ModelPlacement> models;  // every glTF of "scene", placed; scene_file is models[0].file
     std::string label;                 // file name for messages
     int width = 0, height = 0;
     Camera camera;                                        // the path's first frame when only "camera_path" is given
@@ -56,17 +58,19 @@ struct Scenario {
     std::vector<Light> lights;                            // from the scenario, or the glTF's when "lights": "gltf"
     nlohmann::json technique = nlohmann::json::object();  // raw: validated by the raster path
     nlohmann::json gate = nlohmann::json::object();       // raw: validated by metrics
-    double scale = 1.0;                                   // applied to the glTF scene (its units to metres)
+    double scale = 1.0;                                   // applied to every model (its units to metres)
     std::vector<Receiver> receivers;                      // added to the scene, already in `scene`
     Scene scene;
 };
 
 // Scenario "scale" limits: a factor from the model's units to metres (mm 0.001, km 1000, ...).
 inline constexpr double kMinScale = 1e-6, kMaxScale = 1e6;
+// Most models one "scene" list may hold.
+inline constexpr std::size_t kMaxModels = 256;
 
-// Multiplies the glTF scene (positions, bounds, the cameras and lights its nodes place) by
-// `scale` about the origin: what a scale on the glTF root would do.
-void scale_scene(Scene& scene, double scale);
+
+// What outputs record as the scenario's "scene": the glTF file's path, or the list of them.
+nlohmann::json scene_files_json(const Scenario& scenario);
 
 // Reads and validates everything; throws InputError naming the file and JSON path.
 Scenario load_scenario(const std::filesystem::path& file, const ScenarioOptions& options = {});

@@ -43,7 +43,7 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
     std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces + s.culled_retraces;
     nlohmann::json j = {
         {"scenario", scenario.file.string()},
-        {"scene", scenario.scene_file.string()},
+        {"scene", scene_files_json(scenario)},
         {"image", {{"width", f.width}, {"height", f.height}}},
         {"triangles", scenario.scene.triangle_count()},
         {"frame_origin", {f.frame_origin.x, f.frame_origin.y, f.frame_origin.z}},

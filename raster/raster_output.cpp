@@ -109,7 +109,7 @@ nlohmann::json raster_json(const Scenario& scenario, const Technique& technique,
     gpu_passes["camera"] = "camera_raster + lookup";
     nlohmann::json j = {
         {"scenario", scenario.file.string()},
-        {"scene", scenario.scene_file.string()},
+        {"scene", scene_files_json(scenario)},
         {"image", {{"width", f.width}, {"height", f.height}}},
         {"triangles", scenario.scene.triangle_count()},
         {"technique", technique.to_json()},

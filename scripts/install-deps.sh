@@ -11,7 +11,7 @@ packages=(
   libcli11-dev libfmt-dev libspdlog-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers vulkan-tools
-  python3 assimp-testmodels
+  python3 assimp-testmodels assimp-utils  # tests: third-party models, converted to glTF (tests/cli/init_test.sh)
   chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
   clang libclang-rt-14-dev  # tests: the libFuzzer targets (tests/fuzz, docs/testing.md)
   valgrind  # tests: the oracle under memcheck (tests/cli/valgrind_oracle.sh)

@@ -2,7 +2,8 @@
 # `penumbra init` end to end on models nobody here wrote (Debian's assimp-testmodels, issue #33):
 # the scenario it writes runs with validate as it is and frames the model (at least a fifth of the
 # pixels are the model or its ground, seen by both paths); a unit warning with the line to add;
-# no overwrite without --force; a bad model is exit 2 with nothing written.
+# no overwrite without --force; a bad model is exit 2 with nothing written; Z-up and heightfield
+# models converted with assimp, and several models in one scenario.
 # Usage: init_test.sh PENUMBRA SOURCE_DIR
 source "$(dirname "$0")/harness.sh"
 export PENUMBRA_CACHE_DIR="$tmp/cache"
@@ -60,7 +61,7 @@ engine=$models/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
 run init "$engine" --out "$tmp/engine/scenario.json" --ground
 check "engine: init exits 0" test "$rc" -eq 0
 check "engine: the model's own camera" grep -q "camera: the model's own, cameras\[0\]" "$tmp/stdout"
-check "engine: warns of millimetres" grep -q "warning: the model is 743.4 m across, which suggests millimetres" <<<"$err"
+check "engine: warns of millimetres, as a guess" grep -q "warning: 2CylinderEngine.glb is 743.4 m across, which suggests millimetres (a guess from its size)" <<<"$err"
 check "engine: prints the line to add" grep -qF "add \"scale\": 0.001 to $tmp/engine/scenario.json" <<<"$err"
 run init "$engine" --out "$tmp/engine-m/scenario.json" --ground --scale 0.001
 check "engine --scale 0.001: exits 0" test "$rc" -eq 0
@@ -163,6 +164,47 @@ check "a model with lights: says so" grep -q "lights: the model's 1 KHR_lights_p
 check "a model with lights: the scene is next to the scenario" grep -q '"scene": "lit.gltf"' "$tmp/lit/scenario.json"
 run camera "$tmp/lit/scenario.json" -q
 check "a model with lights: the scenario loads" test "$rc" -eq 0
+
+# Third-party models in other formats, converted with assimp (issue #53): a heightfield that is
+# Z-up, an AMF print (Z-up, standing on z = 0), several models in one scenario; the far plane
+# init writes lets cascades and engine presets run without editing a file.
+if command -v assimp >/dev/null; then
+    a=/usr/share/assimp/models
+    mkdir -p "$tmp/conv"
+    assimp export "$a/HMP/terrain.hmp" "$tmp/conv/terrain.glb" -fglb2 >/dev/null
+    assimp export "$a/AMF/test1.amf" "$tmp/conv/print.glb" -fglb2 >/dev/null
+    run init "$tmp/conv/terrain.glb" --out "$tmp/terrain/scenario.json" --ground --width 320 --height 180
+    check "terrain: init exits 0" test "$rc" -eq 0
+    check "terrain: 160 m across is read as a site in metres, not centimetres" grep -q "terrain.glb: 160 m across and flat or one open sheet: read as a terrain or site in metres" "$tmp/stdout"
+    check "terrain: no unit warning" fails grep -q "suggests" <<<"$err"
+    check "terrain: said to look Z-up, with the evidence" grep -q 'terrain.glb looks modelled with +Z up (a guess: 80% of its area faces -Z' <<<"$err"
+    check "terrain: stood upright" python3 -c "
+import json; s = json.load(open('$tmp/terrain/scenario.json')); assert s['up'] == 'z', s"
+    check "terrain: a far plane beyond the ground" python3 -c "
+import json; c = json.load(open('$tmp/terrain/scenario.json'))['camera']; assert c['zfar'] > c['znear'] > 0, c"
+    for t in "--preset three-csm" "--set family=cascaded" "--preset d3d12-textbook"; do
+        run validate "$tmp/terrain/scenario.json" --out "$tmp/terrain/run" $t --no-cache -q
+        check "terrain: validate $t runs init's scenario as it is" test "$rc" -eq 0
+    done
+    run init "$tmp/conv/terrain.glb" --out "$tmp/terrain-y/scenario.json" --up y -q
+    check "terrain --up y: no up key" fails grep -q '"up": "z"' "$tmp/terrain-y/scenario.json"
+
+    run init "$tmp/conv/print.glb" "$box" "$tmp/conv/terrain.glb" --out "$tmp/three/scenario.json" --ground --width 320 --height 180
+    check "three models: init exits 0" test "$rc" -eq 0
+    check "three models: each counted, and in all" grep -q "3 models: 2064 triangles" "$tmp/stdout"
+    check "three models: the print stands on z = 0, said" grep -q "print.glb (scene\[0\]) looks modelled with +Z up (a guess: it stands on z = 0" <<<"$err"
+    check "three models: a list, the Z-up ones stood upright" python3 -c "
+import json; s = json.load(open('$tmp/three/scenario.json'))['scene']
+assert len(s) == 3 and s[0]['up'] == 'z' and isinstance(s[1], str) and s[2]['up'] == 'z', s"
+    run validate "$tmp/three/scenario.json" --out "$tmp/three/run" --preset three-csm --no-cache -q
+    check "three models: validate runs" test "$rc" -eq 0
+    check "three models: oracle.json lists the models" python3 -c "
+import json; assert len(json.load(open('$tmp/three/run/oracle.json'))['scene']) == 3"
+    read -r three_surface _ <<<"$(coverage "$tmp/three/run/report.json")"
+    check "three models: framed ($three_surface)" at_least "$three_surface" 0.2
+else
+    echo "SKIP third-party formats: assimp (assimp-utils) not installed"
+fi
 
 # --help: the outputs and an example.
 run init --help

@@ -94,27 +94,70 @@ TEST(Framing, PlaneAxesAreOrthonormalAndRightHanded) {
 }
 
 TEST(Framing, UnitHintsBeyondTheThresholds) {
+    const auto cube = [](double side) { return glm::dvec3(side, side, side); };
     // Within [1 cm, 100 m], nothing to say.
-    for (double size : {0.01, 0.5, 1.0, 30.0, 100.0}) EXPECT_FALSE(unit_hint(size)) << size;
+    for (double size : {0.01, 0.5, 1.0, 30.0, 100.0}) EXPECT_FALSE(unit_hint(cube(size))) << size;
     // A 745 m engine block: millimetres; a 150 m car: centimetres (1.5 m beats 0.15 m).
-    auto mm = unit_hint(745);
+    auto mm = unit_hint({745, 273, 268});
     ASSERT_TRUE(mm);
     EXPECT_DOUBLE_EQ(mm->scale, 0.001);
     EXPECT_EQ(mm->unit, "millimetres");
-    auto cm = unit_hint(150);
+    auto cm = unit_hint(cube(150));
     ASSERT_TRUE(cm);
     EXPECT_DOUBLE_EQ(cm->scale, 0.01);
     EXPECT_EQ(cm->unit, "centimetres");
-    EXPECT_TRUE(unit_hint(100.5));
+    EXPECT_TRUE(unit_hint(cube(100.5)));
+    // A flat model or a site (a terrain) is large in metres: a 160 m terrain and a 10 km
+    // heightfield say nothing; a 2,000 km one is a terrain in millimetres (2 km).
+    EXPECT_FALSE(unit_hint({160, 40, 160}, true));
+    EXPECT_FALSE(unit_hint({10e3, 300, 10e3}));  // flat by its extents alone
+    auto far = unit_hint({2e6, 1e4, 2e6});
+    ASSERT_TRUE(far);
+    EXPECT_DOUBLE_EQ(far->scale, 0.001);
     // A 0.002 m house: kilometres (2 m); a 0.009 m chair: shrunk 100 times (0.9 m).
-    auto km = unit_hint(0.002);
+    auto km = unit_hint(cube(0.002));
     ASSERT_TRUE(km);
     EXPECT_DOUBLE_EQ(km->scale, 1000);
     EXPECT_EQ(km->unit, "kilometres");
-    auto hundred = unit_hint(0.009);
+    auto hundred = unit_hint(cube(0.009));
     ASSERT_TRUE(hundred);
     EXPECT_DOUBLE_EQ(hundred->scale, 100);
-    EXPECT_FALSE(unit_hint(0));  // no size, no hint (init refuses an empty model before)
+    EXPECT_FALSE(unit_hint(cube(0)));  // no size, no hint (init refuses an empty model before)
+}
+
+// A sheet of two triangles facing `normal`, from lo to hi (an axis-aligned square).
+Scene sheet(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, const glm::dvec3& d) {
+    Scene s;
+    s.add_triangle(a, b, c, false);
+    s.add_triangle(a, c, d, false);
+    return s;
+}
+
+TEST(Framing, GuessesZUpFromOpenSurfacesAndFromWhereAModelStands) {
+    // A ground facing +Y: glTF's up. The same ground facing +Z (a Z-up export): said, with the lean.
+    EXPECT_FALSE(z_up_evidence(sheet({0, 0, 0}, {0, 0, -1}, {1, 0, -1}, {1, 0, 0})));
+    const auto z_sheet = sheet({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0});
+    auto z = z_up_evidence(z_sheet);
+    ASSERT_TRUE(z);
+    EXPECT_NE(z->find("100% of its area faces +Z"), std::string::npos) << *z;
+    EXPECT_TRUE(looks_like_site(z_sheet));
+    EXPECT_NEAR(facing_lean(z_sheet).z, 1, 1e-12);
+    // A closed box standing on z = 0 and centred on y: Z-up; the same box standing on y = 0: Y-up.
+    const auto box = [](glm::dvec3 lo, glm::dvec3 hi) {
+        Scene s;
+        Receiver r;
+        r.type = ReceiverType::box;
+        r.center = 0.5 * (lo + hi);
+        r.size = hi - lo;
+        add_receiver(s, r);
+        return s;
+    };
+    auto standing = z_up_evidence(box({-0.3, -0.2, 0}, {0.3, 0.2, 1.8}));
+    ASSERT_TRUE(standing);
+    EXPECT_NE(standing->find("stands on z = 0"), std::string::npos) << *standing;
+    EXPECT_FALSE(z_up_evidence(box({-0.3, 0, -0.2}, {0.3, 1.8, 0.2})));
+    EXPECT_FALSE(z_up_evidence(box({-1, -1, -1}, {1, 1, 1})));  // centred everywhere: no sign
+    EXPECT_FALSE(looks_like_site(box({-1, -1, -1}, {1, 1, 1})));
 }
 
 }  // namespace

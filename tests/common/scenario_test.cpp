@@ -297,6 +297,89 @@ TEST_F(ScenarioTest, RefusesScalesOutOfRange) {
               "scenario.json: scale: the scaled scene reaches 1e+16 m, beyond the 1e+15 m coordinate limit");
 }
 
+// "scene" as a list of models (#48): each stood upright, scaled, rotated and moved, then appended.
+TEST_F(ScenarioTest, PlacesSeveralModels) {
+    auto doc = valid();
+    doc["scene"] = {"scene.gltf", {{"model", "scene.gltf"},
+                                   {"translation", {10, 0, 0}},
+                                   {"rotation_deg", {0, 90, 0}},
+                                   {"scale", 2},
+                                   {"up", "z"}}};
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    Scenario s = load_scenario(dir_ / "scenario.json");
+    ASSERT_EQ(s.models.size(), 2u);
+    EXPECT_EQ(s.scene_file, s.models[0].file);
+    ASSERT_EQ(s.scene.triangle_count(), 4u);
+    const std::size_t base = s.scene.positions.size() / 2;  // the second model's vertices follow the first's
+    // (1, 0, 0): Z-up turn (x, z, -y) = (1, 0, 0); x2 = (2, 0, 0); 90 deg about +Y = (0, 0, -2); + (10, 0, 0).
+    EXPECT_NEAR(s.scene.positions[base + 1].x, 10, 1e-12);
+    EXPECT_NEAR(s.scene.positions[base + 1].y, 0, 1e-12);
+    EXPECT_NEAR(s.scene.positions[base + 1].z, -2, 1e-12);
+    // (1, 0, -1): turned (1, -1, 0), x2 (2, -2, 0), about +Y (0, -2, -2), moved to (10, -2, -2).
+    EXPECT_NEAR(s.scene.positions[base + 2].x, 10, 1e-12);
+    EXPECT_NEAR(s.scene.positions[base + 2].y, -2, 1e-12);
+    EXPECT_NEAR(s.scene.positions[base + 2].z, -2, 1e-12);
+    // The second model's triangles index its own vertices, on a node of their own.
+    EXPECT_GE(s.scene.triangles[2].x, base);
+    EXPECT_NE(s.scene.triangle_node[2], s.scene.triangle_node[0]);
+    EXPECT_NEAR(s.scene.bounds.lo.y, -2, 1e-12);
+    EXPECT_NEAR(s.scene.bounds.hi.x, 10, 1e-12);
+    EXPECT_TRUE(scene_files_json(s).is_array());
+
+    // A quaternion in glTF's order: 180 deg about +Y takes (1, 0, 0) to (-1, 0, 0).
+    doc["scene"] = {{{"model", "scene.gltf"}, {"rotation", {0, 1, 0, 0}}}};
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    s = load_scenario(dir_ / "scenario.json");
+    EXPECT_NEAR(s.scene.positions[1].x, -1, 1e-12);
+    EXPECT_TRUE(scene_files_json(s).is_string());
+
+    // "up" at the top stands a single model upright: (1, 0, -1) turned (x, z, -y) is (1, -1, 0).
+    doc = valid();
+    doc["up"] = "z";
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    s = load_scenario(dir_ / "scenario.json");
+    EXPECT_NEAR(s.scene.positions[2].y, -1, 1e-12);
+    EXPECT_NEAR(s.scene.positions[2].z, 0, 1e-12);
+}
+
+TEST_F(ScenarioTest, RefusesBadModelListsNamingTheEntry) {
+    const auto with_scene = [&](const nlohmann::json& scene) {
+        auto doc = valid();
+        doc["scene"] = scene;
+        return error_of(doc);
+    };
+    EXPECT_EQ(with_scene(nlohmann::json::array()),
+              "scenario.json: scene: expected a glTF file or a non-empty array of models");
+    EXPECT_EQ(with_scene({"scene.gltf", "none.glb"}).find("scenario.json: scene[1].model: no such file: "), 0u);
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"rotation", {0, 0, 0, 2}}}}),
+              "scenario.json: scene[0].rotation: length 2; expected a unit quaternion [x, y, z, w]");
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"rotation", {0, 0, 1}}}}),
+              "scenario.json: scene[0].rotation: expected a quaternion [x, y, z, w]");
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"rotation", {0, 0, 0, 1}}, {"rotation_deg", {0, 0, 0}}}}),
+              "scenario.json: scene[0].rotation_deg: given with \"rotation\": one rotation, a quaternion or Euler "
+              "angles");
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"up", "x"}}}),
+              "scenario.json: scene[0].up: \"x\": expected \"y\" (glTF's) or \"z\" (a Z-up model)");
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"scale", 0}}}).find("scenario.json: scene[0].scale: "), 0u);
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"translation", {2e15, 0, 0}}}}).find("scenario.json: scene[0].translation: "), 0u);
+    EXPECT_EQ(with_scene({{{"model", "scene.gltf"}, {"shear", 1}}}).find("scenario.json: scene[0].shear: unknown key"), 0u);
+    EXPECT_NE(with_scene({3}).find("scene[0]"), std::string::npos);
+}
+
+TEST_F(ScenarioTest, AGltfCameraTakesAFarPlane) {
+    test::GltfFixture g;
+    g.doc["cameras"] = {{{"type", "perspective"}, {"perspective", {{"yfov", 0.8}, {"znear", 0.05}}}}};
+    g.doc["nodes"].push_back({{"camera", 0}, {"translation", {0, 2, 3}}});
+    g.doc["scenes"][0]["nodes"] = {0, 1};
+    g.write(dir_);
+    auto doc = valid();
+    doc["camera"] = {{"gltf_camera", 0}, {"zfar", 40}};
+    test::write_text(dir_ / "scenario.json", doc.dump());
+    EXPECT_DOUBLE_EQ(load_scenario(dir_ / "scenario.json").camera.zfar, 40);
+    doc["camera"]["zfar"] = 0.01;
+    EXPECT_EQ(error_of(doc).find("scenario.json: camera.zfar: must exceed the glTF camera's znear"), 0u);
+}
+
 // "camera_path" (issue #34, shimmer): keys in the camera format, frames linear between them.
 nlohmann::json path_key(glm::dvec3 eye, glm::dvec3 target, double yfov_deg) {
     return {{"type", "perspective"},
