@@ -2,6 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <charconv>
+#include <tuple>
+#include <optional>
 #include <cmath>
 
 #include "common/errors.h"
@@ -63,6 +67,39 @@ void add_common(CLI::App* cmd, Common& c) {
     cmd->add_option("--max-memory", c.max_memory,
                     "Refuse runs estimated to need more memory, e.g. 8G (0: no limit; default 3/4 of the machine's)")
         ->check(kUserName);
+}
+
+// "WxH" with both in [1, kMaxImageSide] and at most kMaxImagePixels in all; nullopt and `problem` else.
+std::optional<std::pair<int, int>> parse_size(const std::string& text, std::string& problem) {
+    const auto x = text.find_first_of("xX");
+    int v[2] = {0, 0};
+    const std::string parts[2] = {text.substr(0, x), x == std::string::npos ? "" : text.substr(x + 1)};
+    for (int i = 0; i < 2; ++i) {
+        const auto [end, ec] = std::from_chars(parts[i].data(), parts[i].data() + parts[i].size(), v[i]);
+        if (x == std::string::npos || ec != std::errc() || end != parts[i].data() + parts[i].size() || v[i] < 1 ||
+            v[i] > kMaxImageSide) {
+            problem = fmt::format("\"{}\": expected WIDTHxHEIGHT in pixels, each 1 ... {}, e.g. 640x360",
+                                  escape_non_utf8(text), kMaxImageSide);
+            return std::nullopt;
+        }
+    }
+    if (static_cast<long long>(v[0]) * v[1] > kMaxImagePixels) {
+        problem = fmt::format("{}x{}: more than the {} pixel limit", v[0], v[1], kMaxImagePixels);
+        return std::nullopt;
+    }
+    return std::pair{v[0], v[1]};
+}
+
+void add_size(CLI::App* cmd, Common& c) {
+    cmd->add_option("--size", c.size,
+                    "Image size WIDTHxHEIGHT, e.g. 640x360: replaces the scenario's \"image\" for this run (the "
+                    "oracle cache keys the size it traces)")
+        ->check(kUserName)
+        ->check([](const std::string& text) {
+            std::string problem;
+            parse_size(text, problem);
+            return problem;
+        });
 }
 
 void add_sampling(CLI::App* cmd, SamplingArgs& a) {
@@ -130,6 +167,10 @@ Scenario load_for_command(const std::filesystem::path& scenario_file, const Comm
     so.allow_external_paths = c.allow_external_paths;
     so.max_memory_bytes = memory_budget(c.max_memory);
     Scenario scenario = load_scenario(scenario_file, so);
+    if (!c.size.empty()) {  // checked by add_size; before anything keys or sizes the frame
+        std::string unused;
+        std::tie(scenario.width, scenario.height) = *parse_size(c.size, unused);
+    }
     if (!c.quiet) {
         for (const auto& w : scenario.scene.warnings) fmt::print(stderr, "warning: {}\n", w);
         if (auto w = no_lights_warning(scenario)) fmt::print(stderr, "warning: {}\n", *w);
@@ -214,7 +255,14 @@ int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet) {
     if (!gate) return kExitSuccess;
     for (const auto& o : gate->outcomes)
         if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
-    if (!quiet) fmt::print("gate: {} ({} checks)\n", gate->passed ? "passed" : "FAILED", gate->outcomes.size());
+    // Count what failed, not what was checked: "FAILED (3 checks)" read as three failures.
+    const auto failed = std::count_if(gate->outcomes.begin(), gate->outcomes.end(), [](const auto& o) { return !o.passed; });
+    if (!quiet) {
+        if (gate->passed)
+            fmt::print("gate: passed ({} checks)\n", gate->outcomes.size());
+        else
+            fmt::print("gate: FAILED ({} of {} checks failed)\n", failed, gate->outcomes.size());
+    }
     return gate->passed ? kExitSuccess : kExitGateFailed;
 }
 

@@ -45,8 +45,11 @@ struct Common {
     bool quiet = false;
     int threads = 0;
     std::string max_memory;  // empty: the default budget (common/memory_estimate.h)
+    std::string size;        // --size WxH: replaces the scenario's image size; empty: the scenario's
 };
 void add_common(CLI::App* cmd, Common& c);
+// --size WxH, for the commands that render (oracle, raster, validate, tune, sweep).
+void add_size(CLI::App* cmd, Common& c);
 
 // --threads N (N > 0) bounds the whole command while this lives: the scene's load, the oracle,
 // the raster's and the metrics' parallel loops, not only the oracle's phases.

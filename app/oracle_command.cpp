@@ -87,6 +87,7 @@ Subcommand add_oracle_command(CLI::App& parent) {
     CLI::App* cmd = parent.add_subcommand("oracle", "Trace the exact visibility of every light (Embree)");
     add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
+    add_size(cmd, a->common);
     add_sampling(cmd, a->sampling);
     describe_outputs(
         cmd,

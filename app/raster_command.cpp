@@ -69,6 +69,7 @@ Subcommand add_raster_command(CLI::App& parent) {
     CLI::App* cmd = parent.add_subcommand("raster", "Render the scenario's shadows with a technique (Vulkan)");
     add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
+    add_size(cmd, a->common);
     add_technique(cmd, a->technique);
     describe_outputs(
         cmd,

@@ -127,6 +127,7 @@ Subcommand add_sweep_command(CLI::App& parent) {
     CLI::App* cmd = parent.add_subcommand("sweep", "Error against GPU time over technique configurations");
     cmd->add_option("SCENARIO", a->scenario, "Scenario JSON file")->required();
     add_common(cmd, a->common);
+    add_size(cmd, a->common);
     add_technique(cmd, a->technique);
     cmd->add_option("--vary", a->vary, "KEY=V1,V2,...: a technique key and its values (repeatable: the product)");
     cmd->add_option("--configs", a->configs, "JSON array of presets or technique objects, instead of --vary");

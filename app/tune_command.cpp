@@ -252,6 +252,7 @@ Subcommand add_tune_command(CLI::App& parent) {
         ->required()
         ->check(kUserPath);
     add_common(cmd, a->common);
+    add_size(cmd, a->common);
     add_technique(cmd, a->technique);
     cmd->add_option(
            "--knobs", a->knobs,

@@ -148,6 +148,7 @@ Subcommand add_validate_command(CLI::App& parent) {
         parent.add_subcommand("validate", "Oracle + raster + metrics: the verdict per pixel, reports and CI gates");
     add_scenario(cmd, a->scenario);
     add_common(cmd, a->common);
+    add_size(cmd, a->common);
     add_technique(cmd, a->technique);
     cmd->add_option("--gate", v.gate_file, "Gate JSON file (replaces the scenario's \"gate\")")->check(kUserPath);
     cmd->add_option("--junit", v.junit_file, "Write the gate's checks as JUnit XML to this file")->check(kUserPath);

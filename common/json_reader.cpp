@@ -422,6 +422,13 @@ void JsonObject::only_keys(std::initializer_list<std::string_view> known) const 
     }
 }
 
+std::vector<std::string> JsonObject::unread_keys() const {
+    std::vector<std::string> keys;
+    for (auto it = value_.begin(); it != value_.end(); ++it)
+        if (!read_.count(it.key())) keys.push_back(it.key());
+    return keys;
+}
+
 void JsonObject::finish() const {
     for (auto it = value_.begin(); it != value_.end(); ++it)
         if (!read_.count(it.key())) fail(it.key(), "unknown key");

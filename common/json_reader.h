@@ -10,6 +10,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 #include <string_view>
 
 namespace penumbra {
@@ -103,6 +104,7 @@ class JsonObject {
     // before reading when the object's keys are known up front; finish() still checks at the end.
     void only_keys(std::initializer_list<std::string_view> known) const;
     void finish() const;  // unknown keys are errors
+    std::vector<std::string> unread_keys() const;  // what finish() would refuse, in the object's order
 
   private:
     const nlohmann::json& value_;

@@ -431,6 +431,16 @@ Technique parse_technique(const json& value, const std::string& label) {
     family.parse(o, t);
     t.precision =
         pick_enum(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
+    // A key of another family ("cascades" without "family": "cascaded") names that family.
+    for (const std::string& key : o.unread_keys())
+        for (const FamilyEntry& other : technique_families()) {
+            if (other.name == family.name) continue;
+            for (const std::string& k : sweep_keys_of(other))
+                if (k == key || k.starts_with(key + "."))
+                    o.fail(key, fmt::format("a key of the \"{}\" family, not of \"{}\": add \"family\": \"{}\" (or "
+                                            "--set family={})",
+                                            other.name, family.name, other.name, other.name));
+        }
     o.finish();
     return t;
 }

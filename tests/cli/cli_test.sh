@@ -212,6 +212,19 @@ check "a folder in the way is named" grep -q "report.html: is a folder" <<<"$err
 check "a folder in the way: no file was replaced" cmp -s "$tmp/v10/report.json" "$tmp/v10-report.before"
 check "a folder in the way: no temporary left" test -z "$(ls -A "$tmp/v10" | grep tmp-)"
 
+# --size WxH replaces the scenario's image for one run, keyed apart in the oracle cache (#53).
+run validate "$tmp/small.json" --out "$tmp/sz" -q --size 40x24 --cache "$tmp/szcache"
+check "--size exits 0" test "$rc" -eq 0
+check "--size is the image judged" python3 -c "
+import json; i = json.load(open('$tmp/sz/report.json'))['image']; assert (i['width'], i['height']) == (40, 24), i"
+run validate "$tmp/small.json" --out "$tmp/sz2" -q --size 48x24 --cache "$tmp/szcache"
+check "another --size is another oracle frame" test "$(ls "$tmp/szcache" | grep -c '^oracle-')" -eq 2
+for bad in 0x10 40 40x 9000x9000 "40x24x2"; do
+    run validate "$tmp/small.json" --out "$tmp/szbad" --size "$bad"
+    check "--size $bad exits 2, naming the option" grep -q -- "--size" <<<"$err"
+    check "--size $bad writes nothing" test ! -e "$tmp/szbad"
+done
+
 require_tool xmllint xmllint
 junit_ok() { xmllint --noout --schema "$src/tests/cli/junit.xsd" "$1" 2>"$tmp/xmllint.log"; }
 
@@ -230,6 +243,9 @@ check "only failures are printed" test "$(grep -c '^light' <<<"$err")" -eq 3
 check "failing gate still writes its report" grep -q '"passed": false' "$tmp/g2/report.json"
 check "failing JUnit validates" junit_ok "$tmp/g2.xml"
 check "JUnit counts the failures" grep -q 'failures="3"' "$tmp/g2.xml"
+# The summary counts what failed (the first of two checks fails on each of 3 lights, the second passes).
+run validate "$tmp/small.json" --out "$tmp/g2s" --gate "$tmp/fail.json"
+check "the gate summary counts the failures, of all checks" grep -q '^gate: FAILED (3 of 6 checks failed)$' "$tmp/stdout"
 sed 's/ classname="[^"]*"//' "$tmp/g2.xml" >"$tmp/bad.xml"
 check "the schema rejects a testcase without a classname" fails junit_ok "$tmp/bad.xml"
 echo '{"checks": [{"metric": "rates.acnee", "max": 0}]}' >"$tmp/badgate.json"

@@ -216,9 +216,13 @@ TEST(RegisteredFamily, IsPickedByItsKeyAndParsesAndWritesItsOwnKeys) {
               (nlohmann::json{{"family", "constant_shade"}, {"value", 0.25}, {"precision", "camera_relative"}}));
     EXPECT_EQ(parse_technique(t.to_json(), "t").to_json(), t.to_json());
     EXPECT_DOUBLE_EQ(raster::family_of(t).hints(t).filter_reach_texels, 3.0);
-    // Its keys only: the depth map's are unknown to it, and its own are checked.
+    // Its keys only: the depth map's are not its own (the message names their family), and its
+    // own are checked.
     EXPECT_THAT(error_of({{"family", "constant_shade"}, {"resolution", 512}}),
-                HasSubstr("technique.resolution: unknown key"));
+                HasSubstr("technique.resolution: a key of the \"depth_map\" family, not of \"constant_shade\": add "
+                          "\"family\": \"depth_map\""));
+    // A key no family has stays unknown.
+    EXPECT_THAT(error_of({{"family", "constant_shade"}, {"nothing", 1}}), HasSubstr("technique.nothing: unknown key"));
     EXPECT_THAT(error_of({{"family", "constant_shade"}, {"value", 2}}), HasSubstr("technique.value"));
     // The unknown-family message lists it with the built-in ones.
     EXPECT_THAT(error_of({{"family", "nope"}}), HasSubstr("\"constant_shade\""));

@@ -53,6 +53,10 @@ TEST(Technique, ErrorsNameTheKeyPath) {
     EXPECT_THAT(error_of({{"filter", {{"type", "gaussian"}}}}), HasSubstr("\"poisson\""));
     EXPECT_THAT(error_of({{"resolution", 100000}}), HasSubstr("technique.resolution"));
     EXPECT_THAT(error_of({{"bias", {{"wrold", 1}}}}), HasSubstr("technique.bias.wrold: unknown key"));
+    // A family's key without its family names the family to add (#53).
+    EXPECT_THAT(error_of({{"cascades", {{"count", 4}}}}),
+                HasSubstr("technique.cascades: a key of the \"cascaded\" family, not of \"depth_map\": add \"family\": "
+                          "\"cascaded\" (or --set family=cascaded)"));
     EXPECT_THAT(error_of({{"preset", "nope"}}), HasSubstr("d3d12-textbook"));
     EXPECT_EQ(error_of({{"filter", {{"type", "pcss"}}}}), "");
     EXPECT_THAT(error_of({{"filter", {{"type", "pcss"}, {"max_radius_texels", 0.5}}}}),
