@@ -46,6 +46,7 @@ if (($# == 0)); then
 fi
 cache=()
 if [[ -n ${CACHE:-} ]]; then cache=(--cache "$CACHE"); fi
+rm -f "$OUT-$k/slurm-task.txt"  # a failed task leaves none
 "$PENUMBRA" sweep "$SCENARIO" --out "$OUT-$k" --shard "$k/$n" "${cache[@]}" "$@"
 echo "job=$SLURM_JOB_ID array_job=${SLURM_ARRAY_JOB_ID} task=$k shards=$n node=${SLURMD_NODENAME:-$(hostname)}" \
     >"$OUT-$k/slurm-task.txt"
