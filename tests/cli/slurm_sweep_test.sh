@@ -11,6 +11,7 @@
 # (exit 77), and with CI set a missing package is a failure.
 # Usage: slurm_sweep_test.sh PENUMBRA SOURCE_DIR
 set -uo pipefail
+PATH=$PATH:/usr/sbin:/sbin  # the daemons, where a root shell's PATH lacks them
 missing=()
 for tool in munged mungekey munge unmunge slurmctld slurmd sbatch scontrol sinfo squeue scancel; do
     command -v "$tool" >/dev/null 2>&1 || missing+=("$tool")
