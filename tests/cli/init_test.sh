@@ -168,7 +168,7 @@ check "a model with lights: the scenario loads" test "$rc" -eq 0
 # Third-party models in other formats, converted with assimp (issue #53): a heightfield that is
 # Z-up, an AMF print (Z-up, standing on z = 0), several models in one scenario; the far plane
 # init writes lets cascades and engine presets run without editing a file.
-if command -v assimp >/dev/null; then
+if require_tool assimp-utils assimp; then
     a=/usr/share/assimp/models
     mkdir -p "$tmp/conv"
     assimp export "$a/HMP/terrain.hmp" "$tmp/conv/terrain.glb" -fglb2 >/dev/null
@@ -202,8 +202,6 @@ assert len(s) == 3 and s[0]['up'] == 'z' and isinstance(s[1], str) and s[2]['up'
 import json; assert len(json.load(open('$tmp/three/run/oracle.json'))['scene']) == 3"
     read -r three_surface _ <<<"$(coverage "$tmp/three/run/report.json")"
     check "three models: framed ($three_surface)" at_least "$three_surface" 0.2
-else
-    echo "SKIP third-party formats: assimp (assimp-utils) not installed"
 fi
 
 # --help: the outputs and an example.
