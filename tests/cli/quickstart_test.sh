@@ -58,7 +58,8 @@ for ((i = 0; i < n; i++)); do
 done
 
 # What the page says the reader will see.
-warning=$(grep '^warning: the model is' "$page")
+warning=$(grep '^warning: .* across, which suggests millimetres' "$page")
+check "the page quotes init's unit warning" test -n "$warning"
 check "the page quotes init's unit warning as init prints it" grep -qxF "$warning" "$tmp/block0.err"
 check "init wrote the scaled scenario" grep -q '"scale": 0.001' "$tmp/work/shadows/scenario.json"
 check "validate wrote report.html" test -s "$tmp/work/shadows/run/report.html"

@@ -170,7 +170,10 @@ vary=(--vary resolution=256,512 --vary filter.type=none,pcf --repeat 1 -q)
 shards=2
 run validate "$tmp/a.json" --out "$tmp/validate" --cache "$tmp/cache" -q
 check "validate traces the oracle into the cache" test -n "$(ls "$tmp/cache" 2>/dev/null)"
-cache_before=$(ls -l "$tmp/cache")
+# A cache hit touches its entry (the least recently used go first) but never rewrites it: the
+# entries' names, sizes and inodes (a new trace is written aside and renamed in) must not change.
+cache_entries() { (cd "$tmp/cache" && stat -c '%n %s %i' -- * 2>/dev/null | sort); }
+cache_before=$(cache_entries)
 
 # docs/sweep.md's recipe: the array, then the merge once every task succeeded.
 unset SHARDS
@@ -203,7 +206,7 @@ for k in $(seq 1 $shards); do
 done
 check "scontrol: the merge job completed with exit 0" grep -qE "JobState=COMPLETED .*ExitCode=0:0" \
     <<<"$(timeout 10 scontrol -o show job "$merge_job" 2>&1)"
-check "no shard traced the oracle again" test "$(ls -l "$tmp/cache")" == "$cache_before"
+check "no shard traced the oracle again" test "$(cache_entries)" == "$cache_before"
 
 # One unsharded run; the merged shards equal it on every verdict column.
 run sweep "$tmp/a.json" --out "$tmp/one" --cache "$tmp/cache" "${vary[@]}"
