@@ -113,7 +113,6 @@ class MidpointVariant final : public DepthMapVariant {
                       VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
                       VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
                       VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, peel_pipeline(t));
         VkDescriptorSet set = peel_sets_[map.map_index];
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, peel_layout_.get(), 0, 1, &set, 0, nullptr);
         // Two depth quanta: the first layer's own surface drawn again lies within one of it (a UNORM
@@ -126,7 +125,7 @@ class MidpointVariant final : public DepthMapVariant {
             const PeelPush push{glm::mat4(map.projection->view_proj[layer]), layer, epsilon};
             vkCmdPushConstants(cmd, peel_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                                sizeof(push), &push);
-            if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
+            draw_casters(cmd, s_, t, [&](Cull c) { return peel_pipeline(t, c); });
             vkCmdEndRendering(cmd);
         }
     }
@@ -147,14 +146,14 @@ class MidpointVariant final : public DepthMapVariant {
         std::vector<UniqueImageView> first_layers, second_prim_layers;
     };
 
-    // The technique's culling, depth test less.
-    VkPipeline peel_pipeline(const Technique& t) {
-        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), t.cull}];
+    // The technique's culling (`cull`: draw_casters' per run), depth test less.
+    VkPipeline peel_pipeline(const Technique& t, Cull cull) {
+        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull}];
         if (!p)
             p = make_graphics_pipeline(
                 ctx_, peel_layout_.get(),
                 {kShadowVert, sizeof(kShadowVert), kPeelFrag, sizeof(kPeelFrag), vk_format(t.depth_format),
-                 VK_COMPARE_OP_LESS, vk_cull(t.cull), VK_FRONT_FACE_CLOCKWISE, true, false});
+                 VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE, true, false});
         return p.get();
     }
 

@@ -59,8 +59,26 @@ std::uint64_t depth_texel_bytes(DepthFormat f) {
 
 // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from the light
 // is VK_FRONT_FACE_CLOCKWISE with these (pinned by the culling test).
+void draw_casters(VkCommandBuffer cmd, const SceneOnGpu& scene, const Technique& t,
+                  const std::function<VkPipeline(Cull)>& pipeline) {
+    if (t.cull != Cull::material) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline(t.cull));
+        if (scene.index_count > 0) vkCmdDrawIndexed(cmd, scene.index_count, 1, 0, 0, 0);
+        return;
+    }
+    VkPipeline bound = VK_NULL_HANDLE;
+    for (const SceneOnGpu::SidedRun& run : scene.sided_runs) {
+        VkPipeline p = pipeline(run.double_sided ? Cull::none : t.single_sided_cull);
+        if (p != bound) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, bound = p);
+        // The instance starts at the run's first triangle: the shaders add it to gl_PrimitiveID.
+        vkCmdDrawIndexed(cmd, 3 * run.count, 1, 3 * run.first, 0, run.first);
+    }
+}
+
 VkCullModeFlags vk_cull(Cull c) {
-    return c == Cull::none ? VK_CULL_MODE_NONE : c == Cull::back ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_FRONT_BIT;
+    // Cull::material is drawn run by run (DepthMapCore::draw_casters), each run with none or the
+    // single-sided side: never one mode.
+    return c == Cull::back ? VK_CULL_MODE_BACK_BIT : c == Cull::front ? VK_CULL_MODE_FRONT_BIT : VK_CULL_MODE_NONE;
 }
 
 UniquePipeline make_compute_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const std::uint32_t* code,
@@ -180,7 +198,7 @@ struct MapContent {
     std::uint32_t layers = 0;
     int resolution = 0;
     DepthFormat format = DepthFormat::d32;
-    Cull cull = Cull::back;
+    Cull cull = Cull::back, single_sided_cull = Cull::back;
     double constant = 0, slope = 0, clamp = 0;
     DepthLayer depth_layer = DepthLayer::first;
     std::vector<double> constant_scale;  // per layer: DepthMapVariant::constant_scale
@@ -233,7 +251,7 @@ class DepthMapCore final : public TechniqueFamily {
 
     void check_supported(const Technique& t, RasterStats& stats);
     std::uint32_t layers_of(const Technique& t, const Light& l) const;
-    VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids);
+    VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull);
     LookupShader shader_for(const Technique& t, const Light& l) const;
     SpecData lookup_spec(const Technique& t, const LookupShader& shader, gpu::uint kind, gpu::uint mode) const;
     VkPipeline lookup_pipeline(const Technique& t, const Light& l, gpu::uint kind, gpu::uint mode);
@@ -323,10 +341,10 @@ std::uint32_t DepthMapCore::layers_of(const Technique& t, const Light& l) const 
 // Without: no fragment shader and no colour target, the depth pass an engine draws. Both share
 // the vertex shader, depth bias, clamp and culling, so they store the same depths. Caster
 // offsets add a geometry shader (caster.geom); reversed Z keeps the nearest surface with GREATER.
-VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids) {
+VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull) {
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
     const bool caster = has_caster_offsets(t.bias);
-    auto key = std::make_tuple(vk_format(t.depth_format), t.cull, bias, triangle_ids, t.reversed_z, caster);
+    auto key = std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
         GraphicsSetup g{caster ? kCasterVert : kShadowVert,
@@ -335,7 +353,7 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids) 
                         triangle_ids ? sizeof(kShadowFrag) : 0,
                         vk_format(t.depth_format),
                         t.reversed_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS,
-                        vk_cull(t.cull),
+                        vk_cull(cull),
                         VK_FRONT_FACE_CLOCKWISE,
                         true,
                         bias};
@@ -637,18 +655,9 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
     std::vector<double> constant_scale(ls.projection.view_proj.size(), 1.0);
     for (std::uint32_t layer = 0; layer < constant_scale.size(); ++layer)
         for (const auto& v : variants_) constant_scale[layer] *= v->constant_scale(t, light, ls.projection, layer);
-    MapContent content{ls.projection.view_proj,
-                       ls.layers_sampled,
-                       t.resolution,
-                       t.depth_format,
-                       t.cull,
-                       t.bias.constant,
-                       t.bias.slope,
-                       t.bias.clamp,
-                       t.depth_layer,
-                       constant_scale,
-                       t.reversed_z,
-                       t.bias.caster};
+    MapContent content{ls.projection.view_proj, ls.layers_sampled, t.resolution, t.depth_format, t.cull,
+                       t.single_sided_cull,     t.bias.constant,   t.bias.slope, t.bias.clamp,   t.depth_layer,
+                       constant_scale,          t.reversed_z,      t.bias.caster};
     LightMap& map = map_of(li);
     // The lookups read the stored triangle ids; V alone reads depth only, so a map drawn with
     // ids serves it too, but a depth-only map must be drawn again for the lookups.
@@ -672,7 +681,6 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
                           VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
                           VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_NONE,
                           VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_pipeline(t, triangle_ids));
         VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
@@ -698,7 +706,7 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
                 glm::mat4 vp = glm::mat4(map_view_proj(t, ls.projection.view_proj[layer]));
                 vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
             }
-            if (s_.index_count > 0) vkCmdDrawIndexed(cmd, s_.index_count, 1, 0, 0, 0);
+            draw_casters(cmd, s_, t, [&](Cull c) { return shadow_pipeline(t, triangle_ids, c); });
             vkCmdEndRendering(cmd);
             ++ls.layers_rendered;
         }
@@ -887,6 +895,9 @@ FamilyEntry depth_map_family_entry() {
         t.depth_layer = pick_enum(o, "depth_layer", DepthLayer::first,
                                   {DepthLayer::first, DepthLayer::midpoint, DepthLayer::second});
         // Second-depth shadow mapping is the map of back faces alone: what `cull: front` draws.
+        if (t.depth_layer == DepthLayer::second && t.cull == Cull::material)
+            o.fail("cull",
+                   "depth_layer \"second\" draws back faces alone (cull front); \"material\" culls by material");
         if (t.depth_layer == DepthLayer::second) t.cull = Cull::front;
         // The midpoint pass peels and stores forward depths (shaders/peel.frag).
         if (t.depth_layer == DepthLayer::midpoint && t.reversed_z)

@@ -70,11 +70,16 @@ void prepare_scene(SceneOnGpu& s) {
     static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "positions upload as packed float3");
     std::vector<std::uint32_t> idx(scene.triangles.size() * 3);
     std::vector<std::uint32_t> bits((scene.triangles.size() + 31) / 32 + 1, 0u);
+    s.sided_runs.clear();
     for (std::size_t t = 0; t < scene.triangles.size(); ++t) {
         idx[3 * t] = scene.triangles[t].x;
         idx[3 * t + 1] = scene.triangles[t].y;
         idx[3 * t + 2] = scene.triangles[t].z;
-        if (scene.double_sided[t]) bits[t / 32] |= 1u << (t % 32);
+        const bool two = scene.double_sided[t] != 0;
+        if (two) bits[t / 32] |= 1u << (t % 32);
+        if (s.sided_runs.empty() || s.sided_runs.back().double_sided != two)
+            s.sided_runs.push_back({static_cast<std::uint32_t>(t), 0, two});
+        ++s.sided_runs.back().count;
     }
     s.index_count = static_cast<std::uint32_t>(idx.size());
     s.positions = upload(ctx, s.drawn_positions.data(), s.drawn_positions.size() * sizeof(glm::vec3),

@@ -24,7 +24,7 @@ const char* to_string(DepthFormat f) {
     return kNames[static_cast<int>(f)];
 }
 const char* to_string(Cull c) {
-    static const char* const kNames[] = {"none", "back", "front"};
+    static const char* const kNames[] = {"none", "back", "front", "material"};
     return kNames[static_cast<int>(c)];
 }
 const char* to_string(DepthLayer d) {
@@ -210,24 +210,28 @@ const std::vector<Preset>& presets() {
               {"filter", {{"type", "pcf"}, {"size", 3}, {"bilinear_taps", true}}}}},
         {"three",
          "three.js r187: 512^2, 24-bit, no cascades; the fixed +-5 m shadow camera (which scenes always replace) "
-         "fitted to the scene's bounding sphere; a FrontSide material's back faces drawn into the map (shadowSide), "
-         "bias 0, normalBias 0; PCFShadowMap: 5 bilinear compares on a Vogel disk of radius 1 texel turned per "
+         "fitted to the scene's bounding sphere; culled by material (shadowSide): a FrontSide material's back faces "
+         "drawn into the map, a DoubleSide one's both; bias 0, normalBias 0; PCFShadowMap: 5 bilinear compares on a "
+         "Vogel disk of radius 1 texel turned per "
          "pixel by interleaved gradient noise",
          json{{"family", "depth_map"},
               {"resolution", 512},
               {"depth_format", "d24"},
               {"fit", "scene_sphere"},
-              {"depth_layer", "second"},
+              {"cull", "material"},
+              {"single_sided_cull", "front"},
               {"bias", {{"constant", 0}, {"slope", 0}, {"shader_depth", 0}, {"normal_offset_m", 0}}},
               {"filter", {{"type", "vogel"}, {"taps", 5}, {"radius_texels", 1.0}, {"bilinear_taps", true}}}}},
         {"three-csm",
          "three.js r187 CSM addon: 3 cascades, practical split lambda 0.5 to the camera's far plane, 2048^2, "
-         "24-bit, diagonal fit snapped to texels, back faces drawn (shadowSide), shadowBias 1e-6 added to the "
+         "24-bit, diagonal fit snapped to texels, culled by material (shadowSide: a FrontSide material's back faces, a "
+         "DoubleSide one's both), shadowBias 1e-6 added to the "
          "receiver's depth, the renderer's 5-tap Vogel PCF",
          json{{"family", "cascaded"},
               {"resolution", 2048},
               {"depth_format", "d24"},
-              {"cull", "front"},
+              {"cull", "material"},
+              {"single_sided_cull", "front"},
               {"bias", {{"constant", 0}, {"slope", 0}, {"shader_depth", -1e-6}}},
               {"cascades",
                {{"count", 3}, {"split", "practical"}, {"lambda", 0.5}, {"fit", "sphere"}, {"stabilize", true}}},
@@ -246,13 +250,13 @@ const std::vector<Preset>& presets() {
               {"filter", {{"type", "pcf"}, {"size", 2}, {"bilinear_taps", true}}}}},
         {"babylon",
          "Babylon.js 9.28 ShadowGenerator: 1024^2 (the docs' choice: the size is a constructor argument), light "
-         "frustum fitted to the casters, bias 0.00005 of the map's depth range added to the casters' depth, "
-         "normalBias 0, filter none",
+         "frustum fitted to the casters, culled by material (backFaceCulling: a double-sided material casts both "
+         "faces), bias 0.00005 of the map's depth range added to the casters' depth, normalBias 0, filter none",
          json{{"family", "depth_map"},
               {"resolution", 1024},
               {"depth_format", "d32"},
               {"fit", "scene_bounds"},
-              {"cull", "back"},
+              {"cull", "material"},
               {"bias", {{"constant", 0}, {"slope", 0}, {"caster", {{"depth", 0.00005}, {"normal", 0}}}}},
               {"filter", {{"type", "none"}}}}},
         {"babylon-csm",
@@ -262,7 +266,7 @@ const std::vector<Preset>& presets() {
          json{{"family", "cascaded"},
               {"resolution", 1024},
               {"depth_format", "d32"},
-              {"cull", "back"},
+              {"cull", "material"},
               {"bias", {{"constant", 0}, {"slope", 0}, {"caster", {{"depth", 0.00005}, {"normal", 0}}}}},
               {"cascades",
                {{"count", 4},
@@ -454,7 +458,11 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
     t.shadow_distance = o.number_in("shadow_distance", 0.0, 0.0, 1e12, "metres >= 0 (0: the whole view)");
     if (t.shadow_distance > 0 && t.fit != Fit::camera_frustum)
         o.fail("shadow_distance", "only the camera_frustum fit has a shadow distance");
-    t.cull = pick_enum(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front});
+    t.cull = pick_enum(o, "cull", Cull::back, {Cull::none, Cull::back, Cull::front, Cull::material});
+    // Checked whatever `cull` is, used only with material: `--preset three --set cull=none` (or a
+    // sweep varying cull over that preset) keeps the preset's value without meaning it.
+    const Cull single_sided = pick_enum(o, "single_sided_cull", Cull::back, {Cull::back, Cull::front});
+    if (t.cull == Cull::material) t.single_sided_cull = single_sided;
     t.reversed_z = o.boolean("reversed_z", false);
     if (o.has("bias")) {
         JsonObject b = o.object("bias");
@@ -562,6 +570,7 @@ json depth_map_keys_json(const Technique& t) {
              {"radius_texels", filter.radius_texels},
              {"bilinear_taps", filter.bilinear_taps},
              {"max_radius_texels", filter.max_radius_texels}}}};
+    if (t.cull == Cull::material) j["single_sided_cull"] = to_string(t.single_sided_cull);
     if (!t.lights.empty()) {
         json entries = json::array();
         for (const LightOverride& l : t.lights)

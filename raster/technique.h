@@ -18,7 +18,9 @@ namespace penumbra::raster {
 
 enum class Fit { scene_sphere, scene_bounds, camera_frustum };
 enum class DepthFormat { d16, d24, d32 };
-enum class Cull { none, back, front };
+// material: each material's doubleSided decides (docs/raster.md, "Culling by material"): a
+// double-sided one casts both faces, a single-sided one is culled on `single_sided_cull`'s side.
+enum class Cull { none, back, front, material };
 // vogel: `taps` taps on a Vogel (golden-angle) disk of `radius_texels`, rotated per pixel by
 // interleaved gradient noise (Jimenez 2014): three.js r18x's PCFShadowMap (5 taps, radius 1).
 enum class FilterType { none, hw2x2, pcf, poisson, pcss, vogel };
@@ -119,6 +121,9 @@ struct Technique {
     Fit fit = Fit::scene_bounds;
     double shadow_distance = 0;  // camera_frustum: metres of view depth the map covers (0: all)
     Cull cull = Cull::back;
+    // With cull material: the side culled on single-sided materials (back: Babylon, PlayCanvas,
+    // Godot; front: three.js, whose shadowSide casts a FrontSide material's back faces).
+    Cull single_sided_cull = Cull::back;
     // The default bias is what a careful engine ships, not none (46-49% acne on every real model
     // tried): Filament's polygon offset, LightManager::ShadowOptions polygonOffsetConstant 0.5
     // and polygonOffsetSlope 2.0 (../shared/reference/engines.md, section 6). The `no-bias`

@@ -43,6 +43,13 @@ struct SceneOnGpu {
     // drawn_positions, uint3 per triangle, bits
     GpuBuffer positions, indices, double_sided;
     std::uint32_t index_count = 0;
+    // Consecutive triangles of one doubleSided value, in triangle order: what a shadow pass with
+    // cull material draws one by one (a glTF primitive's triangles are one run).
+    struct SidedRun {
+        std::uint32_t first = 0, count = 0;  // triangles
+        bool double_sided = false;
+    };
+    std::vector<SidedRun> sided_runs;
     GpuImage gbuffer_prim;             // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
     glm::mat4 camera_view_proj{1.0f};  // the camera pass's clip space (reversed depth), for families that redraw it
     std::vector<float> A;              // 1 where a triangle covers the pixel

@@ -12,6 +12,8 @@
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 3) out;
 layout(push_constant) uniform Push { ShadowPush s; };
+layout(location = 0) flat in uint first_prim_in[];
+layout(location = 0) flat out uint first_prim;
 
 float normal_factor(uint kind, float ndotl) {
     if (kind == kNormalFactorOneMinusNdotL) return 1.0 - max(ndotl, 0.0);
@@ -38,6 +40,7 @@ void main() {
         // Z stores 1 - z, so the same move away from the light lowers it.
         gl_Position.z += (s.caster.w > 0.5 ? -s.caster.y : s.caster.y) * gl_Position.w;
         gl_PrimitiveID = gl_PrimitiveIDIn;
+        first_prim = first_prim_in[0];
         EmitVertex();
     }
     EndPrimitive();

@@ -10,10 +10,11 @@ layout(push_constant) uniform Push {
     uint layer;
     float epsilon;
 } push;
+layout(location = 0) flat in uint first_prim;  // shadow.vert's
 layout(location = 0) out uint second_prim;
 void main() {
     float first = texelFetch(first_layer, ivec3(ivec2(gl_FragCoord.xy), int(push.layer)), 0).r;
     if (gl_FragCoord.z <= first + push.epsilon) discard;
     gl_FragDepth = 0.5 * (first + gl_FragCoord.z);
-    second_prim = uint(gl_PrimitiveID);
+    second_prim = first_prim + uint(gl_PrimitiveID);
 }

@@ -65,6 +65,28 @@ TEST(Technique, ErrorsNameTheKeyPath) {
     EXPECT_THAT(error_of({{"shadow_distance", 20.0}}), HasSubstr("technique.shadow_distance: only the camera_frustum"));
     EXPECT_THAT(error_of({{"fit", "camera_frustum"}, {"shadow_distance", -1.0}}),
                 HasSubstr("technique.shadow_distance"));
+    // Culling by material: the side of single-sided materials only with it, back or front.
+    EXPECT_EQ(error_of({{"cull", "material"}, {"single_sided_cull", "front"}}), "");
+    // A preset's side outlives `--set cull=back` (sweeps vary cull over presets); it means nothing then.
+    EXPECT_EQ(error_of({{"preset", "three"}, {"cull", "back"}}), "");
+    EXPECT_THAT(error_of({{"cull", "material"}, {"single_sided_cull", "none"}}),
+                HasSubstr("technique.single_sided_cull"));
+    EXPECT_THAT(error_of({{"cull", "material"}, {"depth_layer", "second"}}), HasSubstr("technique.cull"));
+}
+
+TEST(Technique, CullByMaterialRoundTripsWithItsSingleSidedSide) {
+    const raster::Technique t = parse_technique({{"cull", "material"}}, "x");
+    EXPECT_EQ(t.cull, raster::Cull::material);
+    EXPECT_EQ(t.single_sided_cull, raster::Cull::back);
+    const nlohmann::json j = t.to_json();
+    EXPECT_EQ(j.at("cull"), "material");
+    EXPECT_EQ(j.at("single_sided_cull"), "back");
+    EXPECT_EQ(parse_technique(j, "raster.json: technique").to_json(), j);
+    // Other cullings write no single_sided_cull (their raster.json stays as it was).
+    EXPECT_FALSE(parse_technique({{"cull", "back"}}, "x").to_json().contains("single_sided_cull"));
+    const raster::Technique over = parse_technique({{"preset", "three"}, {"cull", "front"}}, "x");
+    EXPECT_EQ(over.cull, raster::Cull::front);
+    EXPECT_FALSE(over.to_json().contains("single_sided_cull"));
 }
 
 // Engines set bias per light: `lights[i].bias` overrides the technique's `bias` for light i,
@@ -217,8 +239,10 @@ TEST(Technique, EnginePresetsParseAndRoundTrip) {
     raster::Technique t = parse_technique({{"preset", "three"}}, "x");
     EXPECT_EQ(t.resolution, 512);
     EXPECT_EQ(t.fit, raster::Fit::scene_sphere);
-    EXPECT_EQ(t.depth_layer, raster::DepthLayer::second);
-    EXPECT_EQ(t.cull, raster::Cull::front);
+    // three.js's shadowSide: a FrontSide material's back faces, a DoubleSide one's both.
+    EXPECT_EQ(t.depth_layer, raster::DepthLayer::first);
+    EXPECT_EQ(t.cull, raster::Cull::material);
+    EXPECT_EQ(t.single_sided_cull, raster::Cull::front);
     EXPECT_EQ(t.filter.type, raster::FilterType::vogel);
     EXPECT_EQ(t.filter.taps, 5);
     EXPECT_EQ(t.filter.radius_texels, 1.0);
