@@ -117,7 +117,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
         for (std::size_t li = 0; li < r.score.lights.size(); ++li) {
             fmt::print("  light {} ({}): {}\n", li, to_string(scenario.lights[li].type),
                        metrics::summary_line(r.score.lights[li]));
-            if (auto hint = metrics::reading_line(r.score.lights[li])) fmt::print("    hint: {}\n", *hint);
+            if (auto hint = metrics::reading_line(r.score.lights[li], r.facts)) fmt::print("    hint: {}\n", *hint);
             if (path && li < r.report["lights"].size()) {
                 const nlohmann::json& temporal = r.report["lights"][li]["temporal"];
                 fmt::print("    flicker over {} frames: {:.5f} ({} of {} points seen in consecutive frames)\n",

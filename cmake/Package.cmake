@@ -34,7 +34,7 @@ set(penumbra_public_headers
   common/ranges.h common/receivers.h common/scenario.h common/scene.h common/version.h
   metrics/classification.h metrics/gate.h metrics/metric_table.h
   oracle/oracle.h
-  pipeline/validate.h pipeline/validate_files.h pipeline/compare.h pipeline/compare_files.h
+  pipeline/facing.h pipeline/validate.h pipeline/validate_files.h pipeline/compare.h pipeline/compare_files.h
   raster/cascades.h raster/depth_map.h raster/gpu_passes.h raster/knobs.h raster/light_projection.h raster/raster.h raster/raster_output.h raster/technique.h
   raster/technique_family.h raster/vk_check.h raster/vulkan_context.h
   report/report.h shaders/penumbra_shared.h

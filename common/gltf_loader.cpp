@@ -826,6 +826,14 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
     Scene scene;
     scene.cameras.resize(model.cameras.size());
     scene.camera_placed.assign(model.cameras.size(), false);
+    // What messages call a node: its index, and its name where it has one (capped, made UTF-8).
+    scene.node_labels.reserve(model.nodes.size());
+    for (std::size_t i = 0; i < model.nodes.size(); ++i) {
+        const std::string& name = model.nodes[i].name;
+        scene.node_labels.push_back(
+            name.empty() ? fmt::format("nodes[{}]", i)
+                         : fmt::format("nodes[{}] \"{}\"", i, escape_non_utf8(name.substr(0, kMaxNodeLabelBytes))));
+    }
     std::vector<int> roots;
     if (!model.scenes.empty()) {
         int s = model.defaultScene >= 0 ? model.defaultScene : 0;

@@ -53,6 +53,7 @@ void append_model(Scene& scene, Scene&& part, const std::string& label) {
     if (!label.empty()) {
         for (Light& l : part.lights) l.origin = label + ": " + l.origin;
         for (std::string& w : part.warnings) w = label + ": " + w;
+        for (std::string& n : part.node_labels) n = label + ": " + n;
     }
     if (scene.triangles.empty() && scene.positions.empty() && scene.cameras.empty() && scene.lights.empty() &&
         scene.warnings.empty()) {
@@ -65,7 +66,10 @@ void append_model(Scene& scene, Scene&& part, const std::string& label) {
     scene.positions.insert(scene.positions.end(), part.positions.begin(), part.positions.end());
     for (const glm::u32vec3& t : part.triangles) scene.triangles.push_back(t + glm::u32vec3(vertex_base));
     scene.double_sided.insert(scene.double_sided.end(), part.double_sided.begin(), part.double_sided.end());
+    node_base = std::max(node_base, static_cast<std::uint32_t>(scene.node_labels.size()));
+    scene.node_labels.resize(node_base);
     for (std::uint32_t n : part.triangle_node) scene.triangle_node.push_back(n + node_base);
+    scene.node_labels.insert(scene.node_labels.end(), part.node_labels.begin(), part.node_labels.end());
     scene.cameras.insert(scene.cameras.end(), part.cameras.begin(), part.cameras.end());
     scene.camera_placed.insert(scene.camera_placed.end(), part.camera_placed.begin(), part.camera_placed.end());
     scene.lights.insert(scene.lights.end(), part.lights.begin(), part.lights.end());

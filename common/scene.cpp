@@ -2,6 +2,8 @@
 
 #include <glm/geometric.hpp>
 
+#include "common/receivers.h"
+
 namespace penumbra {
 
 const char* to_string(LightType type) {
@@ -26,6 +28,11 @@ std::uint32_t Scene::add_triangle(const glm::dvec3& a, const glm::dvec3& b, cons
     double_sided.push_back(is_double_sided);
     triangle_node.push_back(0);
     return static_cast<std::uint32_t>(triangles.size() - 1);
+}
+
+std::string Scene::node_label(std::uint32_t node) const {
+    if (node == kReceiverNode) return "receivers";
+    return node < node_labels.size() ? node_labels[node] : "node " + std::to_string(node);
 }
 
 double Bounds::radius() const {

@@ -60,11 +60,14 @@ struct Bounds {
 };
 
 // A flattened triangle soup; triangle index = primitive id in every output (oracle and raster).
+inline constexpr std::size_t kMaxNodeLabelBytes = 64;  // of a node's name, in messages
+
 struct Scene {
     std::vector<glm::dvec3> positions;         // world space
     std::vector<glm::u32vec3> triangles;       // counter-clockwise = front face
     std::vector<std::uint8_t> double_sided;    // per triangle (glTF material.doubleSided)
     std::vector<std::uint32_t> triangle_node;  // per triangle: glTF node index
+    std::vector<std::string> node_labels;      // per node index: "nodes[4] \"Terrain\"", for messages (may be short)
     std::vector<Camera> cameras;               // glTF cameras, placed by their first node; index = camera index
     std::vector<bool> camera_placed;           // false where no node of the scene uses that camera
     std::vector<Light> lights;                 // KHR_lights_punctual, placed by nodes
@@ -72,6 +75,8 @@ struct Scene {
     std::vector<std::string> warnings;  // skipped points/lines, degenerate triangles, ...
 
     std::size_t triangle_count() const { return triangles.size(); }
+    // What messages call a node (Scene::triangle_node's values): its label, "receivers", or "node N".
+    std::string node_label(std::uint32_t node) const;
     // Appends a triangle with three vertices of its own (node 0) and grows the bounds; returns
     // its index. For scenes built in code (the stress cases, the tests).
     std::uint32_t add_triangle(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c, bool double_sided);

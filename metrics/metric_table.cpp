@@ -242,7 +242,7 @@ nlohmann::json to_json(const LightScore& s) {
     return j;
 }
 
-std::optional<std::string> reading_line(const LightScore& s) {
+std::optional<std::string> reading_line(const LightScore& s, const RunFacts& facts) {
     PixelClass top = PixelClass::correct;
     std::uint64_t most = 0;
     for (PixelClass c : kErrorClasses)
@@ -251,7 +251,7 @@ std::optional<std::string> reading_line(const LightScore& s) {
             top = c;
         }
     if (most == 0 || s.rate_visible(top) < kHintRate) return std::nullopt;
-    std::string_view cure;
+    std::string cure;
     switch (top) {
         case PixelClass::acne: cure = "self-shadowing; add bias, or run `penumbra tune`"; break;
         case PixelClass::peter_panning:
@@ -267,7 +267,21 @@ std::optional<std::string> reading_line(const LightScore& s) {
             cure = "light leaking through stacked occluders in the moment map; raise the light-bleed reduction";
             break;
         default:
-            cure = "shadows missing (casters clipped, culled or outside the map); check the fit and culling";
+            if (facts.seen_from_behind < kFacingHintShare) {
+                cure = "shadows missing (casters clipped, culled or outside the map); check the fit and culling";
+                break;
+            }
+            // What this run measured comes first: geometry seen from behind (which a culling
+            // shadow pass may drop as casters), then culling, then the fit.
+            cure = fmt::format(
+                "shadows missing; the likely causes, in order: {:.0f}% of the frame meets the back of single-sided "
+                "triangles (inverted winding or open meshes, named in the warnings){}; culling; casters clipped or "
+                "outside the map (check the fit)",
+                100.0 * facts.seen_from_behind,
+                facts.culling.empty()
+                    ? ""
+                    : fmt::format(", which a shadow pass culling {} drops as casters",
+                                  facts.culling == "material" ? "by material" : facts.culling + " faces"));
             break;
     }
     return fmt::format("{} {:.1f}% of scored pixels (visible): {}", to_string(top), 100.0 * s.rate_visible(top), cure);

@@ -68,6 +68,14 @@ std::string summary_line(const LightScore& s);
 // self-shadowing; add bias, or run `penumbra tune`"). nullopt when no class reaches
 // kHintRate of the scored pixels visibly: nothing dominates enough to name.
 inline constexpr double kHintRate = 0.01;
-std::optional<std::string> reading_line(const LightScore& s);
+
+// What the run measured besides the classes, for the hint of missing shadows: its causes are
+// named in order of what this run shows (docs/metrics.md, "Facing").
+struct RunFacts {
+    double seen_from_behind = 0;  // share of the frame whose ray met a single-sided back face first
+    std::string culling;          // the shadow pass's culling where it culls casters ("back", "front", "material")
+};
+inline constexpr double kFacingHintShare = 0.05;  // of the frame, seen from behind: named first
+std::optional<std::string> reading_line(const LightScore& s, const RunFacts& facts = {});
 
 }  // namespace penumbra::metrics

@@ -12,6 +12,7 @@
 #include <exception>
 #include <functional>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
@@ -121,7 +122,8 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
     const bool any_area = std::any_of(lights.begin(), lights.end(), [](const LocalLight& l) { return l.sampled; });
     std::vector<SurfacePoint> surfaces(any_area ? frame.pixel_count() : 0);  // kept for area sampling only
     const bool progress = settings.progress && ::isatty(STDERR_FILENO);
-    std::mutex progress_mutex;
+    std::mutex progress_mutex, culled_mutex;
+    std::map<std::uint32_t, std::uint64_t> culled_by_node;
     int last_percent = -1;
     tbb::parallel_for(tbb::blocked_range<int>(0, tile_count, 4), [&](const tbb::blocked_range<int>& r) {
         TraceCounters c;
@@ -130,6 +132,10 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
         shadow += c.shadow;
         retraced += c.retraced;
         culled += c.culled;
+        if (!c.culled_by_node.empty()) {
+            std::lock_guard lock(culled_mutex);
+            for (const auto& [node, n] : c.culled_by_node) culled_by_node[node] += n;
+        }
         int done = tiles_done += static_cast<int>(r.size());
         if (progress) {
             int pct = static_cast<int>(100.0 * done / tile_count);
@@ -147,6 +153,7 @@ void trace_frame(const Tracer& tracer, const OracleSettings& settings, OracleRes
     stats.shadow_rays = shadow;
     stats.verified_retraces = retraced;
     stats.culled_retraces = culled;
+    stats.culled_by_node.assign(culled_by_node.begin(), culled_by_node.end());
 
     // ---- area lights: adaptive sampling, one light after the other (each is parallel inside) ----
     t0 = SteadyClock::now();

@@ -7,6 +7,7 @@
 #include <future>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/frames.h"
@@ -67,6 +68,9 @@ struct OracleStats {
     std::uint64_t boundary_rays = 0;      // verified rays locating shadow boundaries
     std::uint64_t verified_retraces = 0;  // shadow rays re-traced with double-precision hit checks
     std::uint64_t culled_retraces = 0;    // primary rays traced again past a single-sided back face
+    // Those rays by the glTF node of the back face they met first, by node (docs/metrics.md,
+    // "Facing"): how much of each mesh the camera sees from behind.
+    std::vector<std::pair<std::uint32_t, std::uint64_t>> culled_by_node;
     // frame: the wait for the channels' allocation left after the build it overlaps
     double build_s = 0, frame_s = 0, trace_s = 0, area_s = 0, boundary_s = 0;
     OracleBoundaryTimes boundary_parts;

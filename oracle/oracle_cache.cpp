@@ -29,8 +29,9 @@ namespace {
 
 // Bump when the oracle's results change for the same input, so old entries stop matching
 // (5: boundary_m from the occluder-edge walk and the search in the light's charts; 6: crowded
-// cells' pixels search a k-d tree of the chart's points, not the 48 candidates and a walk).
-constexpr const char* kOracleAlgorithm = "penumbra-oracle-6";
+// cells' pixels search a k-d tree of the chart's points, not the 48 candidates and a walk; 7:
+// oracle.json's culled_by_node, which validate's facing diagnostics read from the entry).
+constexpr const char* kOracleAlgorithm = "penumbra-oracle-7";
 // 2: an XXH3-64 checksum of every byte after the magic ends the entry.
 constexpr char kMagic[8] = {'P', 'N', 'B', 'O', 'R', 'C', 'L', '2'};
 // Every version of the entry format starts with these: what `cache clear` recognises as ours.

@@ -1,6 +1,12 @@
 #include "oracle/oracle_output.h"
 
+#include <algorithm>
+
 namespace penumbra {
+
+namespace {
+constexpr std::size_t kCulledNodesListed = 64;  // of oracle.json's culled_by_node
+}  // namespace
 
 nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result, const OracleTimings& timings) {
     const OracleFrame& f = result.frame;
@@ -40,6 +46,15 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
                                {"max_rays", settings.area_max_rays},
                                {"uniform_rays", settings.area_uniform_rays}};
     double trace_total = s.trace_s + s.area_s + s.boundary_s;
+    // The nodes the camera saw most from behind (pipeline/facing.h reads them back), at most
+    // kCulledNodesListed; the cache keeps them with the frame.
+    auto culled = s.culled_by_node;
+    std::sort(culled.begin(), culled.end(), [](const auto& a, const auto& b) {
+        return a.second != b.second ? a.second > b.second : a.first < b.first;
+    });
+    if (culled.size() > kCulledNodesListed) culled.resize(kCulledNodesListed);
+    nlohmann::json culled_nodes = nlohmann::json::array();
+    for (const auto& [node, n] : culled) culled_nodes.push_back({{"node", node}, {"pixels", n}});
     std::uint64_t rays = s.primary_rays + s.shadow_rays + s.boundary_rays + s.verified_retraces + s.culled_retraces;
     nlohmann::json j = {
         {"scenario", scenario.file.string()},
@@ -53,6 +68,7 @@ nlohmann::json oracle_json(const Scenario& scenario, const OracleResult& result,
           {"boundary", s.boundary_rays},
           {"verified_retraces", s.verified_retraces},
           {"culled_retraces", s.culled_retraces}}},
+        {"culled_by_node", std::move(culled_nodes)},
         {"mrays_per_s", trace_total > 0 ? rays / trace_total * 1e-6 : 0.0},
         {"seconds",
          {{"load", timings.load_s},

@@ -165,7 +165,8 @@ Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
       as_halves_(packets_as_halves(device_.get())),
       scene_(device_),
       tris_(scenario.scene.triangles),
-      double_sided_(scenario.scene.double_sided) {}
+      double_sided_(scenario.scene.double_sided),
+      triangle_node_(scenario.scene.triangle_node) {}
 
 void Tracer::set_camera(const Camera& camera) {
     camera_ = camera;
@@ -479,6 +480,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     one.hit.geomID = RTC_INVALID_GEOMETRY_ID;
                     rtcIntersect1(scene_.get(), &ctx.embree, &one);
                     ++local.culled;  // counted apart from the shadow rays re-judged in double
+                    ++local.culled_by_node[prim < triangle_node_.size() ? triangle_node_[prim] : 0u];
                     if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     prim = one.hit.primID;
                     n_ccw = normal_ccw(prim);
@@ -538,6 +540,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     counters.shadow += local.shadow;
     counters.retraced += local.retraced;
     counters.culled += local.culled;
+    for (const auto& [node, n] : local.culled_by_node) counters.culled_by_node[node] += n;
 }
 
 }  // namespace penumbra::oracle_detail

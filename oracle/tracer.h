@@ -8,6 +8,7 @@
 #include <glm/vec3.hpp>
 #include <limits>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "common/frames.h"
@@ -129,6 +130,8 @@ struct ShadowAnswer {
 struct TraceCounters {
     std::uint64_t primary = 0, shadow = 0, retraced = 0;
     std::uint64_t culled = 0;  // primary rays traced again past a single-sided triangle's back
+    // Of those, per glTF node of the back face met first (docs/metrics.md, "Facing").
+    std::unordered_map<std::uint32_t, std::uint64_t> culled_by_node;
 };
 
 // One round of kRoundRays shadow rays from a receiver to points spread over an area light.
@@ -207,6 +210,7 @@ class Tracer {
     std::vector<LocalLight> lights_;
     const std::vector<glm::u32vec3>& tris_;
     const std::vector<std::uint8_t>& double_sided_;
+    const std::vector<std::uint32_t>& triangle_node_;
 };
 
 // Primary and shadow rays from the tracer's camera, area-light sampling, shadow boundaries and

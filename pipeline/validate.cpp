@@ -30,6 +30,7 @@ report::ReportInputs report_inputs(const Scenario& scenario, const ValidateResul
     in.timing = r.timing;
     in.gate = r.gate ? &*r.gate : nullptr;
     in.fingerprint = scenario_fingerprint(scenario);  // penumbra diff tells scenarios apart by it
+    in.facts = r.facts;
     return in;
 }
 
@@ -191,12 +192,20 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                 {"metrics_s", r.metrics_s}};
     if (!gate.checks.empty()) r.gate = metrics::evaluate_gate(gate, r.score.lights);
     make_report(scenario, r);
+    const std::vector<std::string> facing = facing_warnings(r.facing);
+    r.warnings.insert(r.warnings.end(), facing.begin(), facing.end());
     return r;
 }
 
 void make_report(const Scenario& scenario, ValidateResult& r) {
+    r.facing = facing_of(scenario, r.oracle->frame, r.oracle->info);
+    const raster::FamilyEntry& family = raster::family_of(r.technique);
+    // The shadow pass's culling, where it culls casters: a fact the hint of missing shadows uses.
+    r.facts = {r.facing.share(),
+               family.draws_maps && r.technique.cull != raster::Cull::none ? raster::to_string(r.technique.cull) : ""};
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
-    const std::string layer_report = raster::family_of(r.technique).hints(r.technique).layer_report;
+    r.report["facing"] = to_json(r.facing);
+    const std::string layer_report = family.hints(r.technique).layer_report;
     for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
         const raster::RasterLightStats& ls = r.raster.stats.lights[li];
         const RasterLightImage& image = r.raster.frame.lights[li];

@@ -18,6 +18,7 @@
 #include "metrics/classification.h"
 #include "metrics/gate.h"
 #include "oracle/oracle.h"
+#include "pipeline/facing.h"
 #include "raster/raster.h"
 #include "raster/raster_output.h"
 #include "raster/technique.h"
@@ -60,6 +61,8 @@ struct ValidateResult {
     nlohmann::json timing;                    // report.json's "timing"
     nlohmann::json report;                    // report.json
     std::vector<std::string> warnings;  // from the run: the cache's, the raster path's (the scene's are on Scenario)
+    FacingReport facing;                // what the camera saw from behind (make_report)
+    metrics::RunFacts facts;            // what the hints name first (make_report)
     bool passed() const { return !gate || gate->passed; }
 };
 

@@ -34,6 +34,7 @@ struct ReportInputs {
     // pixel's lookup used (the raster lookups' layer), with the tints in its legend.
     bool tint_cascades = false;
     bool errors_exr = true;  // write_report writes errors.exr (validate: only with --errors or --frames)
+    metrics::RunFacts facts;  // what the readings' hints name first (facing, culling)
 };
 
 // report.json (docs/design.md's keys, and more): each light's object is metrics::to_json, built from

@@ -227,8 +227,8 @@ std::string evidence_text(const metrics::ClassificationEvidence& e) {
 
 // The light's dominant visible class and the one-line reading of it, or what the light shows
 // when nothing dominates.
-std::string light_reading(const metrics::LightScore& l) {
-    if (auto line = metrics::reading_line(l)) return *line;
+std::string light_reading(const metrics::LightScore& l, const metrics::RunFacts& facts) {
+    if (auto line = metrics::reading_line(l, facts)) return *line;
     if (l.pixels.scored == 0) return "nothing scored";
     return l.wrong_visible == 0 ? "no visible error" : "visible errors below 1% in every class";
 }
@@ -281,7 +281,7 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
             "class=\"reading\">{}</td></tr>\n",
             li, li, escape_markup(to_string(sc.lights[li].type)), 100.0 * l.wrong_fraction,
             100.0 * static_cast<double>(l.wrong_visible) / scored, l.wrong_visible, dominant_class(l),
-            escape_markup(light_reading(l)));
+            escape_markup(light_reading(l, in.facts)));
     }
     h += "</table></div>\n<div class=\"strip\">\n";
     for (std::size_t li = 0; li < score.lights.size(); ++li)
@@ -308,7 +308,7 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
         const metrics::LightScore& l = score.lights[li];
         h += fmt::format("<h2 id=\"light-{}\">Light {} ({})</h2>\n", li, li,
                          escape_markup(to_string(sc.lights[li].type)));
-        h += fmt::format("<p>{}. Classes from {}.</p>\n", escape_markup(light_reading(l)),
+        h += fmt::format("<p>{}. Classes from {}.</p>\n", escape_markup(light_reading(l, in.facts)),
                          escape_markup(evidence_text(l.evidence)));
         h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th>"
              "<th title=\"|error| at least the visible threshold\">visible</th><th>visible rate</th></tr>\n";

@@ -186,6 +186,16 @@ import json; c = json.load(open('$tmp/terrain/scenario.json'))['camera']; assert
         run validate "$tmp/terrain/scenario.json" --out "$tmp/terrain/run" $t --no-cache -q
         check "terrain: validate $t runs init's scenario as it is" test "$rc" -eq 0
     done
+    # Stood upright, the heightfield's faces point down (its winding is inverted, as init said):
+    # the camera sees through it from above, and validate names the mesh and leads its hint with it.
+    run validate "$tmp/terrain/scenario.json" --out "$tmp/terrain/facing" --no-cache
+    check "terrain: validate warns that the mesh is seen from behind, naming it" \
+        grep -qE 'warning: nodes\[0\] "terrain_root": [0-9]+% of its [0-9]+ pixels meet the back of single-sided triangles' <<<"$err"
+    check "terrain: the false_lit hint names the back faces first" \
+        grep -qE 'hint: false_lit .*the likely causes, in order: [0-9]+% of the frame meets the back of single-sided' "$tmp/stdout"
+    check "terrain: report.json's facing names the mesh" python3 -c "
+import json; f = json.load(open('$tmp/terrain/facing/report.json'))['facing']
+assert f['meshes'][0]['mesh'] == 'nodes[0] \"terrain_root\"' and f['meshes'][0]['share'] > 0.5, f"
     run init "$tmp/conv/terrain.glb" --out "$tmp/terrain-y/scenario.json" --up y -q
     check "terrain --up y: no up key" fails grep -q '"up": "z"' "$tmp/terrain-y/scenario.json"
 

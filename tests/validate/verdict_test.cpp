@@ -220,6 +220,94 @@ TEST_F(Verdict, FrontFaceCullingDropsASingleSidedOccluderAsFalseLit) {
     EXPECT_LT(kept.score.rate(PixelClass::false_lit), 0.1 * culled.score.rate(PixelClass::false_lit));
 }
 
+// A card 1.2 m over the ground with its back to the sky (its front face down), as foliage cards
+// and exported sheets often are: `doubleSided` decides whether an engine casts it.
+Scenario card_with_its_back_to_the_light(bool double_sided) {
+    test::SceneBuilder b;
+    b.quad({-5, 0, -5}, {-5, 0, 5}, {5, 0, 5}, {5, 0, -5});
+    b.quad({1, 1.2, -1}, {1, 1.2, 1}, {-1, 1.2, 1}, {-1, 1.2, -1}, double_sided);
+    return test::make_scenario(b.build(), test::look_at({3, 5, 6}, {0, 0.3, 0}, 45), {sun_at_elevation(50)}, 320, 240);
+}
+
+TEST_F(Verdict, CullByMaterialCastsADoubleSidedCardWithItsBackToTheLight) {
+    const nlohmann::json bias = {{"slope", 1.5}, {"receiver_plane", true}};
+    const Scenario sc = card_with_its_back_to_the_light(true);
+    // One cull mode for every material drops the card: the light sees its back.
+    Judged back = judge(sc, {{"resolution", 1024}, {"cull", "back"}, {"bias", bias}});
+    expect_dominant(back.score, PixelClass::false_lit);
+    EXPECT_GT(back.score.rate(PixelClass::false_lit), 0.02);
+    // Its material is double-sided: culled by material, both faces are drawn and it casts.
+    Judged material = judge(sc, {{"resolution", 1024}, {"cull", "material"}, {"bias", bias}});
+    EXPECT_LT(material.score.rate(PixelClass::false_lit), 0.05 * back.score.rate(PixelClass::false_lit));
+    Judged none = judge(sc, {{"resolution", 1024}, {"cull", "none"}, {"bias", bias}});
+    EXPECT_EQ(material.score.counts, none.score.counts);
+}
+
+TEST_F(Verdict, CullByMaterialCullsASingleSidedMaterialOnTheEnginesSide) {
+    const nlohmann::json bias = {{"slope", 1.5}, {"receiver_plane", true}};
+    const Scenario sc = card_with_its_back_to_the_light(false);
+    // Single-sided: culled on single_sided_cull's side, exactly as that one mode culls.
+    for (const char* side : {"back", "front"}) {
+        SCOPED_TRACE(side);
+        Judged one = judge(sc, {{"resolution", 1024}, {"cull", side}, {"bias", bias}});
+        Judged material =
+            judge(sc, {{"resolution", 1024}, {"cull", "material"}, {"single_sided_cull", side}, {"bias", bias}});
+        EXPECT_EQ(material.score.counts, one.score.counts);
+        EXPECT_EQ(material.score.mae, one.score.mae);
+    }
+}
+
+TEST_F(Verdict, CullByMaterialDrawnRunByRunKeepsTheSceneTriangleIds) {
+    // A ground of 64 quads whose materials alternate double- and single-sided, every one facing
+    // the light: culled by material it is drawn in 128 runs, and the map's triangle ids (what
+    // acne is judged by) must be the scene's, so the verdict equals cull back's to the pixel.
+    test::SceneBuilder b;
+    for (int i = 0; i < 8; ++i)
+        for (int k = 0; k < 8; ++k) {
+            const double x = -4 + i, z = -4 + k;
+            b.quad({x, 0, z}, {x, 0, z + 1}, {x + 1, 0, z + 1}, {x + 1, 0, z}, (i + k) % 2 == 0);
+        }
+    b.box({-0.5, 0, -0.5}, {0.5, 1, 0.5});
+    const Scenario sc =
+        test::make_scenario(b.build(), test::look_at({3, 5, 6}, {0, 0.3, 0}, 45), {sun_at_elevation(35)}, 320, 240);
+    Judged back = judge(sc, {{"preset", "no-bias"}, {"resolution", 1024}});
+    Judged material = judge(sc, {{"preset", "no-bias"}, {"resolution", 1024}, {"cull", "material"}});
+    EXPECT_GT(back.score.rate(PixelClass::acne), 0.05);
+    EXPECT_EQ(material.score.counts, back.score.counts);
+    EXPECT_EQ(material.score.acne_depth.max, back.score.acne_depth.max);
+}
+
+TEST_F(Verdict, ASheetWithInvertedWindingIsNamedAndLeadsTheHintOfMissingShadows) {
+    // A terrain-like sheet with its winding inverted (front faces down), single-sided, 0.6 m over
+    // the ground and seen from above: the camera culls it and sees the ground through it, while
+    // the truth's occluders cast on both sides; a shadow pass culling back faces drops it too.
+    test::SceneBuilder b;
+    b.quad({-5, 0, -5}, {-5, 0, 5}, {5, 0, 5}, {5, 0, -5});
+    const std::uint32_t sheet = b.quad({2, 0.6, -2}, {2, 0.6, 2}, {-2, 0.6, 2}, {-2, 0.6, -2}, false);
+    Scene scene = b.build();
+    scene.triangle_node[sheet] = scene.triangle_node[sheet + 1] = 1;
+    scene.node_labels = {"nodes[0] \"Ground\"", "nodes[1] \"Terrain\""};
+    const Scenario sc =
+        test::make_scenario(scene, test::look_at({3, 5, 6}, {0, 0.3, 0}, 45), {sun_at_elevation(50)}, 320, 240);
+    const ValidateResult r = run(sc, {{"resolution", 1024}, {"bias", {{"slope", 1.5}, {"receiver_plane", true}}}});
+    ASSERT_EQ(r.facing.meshes.size(), 1u);
+    EXPECT_EQ(r.facing.meshes[0].mesh, "nodes[1] \"Terrain\"");
+    EXPECT_GT(r.facing.meshes[0].share(), 0.95);  // the ground shows through every one of its pixels
+    EXPECT_GT(r.facing.share(), metrics::kFacingHintShare);
+    EXPECT_EQ(r.report["facing"]["meshes"][0]["mesh"], "nodes[1] \"Terrain\"");
+    ASSERT_FALSE(r.warnings.empty());
+    EXPECT_NE(r.warnings.back().find("nodes[1] \"Terrain\": "), std::string::npos) << r.warnings.back();
+    const std::optional<std::string> hint = metrics::reading_line(r.score.lights[0], r.facts);
+    ASSERT_TRUE(hint);
+    EXPECT_TRUE(hint->starts_with("false_lit")) << *hint;
+    EXPECT_NE(hint->find("back of single-sided triangles"), std::string::npos) << *hint;
+    EXPECT_NE(hint->find("culling back faces"), std::string::npos) << *hint;
+    // The same sheet wound right is not named, and the hint is the usual one.
+    const ValidateResult ok = run(card_with_its_back_to_the_light(true), {{"resolution", 1024}});
+    EXPECT_TRUE(ok.facing.meshes.empty());
+    EXPECT_EQ(ok.facing.from_behind, 0u);
+}
+
 TEST_F(Verdict, ALightFrustumThatMissesReceiversIsFalseLitNotAcne) {
     test::SceneBuilder b;
     b.quad({-4, 0, -40}, {-4, 0, 4}, {4, 0, 4}, {4, 0, -40});
