@@ -268,20 +268,23 @@ std::optional<std::string> reading_line(const LightScore& s, const RunFacts& fac
             break;
         default:
             if (facts.seen_from_behind < kFacingHintShare) {
-                cure = "shadows missing (casters clipped, culled or outside the map); check the fit and culling";
+                cure = !facts.false_lit_cure.empty()
+                           ? "shadows missing: " + facts.false_lit_cure
+                           : "shadows missing (casters clipped, culled or outside the map); check the fit and culling";
                 break;
             }
             // What this run measured comes first: geometry seen from behind (which a culling
             // shadow pass may drop as casters), then culling, then the fit.
             cure = fmt::format(
                 "shadows missing; the likely causes, in order: {:.0f}% of the frame meets the back of single-sided "
-                "triangles (inverted winding or open meshes, named in the warnings){}; culling; casters clipped or "
-                "outside the map (check the fit)",
+                "triangles (inverted winding or open meshes, named in the warnings){}; {}",
                 100.0 * facts.seen_from_behind,
                 facts.culling.empty()
                     ? ""
                     : fmt::format(", which a shadow pass culling {} drops as casters",
-                                  facts.culling == "material" ? "by material" : facts.culling + " faces"));
+                                  facts.culling == "material" ? "by material" : facts.culling + " faces"),
+                facts.false_lit_cure.empty() ? "culling; casters clipped or outside the map (check the fit)"
+                                             : facts.false_lit_cure);
             break;
     }
     return fmt::format("{} {:.1f}% of scored pixels (visible): {}", to_string(top), 100.0 * s.rate_visible(top), cure);

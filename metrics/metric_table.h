@@ -74,6 +74,7 @@ inline constexpr double kHintRate = 0.01;
 struct RunFacts {
     double seen_from_behind = 0;  // share of the frame whose ray met a single-sided back face first
     std::string culling;          // the shadow pass's culling where it culls casters ("back", "front", "material")
+    std::string false_lit_cure;   // the family's own causes (raster::ScoringHints); empty: a shadow map's
 };
 inline constexpr double kFacingHintShare = 0.05;  // of the frame, seen from behind: named first
 std::optional<std::string> reading_line(const LightScore& s, const RunFacts& facts = {});

@@ -201,11 +201,13 @@ void make_report(const Scenario& scenario, ValidateResult& r) {
     r.facing = facing_of(scenario, r.oracle->frame, r.oracle->info);
     const raster::FamilyEntry& family = raster::family_of(r.technique);
     // The shadow pass's culling, where it culls casters: a fact the hint of missing shadows uses.
+    const raster::ScoringHints hints = family.hints(r.technique);
     r.facts = {r.facing.share(),
-               family.draws_maps && r.technique.cull != raster::Cull::none ? raster::to_string(r.technique.cull) : ""};
+               family.draws_maps && r.technique.cull != raster::Cull::none ? raster::to_string(r.technique.cull) : "",
+               hints.false_lit_cure};
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
     r.report["facing"] = to_json(r.facing);
-    const std::string layer_report = family.hints(r.technique).layer_report;
+    const std::string& layer_report = hints.layer_report;
     for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
         const raster::RasterLightStats& ls = r.raster.stats.lights[li];
         const RasterLightImage& image = r.raster.frame.lights[li];

@@ -316,6 +316,9 @@ FamilyEntry planar_projection_family_entry() {
     e.hints = [](const Technique&) {
         ScoringHints h;
         h.exact = true;  // no map, no bias: nothing excused as aliasing or peter-panning
+        h.false_lit_cure =
+            "planar projection shadows its one plane, so every other receiver reads lit (and casters below the plane "
+            "or beyond the light cast nothing); pick a family with a map or volumes for them";
         return h;
     };
     // No shadow map: the coverage target is the size of the image (counted with the frame).

@@ -307,6 +307,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             v.rule = p.open_meshes;
             v.valid = true;
         }
+        if (!volumes_.empty()) skipped_warning(scene, volumes_[0].geometry.skipped_meshes, stats);
         const UniquePipeline& volume = p.method == StencilMethod::zfail ? zfail_ : zpass_;
         const std::size_t L = lights.size();
         const std::uint32_t queries = static_cast<std::uint32_t>(2 + 2 * L);
@@ -401,6 +402,32 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     }
 
   private:
+    // What open_meshes "skip" left out, said on every render that leaves something out (the
+    // volumes of every light skip the same meshes): the count, their share of the triangles and
+    // the largest by name, so that a run's false_lit is not read as the technique's.
+    void skipped_warning(const Scene& scene, const std::vector<std::uint32_t>& skipped, RasterStats& stats) const {
+        if (skipped.empty()) return;
+        std::vector<std::uint32_t> largest = skipped;
+        std::stable_sort(largest.begin(), largest.end(), [&](std::uint32_t a, std::uint32_t b) {
+            return topology_.meshes[a].triangles > topology_.meshes[b].triangles;
+        });
+        std::size_t triangles = 0;
+        for (std::uint32_t m : skipped) triangles += topology_.meshes[m].triangles;
+        std::string names;
+        for (std::size_t i = 0; i < largest.size() && i < kSkippedNamed; ++i)
+            names +=
+                fmt::format("{}{} ({} triangles)", i ? ", " : "", scene.node_label(topology_.meshes[largest[i]].node),
+                            topology_.meshes[largest[i]].triangles);
+        if (largest.size() > kSkippedNamed) names += fmt::format(" and {} more", largest.size() - kSkippedNamed);
+        stats.warnings.push_back(
+            fmt::format("shadow_volume.open_meshes \"skip\": {} open mesh{} cast no shadow, {} of the scene's {} "
+                        "triangles ({:.1f}%): "
+                        "{}; \"include\" casts them (raster.json's shadow_volume.open_meshes lists each)",
+                        skipped.size(), skipped.size() == 1 ? "" : "es", triangles, scene.triangles.size(),
+                        100.0 * double(triangles) / double(std::max<std::size_t>(1, scene.triangles.size())), names));
+    }
+    static constexpr std::size_t kSkippedNamed = 3;
+
     // raster.json's shadow_volume object of light li.
     nlohmann::json describe(std::size_t li) const {
         const LightVolume& v = volumes_[li];
@@ -580,10 +607,14 @@ FamilyEntry shadow_volume_family_entry() {
         const ShadowVolumeParameters& p = parameters_of(t);
         j["shadow_volume"] = {{"open_meshes", to_string(p.open_meshes)}, {"method", to_string(p.method)}};
     };
-    e.hints = [](const Technique&) {
+    e.hints = [](const Technique& t) {
         ScoringHints h;
         h.filter_reach_texels = 0;  // no map, no filter: V only, and nothing excused as aliasing
         h.exact = true;
+        h.false_lit_cure = parameters_of(t).open_meshes == OpenMeshRule::skip
+                               ? "casters the volumes leave out (open meshes, with shadow_volume.open_meshes \"skip\": "
+                                 "the warnings count them; \"include\" casts them)"
+                               : "casters the volumes leave out (degenerate or welded-away triangles)";
         return h;
     };
     e.memory = [](const Technique&) {

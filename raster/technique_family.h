@@ -80,6 +80,10 @@ struct ScoringHints {
     // light gets the pixels and error rates of each layer under this key (docs/raster.md,
     // "Cascaded shadow maps"); empty: none.
     std::string layer_report;
+    // The usual causes of missing shadows (false_lit) under this family, for the verdict's hint
+    // ("shadows missing: " + this); empty: a shadow map's (casters clipped, culled or outside the
+    // map). A family without a map names its own, never a map's.
+    std::string false_lit_cure;
 };
 
 // A registered family (pbrt-v4's `Create` is the model): everything the rest of penumbra asks of

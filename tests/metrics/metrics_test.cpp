@@ -543,6 +543,36 @@ TEST(Classification, TheReadingNamesTheDominantVisibleClass) {
     EXPECT_FALSE(reading_line(f.score().lights[0]));
 }
 
+// Missing shadows: the map's causes by default; a family's own causes where it gives them (a
+// family without a map never reads "check the fit"); geometry seen from behind first where the
+// run measured enough of it, with the shadow pass's culling.
+TEST(Classification, TheReadingOfMissingShadowsNamesTheCausesTheRunMeasured) {
+    Frames f(4, 1);
+    for (int i = 0; i < 4; ++i) f.shadow(i, 0.5f);  // the raster says lit everywhere: false_lit
+    const LightScore l = f.score().lights[0];
+    const auto plain = reading_line(l);
+    ASSERT_TRUE(plain);
+    EXPECT_NE(plain->find("check the fit and culling"), std::string::npos) << *plain;
+    EXPECT_EQ(reading_line(l, RunFacts{0.04, "back", ""}), plain) << "below 5% of the frame: the usual reading";
+
+    const auto volumes = reading_line(l, RunFacts{0, "", "casters the volumes leave out"});
+    ASSERT_TRUE(volumes);
+    EXPECT_NE(volumes->find("shadows missing: casters the volumes leave out"), std::string::npos) << *volumes;
+    EXPECT_EQ(volumes->find("map"), std::string::npos) << *volumes;
+
+    const auto behind = reading_line(l, RunFacts{0.2, "back", ""});
+    ASSERT_TRUE(behind);
+    EXPECT_NE(behind->find("in order: 20% of the frame meets the back of single-sided triangles"), std::string::npos)
+        << *behind;
+    EXPECT_NE(behind->find("which a shadow pass culling back faces drops as casters; culling; casters clipped"),
+              std::string::npos)
+        << *behind;
+    const auto behind_volumes = reading_line(l, RunFacts{0.2, "", "casters the volumes leave out"});
+    ASSERT_TRUE(behind_volumes);
+    EXPECT_NE(behind_volumes->find("named in the warnings); casters the volumes leave out"), std::string::npos)
+        << *behind_volumes;
+}
+
 // A camera path is gated on every frame: a frame in the middle that fails fails the path, and
 // the outcome names it, though the last frame passes. temporal.* checks are judged once, over
 // the path, and are refused for a scenario without one.
