@@ -6,7 +6,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <glm/geometric.hpp>
+#include <optional>
 
+#include "common/camera.h"
 #include "image_io/image_io.h"
 #include "report/bitmap_font.h"
 #include "report/html_page.h"
@@ -45,11 +48,24 @@ const char* class_meaning(PixelClass c) {
         case PixelClass::uncertain: return "not scored: the truth is within float error of a shadow boundary";
         case PixelClass::coverage_mismatch:
             return "not scored: the raster camera saw another surface than the oracle (silhouettes)";
-        case PixelClass::back_facing:
-            return "not scored: the surface faces away from the light or lies outside its cone; dark in both";
+        case PixelClass::back_facing: return "not scored: the surface faces away from the light; dark in both";
         case PixelClass::background: return "no surface";
     }
     return "";
+}
+
+// A back_facing pixel outside a spot light's cone is drawn apart (issue #53): it is not a back
+// face. Counted with back_facing in report.json (the classes' ids are stable); only the class map
+// and its legend tell them apart.
+constexpr glm::vec3 kOutsideCone{0.05f, 0.22f, 0.24f};
+constexpr const char* kOutsideConeMeaning =
+    "not scored: outside the spot light's cone, where it casts no light; dark in both (counted with back_facing)";
+
+bool outside_cone(const Light& light, const glm::dvec3& point) {
+    if (light.type != LightType::spot) return false;
+    const glm::dvec3 d = point - light.position;
+    const double len = glm::length(d);
+    return len > 0 && glm::dot(d, light.direction) < std::cos(light.outer_cone_rad) * len;
 }
 
 glm::vec3 class_colour(PixelClass c) {
@@ -121,14 +137,46 @@ std::vector<float> with_legend(std::vector<float> rgb, int W, int H, const std::
     return rgb;
 }
 
-std::vector<float> class_image(const OracleLightImage& o, const metrics::LightErrorImage& e, std::size_t n) {
+// Where the oracle's pixel i lies, world space: its point where the frame has one, else where the
+// camera's ray meets the plane of the triangle the pixel shows (a cached frame keeps the
+// triangle, not the point); nullopt without either.
+std::optional<glm::dvec3> world_point(const OracleFrame& frame, const Scenario* scenario, std::size_t i) {
+    if (i < frame.P.size()) return frame.frame_origin + glm::dvec3(frame.P[i]);
+    if (!scenario || i >= frame.prim.size() || frame.width <= 0) return std::nullopt;
+    const Scene& scene = scenario->scene;
+    const std::uint32_t t = frame.prim[i];
+    if (t >= scene.triangles.size()) return std::nullopt;
+    const int x = static_cast<int>(i % static_cast<std::size_t>(frame.width));
+    const int y = static_cast<int>(i / static_cast<std::size_t>(frame.width));
+    const PrimaryRay ray = primary_ray(scenario->camera, frame.width, frame.height, x + 0.5, y + 0.5);
+    const glm::dvec3 o = scenario->camera.eye + ray.origin;
+    const glm::u32vec3 tri = scene.triangles[t];
+    const glm::dvec3 a = scene.positions[tri.x];
+    const glm::dvec3 n = glm::cross(scene.positions[tri.y] - a, scene.positions[tri.z] - a);
+    const double along = glm::dot(n, ray.direction);
+    if (along == 0) return std::nullopt;
+    return o + ray.direction * (glm::dot(n, a - o) / along);
+}
+
+// `light` (may be null) tells a spot light's outside from its back faces (with `scenario`, the
+// frame's, where the frame keeps no points); its pixels are counted into `outside`.
+std::vector<float> class_image(const OracleFrame& frame, std::size_t li, const metrics::LightErrorImage& e,
+                               const Light* light, const Scenario* scenario, std::uint64_t& outside) {
+    const OracleLightImage& o = frame.lights[li];
+    const std::size_t n = frame.pixel_count();
     std::vector<float> rgb(3 * n);
+    outside = 0;
     for (std::size_t i = 0; i < n; ++i) {
         const auto c = static_cast<PixelClass>(e.cls[i]);
         // Correct pixels keep the shading of the truth, so the scene stays recognisable; a wrong
         // pixel whose error is below the visible threshold is drawn halfway to it (paler).
         const glm::vec3 truth = truth_shade(o.V[i]);
         glm::vec3 col = c == PixelClass::correct ? truth : class_colour(c);
+        if (c == PixelClass::back_facing && light && light->type == LightType::spot)
+            if (const auto p = world_point(frame, scenario, i); p && outside_cone(*light, *p)) {
+                col = kOutsideCone;
+                ++outside;
+            }
         if (c > PixelClass::correct && std::abs(e.error[i]) < e.visible_threshold) col = 0.5f * (col + truth);
         for (int k = 0; k < 3; ++k) rgb[3 * i + k] = col[k];
     }
@@ -346,6 +394,9 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
     term(kCorrectShadow, "correct, in shadow", class_meaning(PixelClass::correct));
     for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
         term(class_colour(c), std::string(to_string(c)), class_meaning(c));
+    if (in.scenario && std::any_of(in.scenario->lights.begin(), in.scenario->lights.end(),
+                                   [](const Light& l) { return l.type == LightType::spot; }))
+        term(kOutsideCone, "outside the cone", kOutsideConeMeaning);
     h += fmt::format(
         "</dl>\n<p>An error class drawn paler is a faint error: wrong, but with |error| under the visible threshold "
         "{:g} (<code>counts_visible</code> leaves it out).</p>\n",
@@ -401,8 +452,8 @@ constexpr std::array<glm::vec3, 4> kCascadeTints = {
 constexpr float kCascadeTintWeight = 0.35f;
 
 void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
-                     const metrics::LightErrorImage& e, const metrics::LightScore& l,
-                     const std::vector<std::uint32_t>* cascade_layer) {
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l, const Light* light,
+                     const Scenario* scenario, const std::vector<std::uint32_t>* cascade_layer) {
     std::vector<LegendEntry> legend;
     for (auto c : metrics::kErrorClasses)
         legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
@@ -412,7 +463,12 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
     legend.push_back({kCorrectShadow, "correct, in shadow"});
     for (auto c : {PixelClass::uncertain, PixelClass::coverage_mismatch, PixelClass::back_facing})
         legend.push_back({class_colour(c), std::string(to_string(c))});
-    std::vector<float> rgb = class_image(oracle.lights[li], e, oracle.pixel_count());
+    std::uint64_t outside = 0;
+    std::vector<float> rgb = class_image(oracle, li, e, light, scenario, outside);
+    if (light && light->type == LightType::spot)
+        legend.push_back({kOutsideCone, fmt::format("outside the cone, {:.1f}% of the image",
+                                                    100.0 * double(outside) /
+                                                        double(std::max<std::size_t>(1, oracle.pixel_count())))});
     if (cascade_layer && cascade_layer->size() == oracle.pixel_count()) {
         std::uint32_t most = 0;
         for (std::size_t i = 0; i < oracle.pixel_count(); ++i) {
@@ -459,7 +515,8 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
                           report.contains("lights") && li < report["lights"].size() &&
                           report["lights"][li].contains("cascades");
         files.run([&, li, tint] {
-            write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li],
+            const Light* light = in.scenario && li < in.scenario->lights.size() ? &in.scenario->lights[li] : nullptr;
+            write_class_map(out, light_file(li, "classes"), oracle, li, e, score.lights[li], light, in.scenario,
                             tint ? &raster.lights[li].lookups->layer : nullptr);
         });
         files.run([&, li] {

@@ -22,9 +22,10 @@ const char* image_check_script();
 
 // The class map of light `li` with its legend (each class's rate), as a PNG named `name`. With
 // `cascade_layer` (a cascaded light's lookups' layer per pixel) each surface pixel is tinted by
-// its cascade and the legend names the tints.
+// its cascade and the legend names the tints. With `light` (the scenario's light li) and
+// `scenario` (the frame's), a spot light's outside is drawn and named apart from back faces.
 void write_class_map(OutputTransaction& out, const std::string& name, const OracleFrame& oracle, std::size_t li,
-                     const metrics::LightErrorImage& e, const metrics::LightScore& l,
-                     const std::vector<std::uint32_t>* cascade_layer = nullptr);
+                     const metrics::LightErrorImage& e, const metrics::LightScore& l, const Light* light = nullptr,
+                     const Scenario* scenario = nullptr, const std::vector<std::uint32_t>* cascade_layer = nullptr);
 
 }  // namespace penumbra::report

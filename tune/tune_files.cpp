@@ -113,7 +113,10 @@ std::string revalidation_section(OutputTransaction& out, const char* title, cons
                 const ValidateResult& v = which == 0 ? rv.before : rv.after;
                 const std::string file =
                     fmt::format("{}{}.light{}.{}.classes.png", prefix, k, li, which == 0 ? "before" : "after");
-                report::write_class_map(out, file, v.oracle->frame, li, v.score.images[li], v.score.lights[li]);
+                const Light* light =
+                    rv.scenario && li < rv.scenario->lights.size() ? &rv.scenario->lights[li] : nullptr;
+                report::write_class_map(out, file, v.oracle->frame, li, v.score.images[li], v.score.lights[li], light,
+                                        rv.scenario);
                 h += fmt::format(
                     "<figure><img src=\"data:image/png;base64,{}\" alt=\"{}\"><figcaption>{}: {}</figcaption>"
                     "</figure>",

@@ -141,6 +141,48 @@ check "first validate traces the oracle" grep -q '"oracle_cached": false' "$tmp/
 check "the oracle is stored in the cache" test -n "$(ls "$tmp/cache"/oracle-*.bin 2>/dev/null)"
 run validate "$tmp/small.json" --out "$tmp/v2" -q --errors
 check "second validate reads the cached oracle" grep -q '"oracle_cached": true' "$tmp/v2/report.json"
+# The spot light's class map paints its outside apart from back faces (#53): a colour that covers
+# a good share of the spot's map and none of the sun's or the point light's, traced (the frame's
+# points) and cached (the cache keeps triangles, not points) alike.
+at_least() { python3 -c "import sys; sys.exit(0 if float(sys.argv[1]) >= float(sys.argv[2]) else 1)" "$1" "$2"; }
+cone_colour_share() {  # RUN: the share of light1.classes.png in a colour absent from light0's and light2's
+    python3 - "$1" <<'PY'
+import struct, sys, zlib
+from collections import Counter
+def pixels(path):  # 8-bit RGB or RGBA PNG, every filter type
+    data = open(path, "rb").read()
+    pos, idat, w = 8, b"", 0
+    while pos < len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            w, h, depth, ctype = struct.unpack(">IIBB", body[:10])
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    bpp = 3 if ctype == 2 else 4
+    raw, stride, prev, out = zlib.decompress(idat), w * bpp, bytearray(w * bpp), Counter()
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - bpp] if i >= bpp else 0
+            b, c = prev[i], prev[i - bpp] if i >= bpp else 0
+            p = a + b - c
+            pred = [0, a, b, (a + b) // 2, a if abs(p - a) <= abs(p - b) and abs(p - a) <= abs(p - c) else b if abs(p - b) <= abs(p - c) else c][f]
+            line[i] = (line[i] + pred) & 255
+        out.update(bytes(line[x * bpp:x * bpp + 3]) for x in range(w))
+        prev = line
+    return out, w * h
+spot, n = pixels(f"{sys.argv[1]}/light1.classes.png")
+others = set(pixels(f"{sys.argv[1]}/light0.classes.png")[0]) | set(pixels(f"{sys.argv[1]}/light2.classes.png")[0])
+print(max((c / n for colour, c in spot.items() if colour not in others), default=0.0))
+PY
+}
+for v in v1 v2; do
+    share=$(cone_colour_share "$tmp/$v")
+    check "$v: the spot's outside has a colour of its own ($share of the map)" at_least "$share" 0.05
+done
+check "report.html names the outside of the cone" grep -q "outside the spot light's cone" "$tmp/v1/report.html"
 check "a cached oracle gives the same verdict" same_verdict "$tmp/v1" "$tmp/v2"
 check "validate --errors writes errors.exr" test -s "$tmp/v2/errors.exr"
 run validate "$tmp/small.json" --out "$tmp/v3" -q --set resolution=256 --threads 1
