@@ -17,8 +17,10 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
 #include <limits>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string_view>
 
 #define TINYGLTF_NO_STB_IMAGE
@@ -166,6 +168,8 @@ void check_uri(const Context& ctx, const std::string& element, const std::string
 // What the raw JSON says that tinygltf's model forgets.
 struct RawFacts {
     std::vector<bool> perspective_zfar_given;  // per camera: tinygltf turns an absent zfar into 0
+    // Per image: whether a MASK material's baseColorTexture shows it (its bytes are kept).
+    std::vector<bool> cutout_images;
     // A .glb whose buffers lie in its BIN chunk, rewritten so that tinygltf does not copy that
     // chunk into each such buffer (lean_bin_buffers below); empty where it is not.
     std::string lean_glb;
@@ -258,6 +262,24 @@ void check_version(const Context& ctx, const nlohmann::json& j) {
         fail(ctx, "asset", "missing, and the file looks like glTF 1.0 (objects keyed by name), which is not supported");
 }
 
+// Per image, whether a MASK material's baseColorTexture (or its KHR_texture_transform) shows
+// it: only those are decoded. The schema has checked the types.
+std::vector<bool> cutout_images(const nlohmann::json& j) {
+    const auto images = j.find("images"), textures = j.find("textures"), materials = j.find("materials");
+    if (images == j.end() || textures == j.end() || materials == j.end()) return {};
+    std::vector<bool> wanted(images->size(), false);
+    for (const nlohmann::json& m : *materials) {
+        if (m.value("alphaMode", std::string("OPAQUE")) != "MASK") continue;
+        const auto pbr = m.find("pbrMetallicRoughness");
+        if (pbr == m.end() || !pbr->contains("baseColorTexture")) continue;
+        const std::size_t t = (*pbr)["baseColorTexture"]["index"].get<std::size_t>();
+        if (t >= textures->size() || !(*textures)[t].contains("source")) continue;
+        const std::size_t source = (*textures)[t]["source"].get<std::size_t>();
+        if (source < wanted.size()) wanted[source] = true;
+    }
+    return wanted;
+}
+
 // Reads the JSON part of a .gltf or .glb and vets it (nesting, NUL bytes, version, types,
 // URIs) before tinygltf sees it: tinygltf trusts its input and recurses without a limit.
 RawFacts prevalidate(const Context& ctx, std::string_view bytes, bool binary) {
@@ -297,6 +319,7 @@ RawFacts prevalidate(const Context& ctx, std::string_view bytes, bool binary) {
             auto persp = c.find("perspective");
             facts.perspective_zfar_given.push_back(persp != c.end() && persp->contains("zfar"));
         }
+    facts.cutout_images = cutout_images(j);
     if (binary) lean_bin_buffers(bytes, j, facts);
     return facts;
 }
@@ -330,8 +353,20 @@ bool fs_write(std::string* err, const std::string&, const std::vector<unsigned c
     *err += "penumbra never writes glTF files\n";
     return false;
 }
-bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
-    return true;  // images carry no geometry; never decoded
+// The bytes of the data-URI images that cut-outs show, as tinygltf decoded them from base64.
+// Images in a bufferView are read from the loader's own checked buffers instead: tinygltf
+// hands their bytes without checking the view against its buffer.
+struct ImageCapture {
+    const std::vector<bool>* wanted = nullptr;
+    std::map<int, std::vector<unsigned char>> data_uri_bytes;
+};
+bool capture_image(tinygltf::Image* image, const int index, std::string*, std::string*, int, int,
+                   const unsigned char* bytes, int size, void* user) {
+    auto* capture = static_cast<ImageCapture*>(user);
+    if (image->bufferView < 0 && index >= 0 && static_cast<std::size_t>(index) < capture->wanted->size() &&
+        (*capture->wanted)[static_cast<std::size_t>(index)] && size > 0)
+        capture->data_uri_bytes[index].assign(bytes, bytes + size);
+    return true;  // nothing else is decoded: images carry no geometry
 }
 
 // ---- accessors ------------------------------------------------------------------------------
@@ -361,7 +396,10 @@ AccessorView checked_accessor(const Context& ctx, const tinygltf::Model& m, cons
     if (a.type != want_type)
         fail(ctx, element,
              fmt::format("type {} where {} expects {}", a.type, user,
-                         want_type == TINYGLTF_TYPE_VEC3 ? "VEC3" : "SCALAR"));
+                         want_type == TINYGLTF_TYPE_VEC2   ? "VEC2"
+                         : want_type == TINYGLTF_TYPE_VEC3 ? "VEC3"
+                         : want_type == TINYGLTF_TYPE_VEC4 ? "VEC4"
+                                                           : "SCALAR"));
     bool ok_component = false;
     for (int c : want_components) ok_component |= (a.componentType == c);
     if (!ok_component) fail(ctx, element, fmt::format("componentType {} is not allowed for {}", a.componentType, user));
@@ -504,6 +542,186 @@ int node_light(const Context& ctx, const tinygltf::Node& n, int index, std::size
     return l;
 }
 
+// ---- cut-outs (alphaMode MASK) -----------------------------------------------------------------
+
+constexpr std::size_t kMaxCutoutImages = 4096;
+constexpr std::uint64_t kMaxCutoutPixels = std::uint64_t(256) << 20;  // all images: 512 MiB of 16-bit alpha
+
+std::string named(const std::string& element, const std::string& name) {
+    return name.empty() ? element
+                        : fmt::format("{} \"{}\"", element, escape_non_utf8(name.substr(0, kMaxNodeLabelBytes)));
+}
+
+// Component c of element i of a float or normalised unsigned byte/short accessor (glTF 2.0
+// section 3.11: TEXCOORD_n and COLOR_n), as a number in [0, 1] for the normalised ones.
+double unorm_at(const AccessorView& v, std::size_t i, int c) {
+    const unsigned char* p = v.data + i * v.stride;
+    switch (v.component_type) {
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[c] / 255.0;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            std::uint16_t u;
+            std::memcpy(&u, p + 2 * c, 2);
+            return u / 65535.0;
+        }
+        default: {
+            float f;
+            std::memcpy(&f, p + 4 * c, 4);
+            return f;
+        }
+    }
+}
+
+TextureWrap wrap_of(const Context& ctx, const std::string& element, int mode) {
+    switch (mode) {
+        case TINYGLTF_TEXTURE_WRAP_REPEAT: return TextureWrap::repeat;
+        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return TextureWrap::clamp_to_edge;
+        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return TextureWrap::mirrored_repeat;
+        default: fail(ctx, element, fmt::format("wrap mode {} is not 10497, 33071 or 33648", mode));
+    }
+}
+
+// KHR_texture_transform of a textureInfo: the matrix (offset x rotation x scale, the extension's
+// own GLSL) and the texCoord it overrides, if it does.
+glm::dmat3 texture_transform(const Context& ctx, const std::string& element, const tinygltf::ExtensionMap& extensions,
+                             int& tex_coord) {
+    const auto it = extensions.find("KHR_texture_transform");
+    if (it == extensions.end()) return glm::dmat3(1.0);
+    const tinygltf::Value& t = it->second;
+    const std::string where = element + ".extensions.KHR_texture_transform";
+    if (!t.IsObject()) fail(ctx, where, "expected an object");
+    auto numbers = [&](const char* key, std::size_t n, std::vector<double> fallback) {
+        if (!t.Has(key)) return fallback;
+        const tinygltf::Value& v = t.Get(key);
+        std::vector<double> out;
+        if (n == 1 && v.IsNumber()) out.push_back(v.GetNumberAsDouble());
+        if (n > 1 && v.IsArray() && v.ArrayLen() == n)
+            for (std::size_t k = 0; k < n; ++k)
+                if (v.Get(static_cast<int>(k)).IsNumber()) out.push_back(v.Get(static_cast<int>(k)).GetNumberAsDouble());
+        if (out.size() != n || !std::all_of(out.begin(), out.end(), [](double d) { return std::isfinite(d); }))
+            fail(ctx, where, fmt::format("{} must be {} finite number{}", key, n, n > 1 ? "s" : ""));
+        return out;
+    };
+    const std::vector<double> offset = numbers("offset", 2, {0, 0}), scale = numbers("scale", 2, {1, 1});
+    const double rotation = numbers("rotation", 1, {0})[0];
+    if (t.Has("texCoord")) {
+        const tinygltf::Value& c = t.Get("texCoord");
+        if (!c.IsInt() || c.GetNumberAsInt() < 0) fail(ctx, where, "texCoord must be a non-negative integer");
+        tex_coord = c.GetNumberAsInt();
+    }
+    const glm::dmat3 translation(1, 0, 0, 0, 1, 0, offset[0], offset[1], 1);
+    const glm::dmat3 rotate(std::cos(rotation), std::sin(rotation), 0, -std::sin(rotation), std::cos(rotation), 0, 0, 0,
+                            1);
+    const glm::dmat3 scaling(scale[0], 0, 0, 0, scale[1], 0, 0, 0, 1);
+    return translation * rotate * scaling;
+}
+
+// The cut-out materials of a model, their images decoded: per glTF material its index into
+// scene.cutout_materials (kNoCutout where it is not MASK), and per cut-out the TEXCOORD set its
+// texture reads.
+struct Cutouts {
+    std::vector<std::uint32_t> of_material;
+    std::vector<int> tex_coord;
+    bool any() const { return !tex_coord.empty(); }
+};
+
+Cutouts read_cutouts(const Context& ctx, const tinygltf::Model& m, const std::vector<BufferBytes>& buffers,
+                     const ImageCapture& capture, Scene& scene) {
+    Cutouts out;
+    out.of_material.assign(m.materials.size(), kNoCutout);
+    std::map<int, int> texture_of_image;  // image index -> scene.alpha_textures index
+    std::uint64_t pixels = 0;
+    auto decode = [&](int index) {
+        if (auto it = texture_of_image.find(index); it != texture_of_image.end()) return it->second;
+        const tinygltf::Image& image = m.images[static_cast<std::size_t>(index)];
+        const std::string element = named(fmt::format("images[{}]", index), image.name);
+        if (scene.alpha_textures.size() >= kMaxCutoutImages)
+            fail(ctx, element, fmt::format("more than {} images are shown by cut-outs", kMaxCutoutImages));
+        EncodedImage e;
+        e.label = fmt::format("{}: {}", ctx.label, element);
+        e.mime_type = image.mimeType;
+        if (image.bufferView >= 0) {
+            if (static_cast<std::size_t>(image.bufferView) >= m.bufferViews.size())
+                fail(ctx, element, fmt::format("bufferView {} out of range", image.bufferView));
+            const tinygltf::BufferView& bv = m.bufferViews[static_cast<std::size_t>(image.bufferView)];
+            if (bv.buffer < 0 || static_cast<std::size_t>(bv.buffer) >= buffers.size())
+                fail(ctx, fmt::format("bufferViews[{}]", image.bufferView), "buffer out of range");
+            const BufferBytes& b = buffers[static_cast<std::size_t>(bv.buffer)];
+            std::uint64_t end = 0;
+            if (__builtin_add_overflow(std::uint64_t(bv.byteOffset), std::uint64_t(bv.byteLength), &end) ||
+                end > b.size)
+                fail(ctx, fmt::format("bufferViews[{}]", image.bufferView),
+                     fmt::format("the image's bytes end past buffer {} ({} bytes)", bv.buffer, b.size));
+            e.bytes = {b.data + bv.byteOffset, bv.byteLength};
+        } else if (image.uri.empty()) {
+            const auto it = capture.data_uri_bytes.find(index);
+            if (it == capture.data_uri_bytes.end()) fail(ctx, element, "its data URI holds no bytes");
+            e.bytes = it->second;
+        } else {
+            bool bad = false;
+            const std::string decoded = percent_decode(image.uri, bad);
+            if (bad) fail(ctx, element, fmt::format("malformed percent-encoding in uri \"{}\"", image.uri));
+            e.file = ctx.dir / decoded;
+            if (!ctx.allow_external && !inside(ctx.dir, e.file))
+                fail(ctx, element, "uri resolves outside the scene's folder (use --allow-external-paths to lift this)");
+        }
+        AlphaTexture t = alpha_image_decoder()(e);
+        pixels += static_cast<std::uint64_t>(t.width) * static_cast<std::uint64_t>(t.height);
+        if (pixels > kMaxCutoutPixels)
+            fail(ctx, element,
+                 fmt::format("the cut-outs' images pass {} Mpixels together (this one is {}x{})", kMaxCutoutPixels >> 20,
+                             t.width, t.height));
+        t.label = e.label;
+        scene.alpha_textures.push_back(std::move(t));
+        const int k = static_cast<int>(scene.alpha_textures.size()) - 1;
+        texture_of_image[index] = k;
+        return k;
+    };
+    for (std::size_t i = 0; i < m.materials.size(); ++i) {
+        const tinygltf::Material& mat = m.materials[i];
+        if (mat.alphaMode != "MASK") continue;
+        const std::string element = fmt::format("materials[{}]", i);
+        CutoutMaterial c;
+        c.label = fmt::format("{}: {}", ctx.label, named(element, mat.name));
+        c.cutoff = mat.alphaCutoff;
+        if (!std::isfinite(c.cutoff)) fail(ctx, element, "alphaCutoff is not finite");
+        const std::vector<double>& factor = mat.pbrMetallicRoughness.baseColorFactor;
+        if (factor.size() != 4 || !std::isfinite(factor[3]))
+            fail(ctx, element + ".pbrMetallicRoughness", "baseColorFactor must be 4 finite numbers");
+        c.factor_alpha = factor[3];
+        const tinygltf::TextureInfo& info = mat.pbrMetallicRoughness.baseColorTexture;
+        int tex_coord = info.texCoord;
+        if (info.index >= 0) {
+            const std::string where = element + ".pbrMetallicRoughness.baseColorTexture";
+            if (static_cast<std::size_t>(info.index) >= m.textures.size())
+                fail(ctx, where, fmt::format("texture {} out of range ({} textures)", info.index, m.textures.size()));
+            c.uv_transform = texture_transform(ctx, where, info.extensions, tex_coord);
+            const tinygltf::Texture& tex = m.textures[static_cast<std::size_t>(info.index)];
+            if (tex.source < 0) {
+                scene.warnings.push_back(fmt::format(
+                    "{}: textures[{}] has no source penumbra reads; the cut-out {} uses its factor alone", ctx.label,
+                    info.index, c.label));
+            } else {
+                if (static_cast<std::size_t>(tex.source) >= m.images.size())
+                    fail(ctx, fmt::format("textures[{}]", info.index), fmt::format("source {} out of range", tex.source));
+                c.texture = decode(tex.source);
+            }
+            if (tex.sampler >= 0) {
+                if (static_cast<std::size_t>(tex.sampler) >= m.samplers.size())
+                    fail(ctx, fmt::format("textures[{}]", info.index), fmt::format("sampler {} out of range", tex.sampler));
+                const tinygltf::Sampler& smp = m.samplers[static_cast<std::size_t>(tex.sampler)];
+                const std::string sampler = fmt::format("samplers[{}]", tex.sampler);
+                c.wrap_s = wrap_of(ctx, sampler + ".wrapS", smp.wrapS);
+                c.wrap_t = wrap_of(ctx, sampler + ".wrapT", smp.wrapT);
+                c.nearest = smp.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+            }
+        }
+        out.of_material[i] = static_cast<std::uint32_t>(scene.cutout_materials.size());
+        out.tex_coord.push_back(tex_coord);
+        scene.cutout_materials.push_back(std::move(c));
+    }
+    return out;
+}
+
 // ---- flattening -----------------------------------------------------------------------------
 
 struct Flattener {
@@ -513,7 +731,62 @@ struct Flattener {
     const std::vector<BufferBytes>& buffers;
     std::uint64_t max_memory_bytes;
     Scene& scene;
+    const Cutouts& cutouts;
     std::size_t degenerate = 0, skipped_points_lines = 0;
+
+    // A primitive's texture coordinates and COLOR_0 alpha, where the model has cut-outs; its
+    // triangles' cut-out index (kNoCutout where its material is not MASK).
+    void add_cutout_attributes(const tinygltf::Primitive& p, const std::string& element, std::size_t base,
+                               std::size_t vertex_count, std::size_t first_triangle, std::uint32_t cutout) {
+        scene.triangle_cutout.resize(scene.triangles.size(), kNoCutout);
+        std::fill(scene.triangle_cutout.begin() + static_cast<std::ptrdiff_t>(first_triangle), scene.triangle_cutout.end(),
+                  cutout);
+        scene.texcoords.resize(base + vertex_count, glm::vec2(0.0f));
+        scene.vertex_alpha.resize(base + vertex_count, 1.0f);
+        if (cutout == kNoCutout) return;
+        auto attribute = [&](const std::string& name, int type, std::initializer_list<int> components,
+                             std::size_t& count) -> std::optional<AccessorView> {
+            const auto it = p.attributes.find(name);
+            if (it == p.attributes.end()) return std::nullopt;
+            const AccessorView v = checked_accessor(ctx, m, buffers, it->second, element + ".attributes." + name, type,
+                                                    components);
+            if (v.count < vertex_count)
+                fail(ctx, element + ".attributes." + name,
+                     fmt::format("{} elements where POSITION has {}", v.count, vertex_count));
+            count = v.count;
+            return v;
+        };
+        std::size_t count = 0;
+        const std::string set = fmt::format("TEXCOORD_{}", cutouts.tex_coord[cutout]);
+        if (scene.cutout_materials[cutout].texture >= 0) {
+            if (const auto uv = attribute(set, TINYGLTF_TYPE_VEC2,
+                                          {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                           TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                                          count)) {
+                for (std::size_t i = 0; i < vertex_count; ++i) {
+                    const glm::vec2 t(static_cast<float>(unorm_at(*uv, i, 0)), static_cast<float>(unorm_at(*uv, i, 1)));
+                    if (!std::isfinite(t.x) || !std::isfinite(t.y))
+                        fail(ctx, element + ".attributes." + set, fmt::format("element {} is not finite", i));
+                    scene.texcoords[base + i] = t;
+                }
+            } else {
+                scene.warnings.push_back(fmt::format("{}: {}: the cut-out {} reads {}, which it lacks: uv (0, 0) is used",
+                                                     ctx.label, element, scene.cutout_materials[cutout].label, set));
+            }
+        }
+        const auto it = p.attributes.find("COLOR_0");
+        if (it != p.attributes.end() && it->second >= 0 && static_cast<std::size_t>(it->second) < m.accessors.size() &&
+            m.accessors[static_cast<std::size_t>(it->second)].type == TINYGLTF_TYPE_VEC4)
+            if (const auto colour = attribute("COLOR_0", TINYGLTF_TYPE_VEC4,
+                                              {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                                               TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT},
+                                              count))
+                for (std::size_t i = 0; i < vertex_count; ++i) {
+                    const double a = unorm_at(*colour, i, 3);
+                    if (!std::isfinite(a)) fail(ctx, element + ".attributes.COLOR_0", fmt::format("element {} is not finite", i));
+                    scene.vertex_alpha[base + i] = static_cast<float>(a);
+                }
+    }
 
     void add_primitive(int node_index, int mesh_index, int prim_index, const glm::dmat4& world) {
         const tinygltf::Primitive& p = m.meshes[mesh_index].primitives[prim_index];
@@ -530,11 +803,13 @@ struct Flattener {
         auto pos = p.attributes.find("POSITION");
         if (pos == p.attributes.end()) fail(ctx, element, "no POSITION attribute");
         bool double_sided = false;
+        std::uint32_t cutout = kNoCutout;
         if (p.material >= 0) {
             if (p.material >= static_cast<int>(m.materials.size()))
                 fail(ctx, element,
                      fmt::format("material {} out of range ({} materials)", p.material, m.materials.size()));
             double_sided = m.materials[p.material].doubleSided;
+            cutout = cutouts.any() ? cutouts.of_material[static_cast<std::size_t>(p.material)] : kNoCutout;
         }
         // One pass from the buffer into the scene's arrays: no per-primitive copies of the
         // positions, indices or triangles (on a 2.36M-triangle mesh those were 84 MB of
@@ -630,6 +905,7 @@ struct Flattener {
                 scene.bounds.grow(b.lo);
                 scene.bounds.grow(b.hi);
             }
+        if (cutouts.any()) add_cutout_attributes(p, element, base, positions.count, first_triangle, cutout);
     }
 
     void add_camera(int node_index, int cam, const glm::dmat4& world) {
@@ -806,7 +1082,8 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
     tinygltf::TinyGLTF loader;
     tinygltf::FsCallbacks callbacks{&fs_exists, &fs_expand, &fs_read, &fs_write, &ctx};
     loader.SetFsCallbacks(callbacks);
-    loader.SetImageLoader(&skip_image, nullptr);
+    ImageCapture capture{&facts.cutout_images, {}};
+    loader.SetImageLoader(&capture_image, &capture);
     tinygltf::Model model;
     std::string err, warn;
     std::string base_dir = ctx.dir.string();
@@ -867,8 +1144,20 @@ Scene load_gltf(const fs::path& file, const GltfLoadOptions& options) {
                                             static_cast<std::size_t>(facts.in_place_length[i])}
                               : BufferBytes{model.buffers[i].data.data(), model.buffers[i].data.size()};
     }
-    Flattener flat{ctx, model, facts, buffers, options.max_memory_bytes, scene};
+    const Cutouts cutouts = read_cutouts(ctx, model, buffers, capture, scene);
+    Flattener flat{ctx, model, facts, buffers, options.max_memory_bytes, scene, cutouts};
     flat.traverse(roots);
+    // A model whose cut-out materials no triangle uses costs what an opaque one does.
+    if (std::none_of(scene.triangle_cutout.begin(), scene.triangle_cutout.end(),
+                     [](std::uint32_t c) { return c != kNoCutout; })) {
+        scene.triangle_cutout.clear();
+        scene.texcoords.clear();
+        scene.vertex_alpha.clear();
+        scene.cutout_materials.clear();
+        scene.alpha_textures.clear();
+    } else {
+        scene.pad_cutout_arrays();
+    }
     if (flat.skipped_points_lines)
         scene.warnings.push_back(fmt::format("{}: {} point/line primitives skipped (they cast no shadows)", ctx.label,
                                              flat.skipped_points_lines));

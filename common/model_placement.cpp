@@ -60,6 +60,8 @@ void append_model(Scene& scene, Scene&& part, const std::string& label) {
         scene = std::move(part);
         return;
     }
+    // The cut-out arrays cover the triangles and vertices before this part's (opaque) first.
+    if (part.has_cutouts() || scene.has_cutouts()) scene.pad_cutout_arrays();
     const auto vertex_base = static_cast<std::uint32_t>(scene.positions.size());
     std::uint32_t node_base = 0;
     for (std::uint32_t n : scene.triangle_node) node_base = std::max(node_base, n + 1);
@@ -74,6 +76,24 @@ void append_model(Scene& scene, Scene&& part, const std::string& label) {
     scene.camera_placed.insert(scene.camera_placed.end(), part.camera_placed.begin(), part.camera_placed.end());
     scene.lights.insert(scene.lights.end(), part.lights.begin(), part.lights.end());
     scene.warnings.insert(scene.warnings.end(), part.warnings.begin(), part.warnings.end());
+    if (part.has_cutouts()) {
+        const auto material_base = static_cast<std::uint32_t>(scene.cutout_materials.size());
+        const int texture_base = static_cast<int>(scene.alpha_textures.size());
+        for (CutoutMaterial& m : part.cutout_materials) {
+            if (m.texture >= 0) m.texture += texture_base;
+            if (!label.empty()) m.label = label + ": " + m.label;
+            scene.cutout_materials.push_back(std::move(m));
+        }
+        for (AlphaTexture& t : part.alpha_textures) {
+            if (!label.empty()) t.label = label + ": " + t.label;
+            scene.alpha_textures.push_back(std::move(t));
+        }
+        for (std::uint32_t c : part.triangle_cutout) scene.triangle_cutout.push_back(c == kNoCutout ? c : c + material_base);
+        scene.texcoords.insert(scene.texcoords.end(), part.texcoords.begin(), part.texcoords.end());
+        scene.vertex_alpha.insert(scene.vertex_alpha.end(), part.vertex_alpha.begin(), part.vertex_alpha.end());
+    } else if (!scene.triangle_cutout.empty()) {
+        scene.pad_cutout_arrays();
+    }
     if (!part.bounds.empty()) {
         scene.bounds.grow(part.bounds.lo);
         scene.bounds.grow(part.bounds.hi);

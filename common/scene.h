@@ -4,9 +4,12 @@
 
 #include <cstdint>
 #include <glm/common.hpp>
+#include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 #include <string>
 #include <vector>
+
+#include "common/alpha_coverage.h"
 
 namespace penumbra {
 
@@ -61,6 +64,7 @@ struct Bounds {
 
 // A flattened triangle soup; triangle index = primitive id in every output (oracle and raster).
 inline constexpr std::size_t kMaxNodeLabelBytes = 64;  // of a node's name, in messages
+inline constexpr std::uint32_t kNoCutout = UINT32_MAX;  // Scene::triangle_cutout of an opaque triangle
 
 struct Scene {
     std::vector<glm::dvec3> positions;         // world space
@@ -71,10 +75,30 @@ struct Scene {
     std::vector<Camera> cameras;               // glTF cameras, placed by their first node; index = camera index
     std::vector<bool> camera_placed;           // false where no node of the scene uses that camera
     std::vector<Light> lights;                 // KHR_lights_punctual, placed by nodes
+    // Cut-outs (alphaMode MASK, common/alpha_coverage.h). All empty in a scene without one, so
+    // that such a scene costs nothing; otherwise triangle_cutout has one entry per triangle
+    // (kNoCutout where opaque) and texcoords and vertex_alpha one per vertex.
+    std::vector<CutoutMaterial> cutout_materials;
+    std::vector<AlphaTexture> alpha_textures;
+    std::vector<std::uint32_t> triangle_cutout;  // index into cutout_materials, or kNoCutout
+    std::vector<glm::vec2> texcoords;            // the set each cut-out's baseColorTexture names
+    std::vector<float> vertex_alpha;             // COLOR_0's alpha (1 where absent)
     Bounds bounds;
     std::vector<std::string> warnings;  // skipped points/lines, degenerate triangles, ...
 
     std::size_t triangle_count() const { return triangles.size(); }
+    bool has_cutouts() const { return !triangle_cutout.empty(); }
+    // The cut-out material of triangle t, or nullptr where it is opaque.
+    const CutoutMaterial* cutout_of(std::size_t t) const {
+        if (t >= triangle_cutout.size() || triangle_cutout[t] == kNoCutout) return nullptr;
+        return &cutout_materials[triangle_cutout[t]];
+    }
+    // Whether the surface of cut-out triangle t is opaque at barycentrics (b1, b2) of its second
+    // and third vertices, and whether that would change within reach_texels.
+    CoverageAnswer cutout_coverage(std::size_t t, double b1, double b2, double reach_texels) const;
+    // Grows triangle_cutout, texcoords and vertex_alpha to the triangles and vertices there are
+    // (opaque, uv 0, alpha 1): called before the first cut-out is added and after the last.
+    void pad_cutout_arrays();
     // What messages call a node (Scene::triangle_node's values): its label, "receivers", or "node N".
     std::string node_label(std::uint32_t node) const;
     // Appends a triangle with three vertices of its own (node 0) and grows the bounds; returns

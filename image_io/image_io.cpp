@@ -703,6 +703,38 @@ std::string not_an_image_file(const fs::path& file) {
     return ec ? fmt::format("cannot be read: {}", ec.message()) : "not a regular file, not an image file";
 }
 
+// A cut-out's image (common/alpha_coverage.h), decoded with the limits checked from its header.
+AlphaTexture decode_alpha_image(const EncodedImage& e) {
+    std::string name;
+    if (e.bytes.data() == nullptr) {
+        std::error_code ec;
+        if (!fs::is_regular_file(e.file, ec))
+            throw InputError(fmt::format("{}: {}: {}", e.label, path_text(e.file), not_an_image_file(e.file)));
+        name = e.file.string();
+    } else {
+        // The format by its mimeType (glTF 2.0 allows image/png and image/jpeg; extensions add
+        // more): OpenImageIO picks its reader by the name's extension, then tries the others.
+        const std::string& mime = e.mime_type;
+        name = mime == "image/jpeg" ? "image.jpg" : mime == "image/webp" ? "image.webp" : "image.png";
+    }
+    AlphaTexture t;
+    std::string error;
+    switch (oiio_plugin().read_alpha(name.c_str(), e.bytes.data(), e.bytes.size(), kMaxTextureSide, kMaxTexturePixels,
+                                     &t, &error)) {
+        case OiioReadStatus::ok: return t;
+        case OiioReadStatus::bad_input: throw InputError(fmt::format("{}: {}", e.label, error));
+        case OiioReadStatus::wrong_size:
+            throw InputError(fmt::format("{}: {}x{} pixels declared; a cut-out's image may have at most {} a side and {} "
+                                         "Mpixels",
+                                         e.label, t.width, t.height, kMaxTextureSide, kMaxTexturePixels >> 20));
+        case OiioReadStatus::failed: break;
+    }
+    throw EnvironmentError(fmt::format("{}: {}", e.label, error));
+}
+
+// Registered before main: the loader (common) decodes through it wherever this module is linked.
+[[maybe_unused]] const bool alpha_decoder_registered = (set_alpha_image_decoder(&decode_alpha_image), true);
+
 }  // namespace
 
 ImageFile read_image(const fs::path& file, const ExpectedImageSize* expected) {

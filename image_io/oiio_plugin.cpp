@@ -59,8 +59,9 @@ OiioPlugin load() {
         }
         OiioPlugin plugin;
         plugin.read = reinterpret_cast<OiioReadFn>(dlsym(handle, "penumbra_oiio_read_sized"));
-        if (plugin.read) return plugin;
-        tried += "\n  " + p.string() + " (no penumbra_oiio_read_sized)";
+        plugin.read_alpha = reinterpret_cast<OiioReadAlphaFn>(dlsym(handle, "penumbra_oiio_read_alpha"));
+        if (plugin.read && plugin.read_alpha) return plugin;
+        tried += "\n  " + p.string() + " (no penumbra_oiio_read_sized or penumbra_oiio_read_alpha)";
     }
     throw EnvironmentError(
         fmt::format("cannot read images: OpenImageIO's plugin {} was not found or did not load; looked at:{}",

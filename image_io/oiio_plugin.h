@@ -4,7 +4,11 @@
 // OpenEXR and libpng directly.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
+
+#include "common/alpha_coverage.h"
 
 #include "image_io/image_io.h"
 
@@ -21,8 +25,16 @@ enum class OiioReadStatus : int {
 // width, height > 0: refuse another size from the header, before decoding (wrong_size).
 using OiioReadFn = OiioReadStatus (*)(const char* path, int width, int height, ImageFile* image, std::string* error);
 
+// `penumbra_oiio_read_alpha`: an image's alpha (1 where it has none), from `data` (size bytes,
+// `name`'s extension naming the format) or, where data is null, from the file `name`. Refuses
+// (wrong_size, image's width and height set, nothing decoded) an image whose header declares
+// more than max_side pixels a side or max_pixels in all.
+using OiioReadAlphaFn = OiioReadStatus (*)(const char* name, const void* data, std::size_t size, int max_side,
+                                           std::uint64_t max_pixels, AlphaTexture* image, std::string* error);
+
 struct OiioPlugin {
     OiioReadFn read = nullptr;
+    OiioReadAlphaFn read_alpha = nullptr;
 };
 
 // Loads the plugin on first use (thread-safe). Throws EnvironmentError naming where it looked

@@ -1,5 +1,6 @@
 // The OpenImageIO plugin (oiio_plugin.h): read_image's implementation, built as a module that
 // image_io loads on the first read so that OIIO's libraries load only in processes that read.
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <string>
@@ -7,6 +8,7 @@
 
 #include "image_io/oiio_plugin.h"
 
+using penumbra::AlphaTexture;
 using penumbra::ImageFile;
 using penumbra::OiioReadStatus;
 
@@ -59,6 +61,48 @@ extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_r
             img.channel_names[c] = c < static_cast<int>(spec.channelnames.size()) ? spec.channelnames[c] : "";
             for (std::size_t i = 0; i < n; ++i) img.channels[c][i] = data[i * nc + c];
         }
+        return OiioReadStatus::ok;
+    } catch (const std::exception& e) {
+        *error = e.what();
+        return OiioReadStatus::failed;
+    }
+}
+
+extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_read_alpha(
+    const char* name, const void* data, std::size_t size, int max_side, std::uint64_t max_pixels, AlphaTexture* image,
+    std::string* error) {
+    try {
+        OIIO::Filesystem::IOMemReader memory(data, data ? size : 0);
+        auto in = data ? OIIO::ImageInput::open(name, nullptr, &memory) : OIIO::ImageInput::open(name);
+        if (!in) {
+            *error = "not an image OpenImageIO can read: " + OIIO::geterror();
+            return OiioReadStatus::bad_input;
+        }
+        const OIIO::ImageSpec& spec = in->spec();
+        if (spec.deep || spec.depth > 1 || spec.nchannels <= 0 || spec.width <= 0 || spec.height <= 0) {
+            *error = "not a flat 2D image";
+            return OiioReadStatus::bad_input;
+        }
+        image->width = spec.width;
+        image->height = spec.height;
+        if (spec.width > max_side || spec.height > max_side ||
+            static_cast<std::uint64_t>(spec.width) * static_cast<std::uint64_t>(spec.height) > max_pixels)
+            return OiioReadStatus::wrong_size;
+        // The alpha channel, or the first one where there is none (its pixels are decoded all the
+        // same, so that a damaged file is refused whatever it holds). 16-bit: 8-bit k reads k x 257.
+        const int channel = spec.alpha_channel >= 0 ? spec.alpha_channel : 0;
+        std::vector<std::uint16_t> pixels(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height));
+        if (!in->read_image(0, 0, channel, channel + 1, OIIO::TypeDesc::UINT16, pixels.data())) {
+            std::string why = in->geterror();
+            if (why.empty()) why = OIIO::geterror();
+            if (why.empty()) why = "the data ends before its last pixel, or is damaged";
+            while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+            *error = "cannot read the pixels: " + why;
+            return OiioReadStatus::bad_input;
+        }
+        in->close();
+        if (spec.alpha_channel < 0) pixels.assign(pixels.size(), 65535);
+        image->alpha = std::move(pixels);
         return OiioReadStatus::ok;
     } catch (const std::exception& e) {
         *error = e.what();

@@ -176,6 +176,25 @@ void add_scene(KeyBytes& k, const Scene& scene) {
     k.add_all(scene.positions);
     k.add_all(scene.triangles);
     k.add_all(scene.double_sided);
+    if (!scene.has_cutouts()) return;  // an opaque scene's key stays what it was before cut-outs
+    k.add_all(scene.triangle_cutout);
+    k.add_all(scene.texcoords);
+    k.add_all(scene.vertex_alpha);
+    k.add(scene.cutout_materials.size());
+    for (const CutoutMaterial& m : scene.cutout_materials) {
+        for (double v : {m.cutoff, m.factor_alpha}) k.add(v);
+        k.add(m.texture);
+        k.add(m.wrap_s);
+        k.add(m.wrap_t);
+        k.add(m.nearest);
+        k.add(m.uv_transform);
+    }
+    k.add(scene.alpha_textures.size());
+    for (const AlphaTexture& t : scene.alpha_textures) {
+        k.add(t.width);
+        k.add(t.height);
+        k.add_all(t.alpha);
+    }
 }
 
 }  // namespace

@@ -339,7 +339,8 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
     const glm::dvec3& lit = va == 0 ? b : a;
     glm::dvec3 from = va == 0 ? a : b;
     std::uint32_t occluder = kNoPrimitive;
-    if (verdict(from, &occluder) == 0 && occluder != kNoPrimitive) {
+    // A cut-out's shadow ends where its coverage does, inside its triangles: bisected.
+    if (verdict(from, &occluder) == 0 && occluder != kNoPrimitive && !tr.is_cutout(occluder)) {
         const double segment = glm::length(lit - from);
         for (int walked = 0; walked < kMaxWalk; ++walked) {
             const double s = shadow_exit(tr, light, occluder, from, lit);
@@ -371,7 +372,7 @@ glm::dvec3 locate_on_plane(const Tracer& tr, const LocalLight& light, std::uint3
             const glm::dvec3 probe = on_plane(exit + (past / remaining) * (lit - exit));
             std::uint32_t next = kNoPrimitive;
             if (verdict(probe, &next) == 1) return exit;
-            if (next == kNoPrimitive) break;
+            if (next == kNoPrimitive || tr.is_cutout(next)) break;
             from = probe;
             occluder = next;
         }

@@ -21,15 +21,50 @@ namespace {
 constexpr int kPacket = 16;  // rays per Embree packet: a 4x4 block of pixels, or one area-light round
 static_assert(kRoundRays == kPacket);
 
-// Context for rays re-traced with a filter: Embree hands the RTCIntersectContext pointer back
-// to the filter, so it is the first member.
+// Context of every trace: Embree hands the RTCIntersectContext pointer back to the filters, so
+// it is the first member.
 struct FilterContext {
     RTCIntersectContext embree;
     const Tracer* tracer = nullptr;
-    glm::dvec3 p{0.0}, dir{0.0};  // true (double) origin and direction
+    glm::dvec3 p{0.0}, dir{0.0};  // true (double) origin and direction of a single ray
     std::uint32_t self_prim = kNoPrimitive;
     bool ambiguous = false;
+    // A packet's true rays by ray id (set_lane's k), for the cut-out filter; null: p and dir.
+    const glm::dvec3* lane_org = nullptr;
+    const glm::dvec3* lane_dir = nullptr;
+    std::uint32_t ambiguous_lanes = 0;  // bit k: ray k passed within float error of a cut-out's edge
 };
+
+FilterContext make_context(const Tracer* tracer, bool coherent) {
+    FilterContext ctx;
+    rtcInitIntersectContext(&ctx.embree);
+    if (coherent) ctx.embree.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    ctx.tracer = tracer;
+    return ctx;
+}
+
+// Hits on a cut-out where its coverage is below the cutoff are no hits (glTF 2.0 3.9.4): judged
+// on the exact ray in double (Tracer::cutout_hit). Set on the geometry only where the scene has
+// cut-outs; every trace's context is a FilterContext.
+void cutout_filter(const RTCFilterFunctionNArguments* args) {
+    const auto* tracer = static_cast<const Tracer*>(args->geometryUserPtr);
+    auto* ctx = reinterpret_cast<FilterContext*>(args->context);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (!args->valid[i]) continue;
+        const std::uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
+        if (!tracer->is_cutout(prim)) continue;
+        const unsigned id = RTCRayN_id(args->ray, args->N, i);
+        const bool lanes = ctx->lane_org != nullptr && id < 16;
+        const CoverageAnswer a =
+            tracer->cutout_hit(prim, lanes ? ctx->lane_org[id] : ctx->p, lanes ? ctx->lane_dir[id] : ctx->dir,
+                               RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
+        if (a.ambiguous) {
+            ctx->ambiguous = true;
+            if (id < 32) ctx->ambiguous_lanes |= 1u << id;
+        }
+        if (!a.opaque) args->valid[i] = 0;
+    }
+}
 
 // Every candidate hit of a re-traced shadow ray is judged in double.
 void shadow_filter(const RTCFilterFunctionNArguments* args) {
@@ -166,7 +201,8 @@ Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
       scene_(device_),
       tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided),
-      triangle_node_(scenario.scene.triangle_node) {}
+      triangle_node_(scenario.scene.triangle_node),
+      cutouts_(scenario.scene.has_cutouts()) {}
 
 void Tracer::set_camera(const Camera& camera) {
     camera_ = camera;
@@ -215,6 +251,10 @@ void Tracer::build() {
                                   vb[3 * i + 2] = f.z;
                               }
                           });
+        if (scenario_.scene.has_cutouts()) {
+            rtcSetGeometryUserData(geom, const_cast<Tracer*>(this));
+            rtcSetGeometryIntersectFilterFunction(geom, &cutout_filter);
+        }
         rtcCommitGeometry(geom);
         rtcAttachGeometry(sc, geom);
         rtcReleaseGeometry(geom);  // the scene holds the reference now
@@ -246,6 +286,27 @@ robust::HitVerdict Tracer::verify(std::uint32_t prim, const glm::dvec3& p, const
 
 bool Tracer::culled_for_camera(std::uint32_t prim, const glm::dvec3& ray_dir) const {
     return !double_sided_[prim] && glm::dot(normal_ccw(prim), ray_dir) > 0;
+}
+
+CoverageAnswer Tracer::cutout_hit(std::uint32_t prim, const glm::dvec3& org, const glm::dvec3& dir, float u,
+                                  float v) const {
+    // Moeller and Trumbore (1997) in double on the exact triangle: the barycentrics of the true
+    // ray, not of Embree's float one. Their error is a few ulps over |cos| of the ray and the
+    // plane; the texel reach below is far above that and far below a texel.
+    const glm::dvec3 &v0 = vertex(prim, 0), e1 = vertex(prim, 1) - v0, e2 = vertex(prim, 2) - v0;
+    const glm::dvec3 pvec = glm::cross(dir, e2);
+    const double det = glm::dot(e1, pvec);
+    const double scale = glm::length(e1) * glm::length(e2) * glm::length(dir);
+    constexpr double kReachTexels = 1e-6;
+    if (!(std::abs(det) > 1e-9 * scale)) {  // grazing: the plane's answer is Embree's, and unsure
+        CoverageAnswer a = scenario_.scene.cutout_coverage(prim, u, v, kReachTexels);
+        a.ambiguous = true;
+        return a;
+    }
+    const glm::dvec3 s = org - v0, qvec = glm::cross(s, e1);
+    const double b1 = glm::dot(s, pvec) / det, b2 = glm::dot(dir, qvec) / det;
+    const double cos_plane = std::abs(det) / scale;  // |sin| of the triangle's corner folds in: a bound
+    return scenario_.scene.cutout_coverage(prim, b1, b2, kReachTexels / std::max(cos_plane, 1e-3));
 }
 
 double Tracer::suspicious_hit_distance(const glm::dvec3& p, double cos_hit) const {
@@ -288,10 +349,8 @@ void Tracer::primary_hit(std::uint32_t prim, double u, double v, double t, const
 
 ShadowAnswer Tracer::trace_shadow_verified(const ShadowSetup& setup, const glm::dvec3& p,
                                            std::uint32_t self_prim) const {
-    FilterContext ctx;
-    rtcInitIntersectContext(&ctx.embree);
+    FilterContext ctx = make_context(this, false);
     ctx.embree.filter = &shadow_filter;
-    ctx.tracer = this;
     ctx.p = p;
     ctx.dir = setup.dir;
     ctx.self_prim = self_prim;
@@ -334,12 +393,18 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
     const AreaLight& light = lights_[li].area;
     const glm::vec3 origin = robust::offset_ray_origin(s.p, s.n, s.error);
     const auto shift_s = static_cast<std::uint32_t>(scramble), shift_t = static_cast<std::uint32_t>(scramble >> 32);
-    RTCIntersectContext coherent;
-    rtcInitIntersectContext(&coherent);
-    coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;  // one origin, one light: a tight bundle
+    FilterContext coherent = make_context(this, true);  // one origin, one light: a tight bundle
     alignas(64) RTCRayHit16 sh;
     alignas(64) int valid[kPacket];
     ShadowSetup setup[kPacket];
+    // A cut-out's hits are judged on each sample's exact ray (the sampled V's confidence bound
+    // covers a sample within float error of a cut-out's edge, as of any other edge).
+    glm::dvec3 lane_org[kPacket], lane_dir[kPacket];
+    if (cutouts_) {
+        std::fill(lane_org, lane_org + kPacket, s.p);
+        coherent.lane_org = lane_org;
+        coherent.lane_dir = lane_dir;
+    }
     bool any = false;
     for (int k = 0; k < kRoundRays; ++k) {
         valid[k] = 0;
@@ -361,13 +426,14 @@ AreaRound Tracer::trace_area_round(std::size_t li, const SurfacePoint& s, const 
         }
         set_lane(sh.ray, k, origin, setup[k].dir_f, 0.0f, setup[k].tfar);
         sh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        lane_dir[k] = setup[k].dir;
         valid[k] = -1;
         any = true;
         ++counters.shadow;
     }
     AreaRound round;
     if (!any) return round;
-    intersect_active_lanes(valid, scene_.get(), &coherent, sh, as_halves_);
+    intersect_active_lanes(valid, scene_.get(), &coherent.embree, sh, as_halves_);
     for (int k = 0; k < kRoundRays; ++k) {
         if (!valid[k]) continue;
         ShadowAnswer ans = judge_lane(sh, k, setup[k], s, counters);
@@ -422,15 +488,13 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
     const int W = frame.width, H = frame.height;
     const float znear = static_cast<float>(cam.znear);
     const float zfar = static_cast<float>(std::min(cam.zfar, 3.0e38));
-    RTCIntersectContext coherent;
-    rtcInitIntersectContext(&coherent);
-    coherent.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     const PrimaryRays rays(cam, W, H);
     // Per-packet state lives for the whole tile and every per-pixel result is written in
     // place: zero-filled temporaries and struct copies per pixel (store-forwarding stalls) were
     // the largest part of the 15% this loop lost before (docs/history/oracle-speed.md).
     SurfacePoint surf[kPacket];
     ShadowSetup setup[kPacket];
+    glm::dvec3 shadow_org[kPacket], shadow_dir[kPacket];  // the exact shadow rays, for cut-outs
     TraceCounters local;  // counted here, not through `counters`, which the compiler must assume aliases
 
     for (int by = y0; by < std::min(y0 + size, H); by += 4) {
@@ -452,7 +516,12 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
                 local.primary += valid[k] != 0;
             }
-            intersect_active_lanes(valid, scene_.get(), &coherent, rh, as_halves_);
+            FilterContext coherent = make_context(this, true);
+            if (cutouts_) {
+                coherent.lane_org = ray_org;
+                coherent.lane_dir = ray_dir;
+            }
+            intersect_active_lanes(valid, scene_.get(), &coherent.embree, rh, as_halves_);
 
             // The double vertices of the hit triangles are cache misses on large scenes: ask for
             // all lanes' indices first, so the misses overlap instead of queueing lane by lane.
@@ -469,10 +538,9 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 // culled_for_camera, the facing test first: it needs no memory.
                 if (glm::dot(n_ccw, ray_dir[k]) > 0 && !double_sided_[prim]) {
                     // Rare: re-trace this ray alone, culling the backs of single-sided surfaces.
-                    FilterContext ctx;
-                    rtcInitIntersectContext(&ctx.embree);
+                    FilterContext ctx = make_context(this, false);
                     ctx.embree.filter = &camera_cull_filter;
-                    ctx.tracer = this;
+                    ctx.p = ray_org[k];
                     ctx.dir = ray_dir[k];
                     RTCRayHit one{};
                     set_ray(one.ray, glm::vec3(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]),
@@ -481,6 +549,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     rtcIntersect1(scene_.get(), &ctx.embree, &one);
                     ++local.culled;  // counted apart from the shadow rays re-judged in double
                     ++local.culled_by_node[prim < triangle_node_.size() ? triangle_node_[prim] : 0u];
+                    if (ctx.ambiguous) coherent.ambiguous_lanes |= 1u << k;
                     if (one.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     prim = one.hit.primID;
                     n_ccw = normal_ccw(prim);
@@ -489,6 +558,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     v = one.hit.v;
                 }
                 primary_hit(prim, u, v, t, ray_org[k], ray_dir[k], n_ccw, surf[k]);
+                surf[k].ambiguous = (coherent.ambiguous_lanes >> k) & 1u;
                 const int i = pixel[k];
                 frame.A[i] = 1.0f;
                 frame.prim[i] = prim;
@@ -511,7 +581,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                     setup_shadow(lights_[li], surf[k], st);
                     const int i = pixel[k];
                     img.lightable[i] = st.lightable ? 1.0f : 0.0f;
-                    img.U[i] = st.ambiguous ? 1.0f : 0.0f;
+                    img.U[i] = st.ambiguous || surf[k].ambiguous ? 1.0f : 0.0f;
                     if (!st.lightable) continue;  // back-facing or outside the cone: V = 0, no ray
                     svalid[k] = -1;
                     any = true;
@@ -522,7 +592,16 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                 if (!any) continue;
                 // Closest hit, not any hit: the occluder distance is part of the answer (the
                 // metrics measure peter-panning gaps with it).
-                intersect_active_lanes(svalid, scene_.get(), &coherent, sh, as_halves_);
+                FilterContext shadow = make_context(this, true);
+                if (cutouts_) {
+                    for (int k = 0; k < kPacket; ++k) {
+                        shadow_org[k] = surf[k].p;
+                        shadow_dir[k] = setup[k].dir;
+                    }
+                    shadow.lane_org = shadow_org;
+                    shadow.lane_dir = shadow_dir;
+                }
+                intersect_active_lanes(svalid, scene_.get(), &shadow.embree, sh, as_halves_);
                 for (int k = 0; k < kPacket; ++k) {
                     if (!svalid[k]) continue;
                     const int i = pixel[k];
@@ -531,7 +610,7 @@ void Tracer::trace_tile(OracleFrame& frame, int x0, int y0, int size, TraceCount
                         ans = judge_lane(sh, k, setup[k], surf[k], local);
                     img.V[i] = ans.blocked ? 0.0f : 1.0f;
                     img.occluder_m[i] = ans.blocked ? ans.occluder_t : kNoDistance;
-                    if (ans.ambiguous) img.U[i] = 1.0f;
+                    if (ans.ambiguous || ((shadow.ambiguous_lanes >> k) & 1u)) img.U[i] = 1.0f;
                 }
             }
         }

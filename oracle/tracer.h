@@ -56,6 +56,7 @@ struct SurfacePoint {
     glm::dvec3 n{0.0};      // unit geometric normal, facing the camera
     glm::dvec3 error{0.0};  // per-component float error bound of p (robust::surface_error_bound)
     double depth = 0;
+    bool ambiguous = false;  // the camera's ray passed within float error of a cut-out's edge
 };
 
 // A shadow ray ready to trace, or the reason there is none.
@@ -178,6 +179,12 @@ class Tracer {
     robust::HitVerdict verify(std::uint32_t prim, const glm::dvec3& p, const glm::dvec3& dir,
                               std::uint32_t self_prim) const;
     bool culled_for_camera(std::uint32_t prim, const glm::dvec3& ray_dir) const;
+    // Whether triangle prim is a cut-out (alphaMode MASK): part of it may let rays through.
+    bool is_cutout(std::uint32_t prim) const { return scenario_.scene.cutout_of(prim) != nullptr; }
+    // Whether the exact ray org + t dir (local frame) meets cut-out triangle prim where it is
+    // opaque; ambiguous within float error of where that changes (docs/oracle.md, "Cut-outs").
+    // (u, v): Embree's float barycentrics, used where the ray grazes the triangle's plane.
+    CoverageAnswer cutout_hit(std::uint32_t prim, const glm::dvec3& org, const glm::dvec3& dir, float u, float v) const;
 
   private:
     // Judges lane k of a traced shadow packet: hits within float error of the receiver are
@@ -211,6 +218,7 @@ class Tracer {
     const std::vector<glm::u32vec3>& tris_;
     const std::vector<std::uint8_t>& double_sided_;
     const std::vector<std::uint32_t>& triangle_node_;
+    bool cutouts_ = false;  // the scene has cut-outs: traces carry their exact rays (cutout_filter)
 };
 
 // Primary and shadow rays from the tracer's camera, area-light sampling, shadow boundaries and
