@@ -9,6 +9,7 @@
 #include <cmath>
 #include <map>
 
+#include "raster/cutouts.h"
 #include "raster/depth_map.h"
 // SPIR-V compiled from shaders/ at build time.
 #include "peel_frag.h"
@@ -41,6 +42,11 @@ class MidpointVariant final : public DepthMapVariant {
         peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
                                             VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
         nearest_ = make_sampler(ctx_, false, false, false);
+    }
+
+    // The second layer's peel pass has no alpha test (shaders/peel.frag).
+    void check_supported(const Technique& t) override {
+        if (s_.has_cutouts && midpoint(t)) refuse_cutouts(s_, "depth_layer midpoint and second");
     }
 
     // The midpoint keeps two depth layers a texel (the first, and the midpoint the lookup reads).
@@ -125,7 +131,7 @@ class MidpointVariant final : public DepthMapVariant {
             const PeelPush push{glm::mat4(map.projection->view_proj[layer]), layer, epsilon};
             vkCmdPushConstants(cmd, peel_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                                sizeof(push), &push);
-            draw_casters(cmd, s_, t, [&](Cull c) { return peel_pipeline(t, c); });
+            draw_casters(cmd, s_, t, [&](Cull c, bool) { return peel_pipeline(t, c); });
             vkCmdEndRendering(cmd);
         }
     }

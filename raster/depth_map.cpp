@@ -29,12 +29,16 @@
 #include "common/memory_estimate.h"
 #include "common/stopwatch.h"
 #include "raster/area_lights.h"
+#include "raster/cutouts.h"
 #include "raster/surface_seen.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
 #include "caster_geom.h"
 #include "caster_vert.h"
 #include "lookup_depth_map_comp.h"
+#include "cutout_vert.h"
+#include "shadow_cutout_depth_frag.h"
+#include "shadow_cutout_frag.h"
 #include "shadow_frag.h"
 #include "shadow_vert.h"
 
@@ -60,15 +64,16 @@ std::uint64_t depth_texel_bytes(DepthFormat f) {
 // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from the light
 // is VK_FRONT_FACE_CLOCKWISE with these (pinned by the culling test).
 void draw_casters(VkCommandBuffer cmd, const SceneOnGpu& scene, const Technique& t,
-                  const std::function<VkPipeline(Cull)>& pipeline) {
-    if (t.cull != Cull::material) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline(t.cull));
+                  const std::function<VkPipeline(Cull, bool cutout)>& pipeline) {
+    if (t.cull != Cull::material && !scene.has_cutouts) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline(t.cull, false));
         if (scene.index_count > 0) vkCmdDrawIndexed(cmd, scene.index_count, 1, 0, 0, 0);
         return;
     }
     VkPipeline bound = VK_NULL_HANDLE;
     for (const SceneOnGpu::SidedRun& run : scene.sided_runs) {
-        VkPipeline p = pipeline(run.double_sided ? Cull::none : t.single_sided_cull);
+        const Cull cull = t.cull != Cull::material ? t.cull : run.double_sided ? Cull::none : t.single_sided_cull;
+        VkPipeline p = pipeline(cull, run.cutout);
         if (p != bound) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, bound = p);
         // The instance starts at the run's first triangle: the shaders add it to gl_PrimitiveID.
         vkCmdDrawIndexed(cmd, 3 * run.count, 1, 3 * run.first, 0, run.first);
@@ -251,7 +256,7 @@ class DepthMapCore final : public TechniqueFamily {
 
     void check_supported(const Technique& t, RasterStats& stats);
     std::uint32_t layers_of(const Technique& t, const Light& l) const;
-    VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull);
+    VkPipeline shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull, bool cutout);
     LookupShader shader_for(const Technique& t, const Light& l) const;
     SpecData lookup_spec(const Technique& t, const LookupShader& shader, gpu::uint kind, gpu::uint mode) const;
     VkPipeline lookup_pipeline(const Technique& t, const Light& l, gpu::uint kind, gpu::uint mode);
@@ -285,8 +290,8 @@ class DepthMapCore final : public TechniqueFamily {
 
     DescriptorSets sets_;
     UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_;
-    // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets.
-    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool>, UniquePipeline> shadow_pipelines_;
+    // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets, alpha test.
+    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool>, UniquePipeline> shadow_pipelines_;
     std::map<std::pair<const std::uint32_t*, SpecData>, UniquePipeline> lookup_pipelines_;
     std::map<std::tuple<bool, bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
@@ -308,7 +313,9 @@ DepthMapCore::DepthMapCore(const SceneOnGpu& scene, DepthMapVariants variants)
       sets_(scene.ctx, kLookupBindings, VK_SHADER_STAGE_COMPUTE_BIT),
       timer_(scene.ctx) {
     for (const auto& v : variants_) variant_passes_ += v->timed_passes();
-    shadow_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
+    // A scene with cut-outs binds their set for every shadow pipeline (shaders/cutout.glsl).
+    shadow_layout_ = make_pipeline_layout(ctx_, s_.has_cutouts ? s_.cutout_set->layout() : VK_NULL_HANDLE,
+                                          sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     caster_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(gpu::ShadowPush), VK_SHADER_STAGE_GEOMETRY_BIT);
     lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
     nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
@@ -328,6 +335,7 @@ void DepthMapCore::check_supported(const Technique& t, RasterStats& stats) {
                                     t.filter.type == FilterType::vogel));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
+    if (s_.has_cutouts && has_caster_offsets(t.bias)) refuse_cutouts(s_, "bias.caster (caster offsets)");
     for (const auto& v : variants_) v->check_supported(t);
 }
 
@@ -341,16 +349,23 @@ std::uint32_t DepthMapCore::layers_of(const Technique& t, const Light& l) const 
 // Without: no fragment shader and no colour target, the depth pass an engine draws. Both share
 // the vertex shader, depth bias, clamp and culling, so they store the same depths. Caster
 // offsets add a geometry shader (caster.geom); reversed Z keeps the nearest surface with GREATER.
-VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull) {
+VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull, bool cutout) {
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
     const bool caster = has_caster_offsets(t.bias);
-    auto key = std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster);
+    auto key = std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
-        GraphicsSetup g{caster ? kCasterVert : kShadowVert,
-                        caster ? sizeof(kCasterVert) : sizeof(kShadowVert),
-                        triangle_ids ? kShadowFrag : nullptr,
-                        triangle_ids ? sizeof(kShadowFrag) : 0,
+        // A cut-out's pass tests alpha (shaders/shadow_cutout*.frag), with or without the ids.
+        const std::uint32_t* frag = cutout ? (triangle_ids ? kShadowCutoutFrag : kShadowCutoutDepthFrag)
+                                    : triangle_ids ? kShadowFrag
+                                                   : nullptr;
+        const std::size_t frag_bytes = cutout ? (triangle_ids ? sizeof(kShadowCutoutFrag) : sizeof(kShadowCutoutDepthFrag))
+                                       : triangle_ids ? sizeof(kShadowFrag)
+                                                      : 0;
+        GraphicsSetup g{caster ? kCasterVert : cutout ? kCutoutVert : kShadowVert,
+                        caster ? sizeof(kCasterVert) : cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
+                        frag,
+                        frag_bytes,
                         vk_format(t.depth_format),
                         t.reversed_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS,
                         vk_cull(cull),
@@ -361,6 +376,7 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
             g.geom = kCasterGeom;
             g.geom_bytes = sizeof(kCasterGeom);
         }
+        if (!triangle_ids) g.colour_format = VK_FORMAT_UNDEFINED;  // a cut-out's depth pass: no colour target
         p = make_graphics_pipeline(ctx_, caster ? caster_layout_.get() : shadow_layout_.get(), g);
     }
     return p.get();
@@ -684,6 +700,10 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
         VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
+        if (s_.has_cutouts) {
+            VkDescriptorSet set = (*s_.cutout_set)[0];
+            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_layout_.get(), 0, 1, &set, 0, nullptr);
+        }
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face
             VkImageView target = map.depth_layers[layer].get();
@@ -706,7 +726,7 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
                 glm::mat4 vp = glm::mat4(map_view_proj(t, ls.projection.view_proj[layer]));
                 vkCmdPushConstants(cmd, shadow_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
             }
-            draw_casters(cmd, s_, t, [&](Cull c) { return shadow_pipeline(t, triangle_ids, c); });
+            draw_casters(cmd, s_, t, [&](Cull c, bool cutout) { return shadow_pipeline(t, triangle_ids, c, cutout); });
             vkCmdEndRendering(cmd);
             ++ls.layers_rendered;
         }

@@ -128,12 +128,13 @@ std::unique_ptr<DepthMapVariant> make_midpoint_variant(const SceneOnGpu& scene);
 VkFormat vk_format(DepthFormat f);
 std::uint64_t depth_texel_bytes(DepthFormat f);
 VkCullModeFlags vk_cull(Cull c);
-// Draws the scene's triangles (vertex and index buffers bound) with the pipeline `pipeline(cull)`
-// returns: one draw for the technique's culling; with cull material one per run of
-// SceneOnGpu::sided_runs, double-sided runs with none and the others with single_sided_cull, as an
-// engine switches state per material. Triangle ids stay the scene's (shaders/shadow.vert).
+// Draws the scene's triangles (vertex and index buffers bound) with the pipeline
+// `pipeline(cull, cutout)` returns: one draw for the technique's culling; with cull material or
+// cut-outs one per run of SceneOnGpu::sided_runs (double-sided runs with none and the others with
+// single_sided_cull under cull material; the cut-outs' runs with the alpha test), as an engine
+// switches state per material. Triangle ids stay the scene's (shaders/shadow.vert).
 void draw_casters(VkCommandBuffer cmd, const SceneOnGpu& scene, const Technique& t,
-                  const std::function<VkPipeline(Cull)>& pipeline);
+                  const std::function<VkPipeline(Cull, bool cutout)>& pipeline);
 // The lookup's kSpecFilter for a depth-compare filter (kFilter*).
 gpu::uint filter_kind(FilterType f);
 // A compute pipeline of `code` whose specialisation constants 0, 1, ... take `spec` in order.

@@ -6,6 +6,8 @@
 // is ever shadowed: that is the technique, and its false light is what the verdict shows.
 #include "raster/planar_projection.h"
 
+#include "raster/cutouts.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -177,6 +179,7 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
 
 void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> lights, const RenderOptions&,
                                     RasterFrame& frame, RasterStats& stats) {
+    if (s_.has_cutouts) refuse_cutouts(s_, "planar_projection");  // its flattened casters have no alpha test
     auto t0 = SteadyClock::now();
     stats.hw2x2 = "unused";  // no map, no compare
     const Scenario& sc = s_.scenario;

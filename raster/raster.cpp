@@ -8,12 +8,15 @@
 #include "common/camera.h"
 #include "common/errors.h"
 #include "common/stopwatch.h"
+#include "raster/cutouts.h"
 #include "raster/surface_seen.h"
 #include "raster/technique_family.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
+#include "camera_cutout_frag.h"
 #include "camera_frag.h"
 #include "camera_vert.h"
+#include "cutout_vert.h"
 
 namespace penumbra::raster {
 
@@ -75,10 +78,10 @@ void prepare_scene(SceneOnGpu& s) {
         idx[3 * t] = scene.triangles[t].x;
         idx[3 * t + 1] = scene.triangles[t].y;
         idx[3 * t + 2] = scene.triangles[t].z;
-        const bool two = scene.double_sided[t] != 0;
+        const bool two = scene.double_sided[t] != 0, cutout = scene.cutout_of(t) != nullptr;
         if (two) bits[t / 32] |= 1u << (t % 32);
-        if (s.sided_runs.empty() || s.sided_runs.back().double_sided != two)
-            s.sided_runs.push_back({static_cast<std::uint32_t>(t), 0, two});
+        if (s.sided_runs.empty() || s.sided_runs.back().double_sided != two || s.sided_runs.back().cutout != cutout)
+            s.sided_runs.push_back({static_cast<std::uint32_t>(t), 0, two, cutout});
         ++s.sided_runs.back().count;
     }
     s.index_count = static_cast<std::uint32_t>(idx.size());
@@ -99,16 +102,28 @@ void prepare_scene(SceneOnGpu& s) {
     // The camera pass culls nothing: the fragment shader drops single-sided back faces using
     // gl_FrontFacing. Front = counter-clockwise as seen, which with camera_matrix's y flip is
     // VK_FRONT_FACE_COUNTER_CLOCKWISE (pinned by the culling and primitive-agreement tests).
-    DescriptorSets sets(ctx, kCameraBindings, VK_SHADER_STAGE_FRAGMENT_BIT);
+    // A scene with cut-outs is drawn with the alpha test (shaders/camera_cutout.frag), its set
+    // holding the cut-outs' bindings beside the double-sided bits.
+    upload_cutouts(s);
+    std::vector<BindingDecl> bindings(kCameraBindings.begin(), kCameraBindings.end());
+    std::vector<DescriptorResource> resources(1);
+    resources[0].buffer = {s.double_sided.buffer.get(), 0, VK_WHOLE_SIZE};
+    if (s.has_cutouts) {
+        bindings.insert(bindings.end(), cutout_bindings().begin(), cutout_bindings().end());
+        append_cutout_resources(s, resources);
+    }
+    DescriptorSets sets(ctx, bindings,
+                        s.has_cutouts ? VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT
+                                      : VK_SHADER_STAGE_FRAGMENT_BIT);
     sets.reserve(1);
-    DescriptorResource ds;
-    ds.buffer = {s.double_sided.buffer.get(), 0, VK_WHOLE_SIZE};
-    sets.write(0, std::span(&ds, 1));
+    sets.write(0, resources);
     UniquePipelineLayout layout =
         make_pipeline_layout(ctx, sets.layout(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     UniquePipeline pipeline = make_graphics_pipeline(
         ctx, layout.get(),
-        {kCameraVert, sizeof(kCameraVert), kCameraFrag, sizeof(kCameraFrag), kCameraDepthFormat, VK_COMPARE_OP_GREATER,
+        {s.has_cutouts ? kCutoutVert : kCameraVert, s.has_cutouts ? sizeof(kCutoutVert) : sizeof(kCameraVert),
+         s.has_cutouts ? kCameraCutoutFrag : kCameraFrag,
+         s.has_cutouts ? sizeof(kCameraCutoutFrag) : sizeof(kCameraFrag), kCameraDepthFormat, VK_COMPARE_OP_GREATER,
          VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE, false, false});
     VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
     qi.queryType = VK_QUERY_TYPE_TIMESTAMP;

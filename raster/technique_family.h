@@ -45,11 +45,18 @@ struct SceneOnGpu {
     std::uint32_t index_count = 0;
     // Consecutive triangles of one doubleSided value, in triangle order: what a shadow pass with
     // cull material draws one by one (a glTF primitive's triangles are one run).
+    // Where the scene has cut-outs, runs are of one cut-out-or-not value too (draw_casters draws
+    // the cut-outs' runs with the alpha test).
     struct SidedRun {
         std::uint32_t first = 0, count = 0;  // triangles
         bool double_sided = false;
+        bool cutout = false;
     };
     std::vector<SidedRun> sided_runs;
+    // Cut-outs (raster/cutouts.h, shaders/cutout.glsl): set only where the scene has them.
+    bool has_cutouts = false;
+    GpuBuffer cutout_uv, cutout_alpha, cutout_of_triangle, cutout_materials, cutout_texels;
+    std::unique_ptr<DescriptorSets> cutout_set;  // one set: the cut-out bindings, vertex and fragment stages
     GpuImage gbuffer_prim;             // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
     glm::mat4 camera_view_proj{1.0f};  // the camera pass's clip space (reversed depth), for families that redraw it
     std::vector<float> A;              // 1 where a triangle covers the pixel

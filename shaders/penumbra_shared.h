@@ -23,6 +23,23 @@ PENUMBRA_CONST uint kNoPrim = 0xFFFFFFFFu;
 // Camera pass: per-triangle "double sided" bits.
 PENUMBRA_CONST uint kBindingDoubleSided = 0;
 
+// Cut-outs (alphaMode MASK; shaders/cutout.glsl, common/alpha_coverage.h): the shadow passes'
+// set, and the camera pass's beside kBindingDoubleSided, where the scene has cut-outs.
+PENUMBRA_CONST uint kBindingCutoutUv = 1;          // float[2 * vertices]: the cut-out's texture coordinates
+PENUMBRA_CONST uint kBindingCutoutAlpha = 2;       // float[vertices]: COLOR_0's alpha
+PENUMBRA_CONST uint kBindingCutoutOfTriangle = 3;  // uint[triangles]: index into the materials, or kNoPrim
+PENUMBRA_CONST uint kBindingCutoutMaterials = 4;   // CutoutMaterialGpu[]
+PENUMBRA_CONST uint kBindingCutoutTexels = 5;      // uint[]: two 16-bit alphas each, the lower half first
+PENUMBRA_CONST uint kCutoutNearest = 1u;           // CutoutMaterialGpu::texture.w bits
+PENUMBRA_CONST uint kCutoutHasTexture = 2u;
+PENUMBRA_CONST uint kCutoutWrapSShift = 2u;  // TextureWrap in two bits each
+PENUMBRA_CONST uint kCutoutWrapTShift = 4u;
+struct CutoutMaterialGpu {
+    vec4 row0;     // KHR_texture_transform's first row (xyz), alphaCutoff (w)
+    vec4 row1;     // its second row (xyz), baseColorFactor.a (w)
+    uvec4 texture; // first texel, width, height, kCutout* flags
+};
+
 // Lookup pass (one dispatch per light).
 PENUMBRA_CONST uint kBindingGBufferPrim = 0;    // r32ui storage image: triangle seen per pixel
 PENUMBRA_CONST uint kBindingPositions = 1;      // float[3 * vertices], camera-relative

@@ -203,6 +203,40 @@ void write_text(const fs::path& file, const std::string& text) {
     out << text;
 }
 
+std::uint32_t add_cutout_card(Scene& scene, glm::dvec3 corner, glm::dvec3 u, glm::dvec3 v, AlphaTexture texture,
+                              bool nearest, double cutoff) {
+    scene.pad_cutout_arrays();
+    CutoutMaterial m;
+    m.texture = static_cast<int>(scene.alpha_textures.size());
+    m.nearest = nearest;
+    m.cutoff = cutoff;
+    m.wrap_s = m.wrap_t = TextureWrap::clamp_to_edge;
+    m.label = "card";
+    scene.alpha_textures.push_back(std::move(texture));
+    scene.cutout_materials.push_back(m);
+    const auto material = static_cast<std::uint32_t>(scene.cutout_materials.size() - 1);
+    const glm::dvec3 p[4] = {corner, corner + u, corner + u + v, corner + v};
+    const glm::vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    std::uint32_t first = 0;
+    for (const glm::ivec3 t : {glm::ivec3(0, 1, 2), glm::ivec3(0, 2, 3)}) {
+        const auto base = static_cast<std::uint32_t>(scene.positions.size());
+        const std::uint32_t tri = scene.add_triangle(p[t.x], p[t.y], p[t.z], true);
+        if (t.y == 1) first = tri;
+        scene.triangle_cutout[tri] = material;
+        for (int k = 0; k < 3; ++k) scene.texcoords[base + k] = uv[t[k]];
+    }
+    return first;
+}
+
+AlphaTexture checkerboard_alpha(int n) {
+    AlphaTexture t;
+    t.width = t.height = n;
+    t.label = "checkerboard";
+    for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) t.alpha.push_back((i + j) % 2 == 0 ? 65535 : 0);
+    return t;
+}
+
 fs::path assimp_model(const std::string& relative) {
     fs::path p = fs::path("/usr/share/assimp/models/glTF2") / relative;
     return fs::exists(p) ? p : fs::path();

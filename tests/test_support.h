@@ -29,6 +29,13 @@ class SceneBuilder {
     Scene scene_;
 };
 
+// Adds a double-sided cut-out card (alphaMode MASK, common/alpha_coverage.h) as two triangles:
+// uv (0, 0) at `corner`, `u` and `v` its full edges, `texture` its alpha. Returns its first triangle.
+std::uint32_t add_cutout_card(Scene& scene, glm::dvec3 corner, glm::dvec3 u, glm::dvec3 v, AlphaTexture texture,
+                              bool nearest, double cutoff = 0.5);
+// A checkerboard alpha of n x n texels, opaque where (i + j) is even.
+AlphaTexture checkerboard_alpha(int n);
+
 Camera look_at(glm::dvec3 eye, glm::dvec3 target, double yfov_deg, glm::dvec3 up = {0, 1, 0});
 Camera look_at_ortho(glm::dvec3 eye, glm::dvec3 target, double xmag, double ymag, glm::dvec3 up = {0, 1, 0});
 Light directional(glm::dvec3 direction);

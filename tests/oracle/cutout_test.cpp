@@ -24,41 +24,6 @@ struct Card {
     std::uint32_t first = 0;  // its two triangles
 };
 
-AlphaTexture checkerboard() {
-    AlphaTexture t;
-    t.width = t.height = kTexels;
-    t.label = "checkerboard";
-    for (int j = 0; j < kTexels; ++j)
-        for (int i = 0; i < kTexels; ++i) t.alpha.push_back((i + j) % 2 == 0 ? 65535 : 0);
-    return t;
-}
-
-// Adds the card as two double-sided cut-out triangles with texture coordinates.
-Card add_card(Scene& scene, glm::dvec3 corner, glm::dvec3 u, glm::dvec3 v, bool nearest) {
-    Card c{corner, u, v, 0};
-    scene.pad_cutout_arrays();
-    CutoutMaterial m;
-    m.texture = static_cast<int>(scene.alpha_textures.size());
-    m.nearest = nearest;
-    m.wrap_s = m.wrap_t = TextureWrap::clamp_to_edge;
-    m.label = "card";
-    scene.alpha_textures.push_back(checkerboard());
-    scene.cutout_materials.push_back(m);
-    const auto material = static_cast<std::uint32_t>(scene.cutout_materials.size() - 1);
-    const glm::dvec3 p[4] = {corner, corner + u, corner + u + v, corner + v};
-    const glm::vec2 uv[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-    for (const glm::ivec3 t : {glm::ivec3(0, 1, 2), glm::ivec3(0, 2, 3)}) {
-        const std::uint32_t base = static_cast<std::uint32_t>(scene.positions.size());
-        const std::uint32_t tri = scene.add_triangle(p[t.x], p[t.y], p[t.z], true);
-        if (t.x == 0 && t.y == 1) c.first = tri;
-        scene.triangle_cutout.resize(scene.triangles.size(), kNoCutout);
-        scene.pad_cutout_arrays();
-        scene.triangle_cutout[tri] = material;
-        for (int k = 0; k < 3; ++k) scene.texcoords[base + k] = uv[t[k]];
-    }
-    return c;
-}
-
 // Where the line o + s d meets the card's plane: the card's (s, t) there, or none.
 std::optional<glm::dvec2> card_coords(const Card& c, const glm::dvec3& o, const glm::dvec3& d) {
     const glm::dvec3 n = glm::cross(c.u, c.v);
@@ -107,7 +72,9 @@ TEST_P(CutoutCard, MatchesTheCheckerboardsClosedForm) {
     const std::uint32_t ground = b.quad(offset + glm::dvec3(-12, 0, 12), offset + glm::dvec3(12, 0, 12),
                                         offset + glm::dvec3(12, 0, -12), offset + glm::dvec3(-12, 0, -12));
     Scene scene = b.build();
-    const Card card = add_card(scene, offset + glm::dvec3(-1.5, 1.2, 1.5), {3, 0, 0}, {0, 0, -3}, cc.nearest);
+    const Card card{offset + glm::dvec3(-1.5, 1.2, 1.5), {3, 0, 0}, {0, 0, -3},
+                    test::add_cutout_card(scene, offset + glm::dvec3(-1.5, 1.2, 1.5), {3, 0, 0}, {0, 0, -3},
+                                          test::checkerboard_alpha(kTexels), cc.nearest)};
     const glm::dvec3 point_light = offset + glm::dvec3(0.4, 5.0, -0.3);
     const glm::dvec3 sun = cc.light == 0 ? glm::dvec3(0, -1, 0)
                                          : glm::dvec3(std::sin(M_PI / 6), -std::cos(M_PI / 6), 0);
