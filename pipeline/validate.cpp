@@ -197,6 +197,32 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
     return r;
 }
 
+namespace {
+
+// The scene's cut-outs as report.json states them (docs/design.md): what the truth and the
+// shadow pass test alpha on.
+nlohmann::json cutouts_json(const Scene& scene) {
+    std::vector<std::uint64_t> triangles(scene.cutout_materials.size(), 0);
+    for (std::uint32_t c : scene.triangle_cutout)
+        if (c != kNoCutout) ++triangles[c];
+    nlohmann::json materials = nlohmann::json::array();
+    std::uint64_t total = 0;
+    for (std::size_t k = 0; k < scene.cutout_materials.size(); ++k) {
+        const CutoutMaterial& m = scene.cutout_materials[k];
+        nlohmann::json j = {{"material", m.label}, {"triangles", triangles[k]}, {"alpha_cutoff", m.cutoff},
+                            {"factor_alpha", m.factor_alpha}, {"filter", m.nearest ? "nearest" : "linear"}};
+        if (m.texture >= 0) {
+            const AlphaTexture& t = scene.alpha_textures[static_cast<std::size_t>(m.texture)];
+            j["image"] = {{"label", t.label}, {"width", t.width}, {"height", t.height}};
+        }
+        materials.push_back(std::move(j));
+        total += triangles[k];
+    }
+    return {{"triangles", total}, {"materials", std::move(materials)}};
+}
+
+}  // namespace
+
 void make_report(const Scenario& scenario, ValidateResult& r) {
     r.facing = facing_of(scenario, r.oracle->frame, r.oracle->info);
     const raster::FamilyEntry& family = raster::family_of(r.technique);
@@ -207,6 +233,7 @@ void make_report(const Scenario& scenario, ValidateResult& r) {
                hints.false_lit_cure};
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
     r.report["facing"] = to_json(r.facing);
+    if (scenario.scene.has_cutouts()) r.report["cutouts"] = cutouts_json(scenario.scene);
     const std::string& layer_report = hints.layer_report;
     for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
         const raster::RasterLightStats& ls = r.raster.stats.lights[li];
