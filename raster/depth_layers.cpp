@@ -8,10 +8,14 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <tuple>
+#include <vector>
 
 #include "raster/cutouts.h"
 #include "raster/depth_map.h"
 // SPIR-V compiled from shaders/ at build time.
+#include "cutout_vert.h"
+#include "peel_cutout_frag.h"
 #include "peel_frag.h"
 #include "shadow_vert.h"
 
@@ -23,8 +27,14 @@ constexpr const char* kSecondDepth =
     "midpoint depth's second pass per drawn map layer: every triangle again, fragments at or in front of the first "
     "layer discarded, the rest writing the midpoint between the first layer and themselves (depth test less)";
 
-// The second pass's set: the first depth layer, read by texelFetch.
+// The second pass's set: the first depth layer, read by texelFetch; a scene with cut-outs adds
+// their bindings (raster/cutouts.h).
 constexpr std::array<BindingDecl, 1> kPeelBindings = {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER}}};
+std::vector<BindingDecl> peel_bindings(const SceneOnGpu& s) {
+    std::vector<BindingDecl> b(kPeelBindings.begin(), kPeelBindings.end());
+    if (s.has_cutouts) b.insert(b.end(), cutout_bindings().begin(), cutout_bindings().end());
+    return b;
+}
 struct PeelPush {
     glm::mat4 view_proj;
     std::uint32_t layer;
@@ -38,15 +48,14 @@ bool midpoint(const Technique& t) {
 class MidpointVariant final : public DepthMapVariant {
   public:
     explicit MidpointVariant(const SceneOnGpu& scene)
-        : s_(scene), ctx_(scene.ctx), peel_sets_(scene.ctx, kPeelBindings, VK_SHADER_STAGE_FRAGMENT_BIT) {
+        : s_(scene),
+          ctx_(scene.ctx),
+          peel_sets_(scene.ctx, peel_bindings(scene),
+                     scene.has_cutouts ? VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT
+                                       : VK_SHADER_STAGE_FRAGMENT_BIT) {
         peel_layout_ = make_pipeline_layout(ctx_, peel_sets_.layout(), sizeof(PeelPush),
                                             VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
         nearest_ = make_sampler(ctx_, false, false, false);
-    }
-
-    // The second layer's peel pass has no alpha test (shaders/peel.frag).
-    void check_supported(const Technique& t) override {
-        if (s_.has_cutouts && midpoint(t)) refuse_cutouts(s_, "depth_layer midpoint and second");
     }
 
     // The midpoint keeps two depth layers a texel (the first, and the midpoint the lookup reads).
@@ -84,8 +93,9 @@ class MidpointVariant final : public DepthMapVariant {
             }
         peel_sets_.reserve(images_.size());
         for (std::size_t i = 0; i < images_.size(); ++i) {
-            std::array<DescriptorResource, kPeelBindings.size()> r{};
+            std::vector<DescriptorResource> r(1);
             r[0].image = {nearest_.get(), images_[i].first.view.get(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+            if (s_.has_cutouts) append_cutout_resources(s_, r);
             peel_sets_.write(i, r);
         }
         shapes_.assign(maps.begin(), maps.end());
@@ -131,7 +141,7 @@ class MidpointVariant final : public DepthMapVariant {
             const PeelPush push{glm::mat4(map.projection->view_proj[layer]), layer, epsilon};
             vkCmdPushConstants(cmd, peel_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                                sizeof(push), &push);
-            draw_casters(cmd, s_, t, [&](Cull c, bool) { return peel_pipeline(t, c); });
+            draw_casters(cmd, s_, t, [&](Cull c, bool cutout) { return peel_pipeline(t, c, cutout); });
             vkCmdEndRendering(cmd);
         }
     }
@@ -153,13 +163,15 @@ class MidpointVariant final : public DepthMapVariant {
     };
 
     // The technique's culling (`cull`: draw_casters' per run), depth test less.
-    VkPipeline peel_pipeline(const Technique& t, Cull cull) {
-        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull}];
+    // A cut-out's runs peel with the alpha test (shaders/peel_cutout.frag).
+    VkPipeline peel_pipeline(const Technique& t, Cull cull, bool cutout) {
+        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull, cutout}];
         if (!p)
             p = make_graphics_pipeline(
                 ctx_, peel_layout_.get(),
-                {kShadowVert, sizeof(kShadowVert), kPeelFrag, sizeof(kPeelFrag), vk_format(t.depth_format),
-                 VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE, true, false});
+                {cutout ? kCutoutVert : kShadowVert, cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
+                 cutout ? kPeelCutoutFrag : kPeelFrag, cutout ? sizeof(kPeelCutoutFrag) : sizeof(kPeelFrag),
+                 vk_format(t.depth_format), VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE, true, false});
         return p.get();
     }
 
@@ -168,7 +180,7 @@ class MidpointVariant final : public DepthMapVariant {
     DescriptorSets peel_sets_;
     UniquePipelineLayout peel_layout_;
     UniqueSampler nearest_;
-    std::map<std::pair<VkFormat, Cull>, UniquePipeline> peel_pipelines_;
+    std::map<std::tuple<VkFormat, Cull, bool>, UniquePipeline> peel_pipelines_;
     // The arena before what is bound to it: destroyed after it.
     MemoryArena arena_;
     std::vector<Images> images_;

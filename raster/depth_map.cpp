@@ -33,6 +33,8 @@
 #include "raster/surface_seen.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
+#include "caster_cutout_geom.h"
+#include "caster_cutout_vert.h"
 #include "caster_geom.h"
 #include "caster_vert.h"
 #include "lookup_depth_map_comp.h"
@@ -316,7 +318,8 @@ DepthMapCore::DepthMapCore(const SceneOnGpu& scene, DepthMapVariants variants)
     // A scene with cut-outs binds their set for every shadow pipeline (shaders/cutout.glsl).
     shadow_layout_ = make_pipeline_layout(ctx_, s_.has_cutouts ? s_.cutout_set->layout() : VK_NULL_HANDLE,
                                           sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
-    caster_layout_ = make_pipeline_layout(ctx_, VK_NULL_HANDLE, sizeof(gpu::ShadowPush), VK_SHADER_STAGE_GEOMETRY_BIT);
+    caster_layout_ = make_pipeline_layout(ctx_, s_.has_cutouts ? s_.cutout_set->layout() : VK_NULL_HANDLE,
+                                          sizeof(gpu::ShadowPush), VK_SHADER_STAGE_GEOMETRY_BIT);
     lookup_layout_ = make_pipeline_layout(ctx_, sets_.layout(), 0, 0);
     nearest_ = make_sampler(ctx_, false, false, false);  // texelFetch ignores it; depth and prim share it
 }
@@ -335,7 +338,6 @@ void DepthMapCore::check_supported(const Technique& t, RasterStats& stats) {
                                     t.filter.type == FilterType::vogel));
     hardware_compare_ = wants_bilinear && ctx_.supports_linear_depth_compare(vk_format(t.depth_format));
     stats.hw2x2 = !wants_bilinear ? "unused" : hardware_compare_ ? "hardware" : "emulated";
-    if (s_.has_cutouts && has_caster_offsets(t.bias)) refuse_cutouts(s_, "bias.caster (caster offsets)");
     for (const auto& v : variants_) v->check_supported(t);
 }
 
@@ -362,8 +364,12 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
         const std::size_t frag_bytes = cutout ? (triangle_ids ? sizeof(kShadowCutoutFrag) : sizeof(kShadowCutoutDepthFrag))
                                        : triangle_ids ? sizeof(kShadowFrag)
                                                       : 0;
-        GraphicsSetup g{caster ? kCasterVert : cutout ? kCutoutVert : kShadowVert,
-                        caster ? sizeof(kCasterVert) : cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
+        const std::uint32_t* vert = caster ? (cutout ? kCasterCutoutVert : kCasterVert) : cutout ? kCutoutVert : kShadowVert;
+        const std::size_t vert_bytes = caster   ? (cutout ? sizeof(kCasterCutoutVert) : sizeof(kCasterVert))
+                                       : cutout ? sizeof(kCutoutVert)
+                                                : sizeof(kShadowVert);
+        GraphicsSetup g{vert,
+                        vert_bytes,
                         frag,
                         frag_bytes,
                         vk_format(t.depth_format),
@@ -373,8 +379,8 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
                         true,
                         bias};
         if (caster) {
-            g.geom = kCasterGeom;
-            g.geom_bytes = sizeof(kCasterGeom);
+            g.geom = cutout ? kCasterCutoutGeom : kCasterGeom;
+            g.geom_bytes = cutout ? sizeof(kCasterCutoutGeom) : sizeof(kCasterGeom);
         }
         if (!triangle_ids) g.colour_format = VK_FORMAT_UNDEFINED;  // a cut-out's depth pass: no colour target
         p = make_graphics_pipeline(ctx_, caster ? caster_layout_.get() : shadow_layout_.get(), g);
@@ -700,9 +706,11 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
         VkDeviceSize zero = 0;
         vkCmdBindVertexBuffers(cmd, 0, 1, s_.positions.buffer.ptr(), &zero);
         vkCmdBindIndexBuffer(cmd, s_.indices.buffer.get(), 0, VK_INDEX_TYPE_UINT32);
-        if (s_.has_cutouts) {
+        if (s_.has_cutouts) {  // with the layout the technique's pipelines use (their push ranges differ)
             VkDescriptorSet set = (*s_.cutout_set)[0];
-            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_layout_.get(), 0, 1, &set, 0, nullptr);
+            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                                    has_caster_offsets(t.bias) ? caster_layout_.get() : shadow_layout_.get(), 0, 1, &set,
+                                    0, nullptr);
         }
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face

@@ -1,19 +1,4 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Shadow and camera passes of a scene with cut-outs: shadow.vert's positions and first_prim, and
-// each vertex's texture coordinate and COLOR_0 alpha (by its index: the draws are indexed into
-// the scene's vertices) for the fragment's coverage (shaders/cutout.glsl).
-#include "penumbra_shared.h"
-layout(std430, set = 0, binding = kBindingCutoutUv) readonly buffer CutoutUv { float cutout_uv[]; };
-layout(std430, set = 0, binding = kBindingCutoutAlpha) readonly buffer CutoutAlpha { float cutout_alpha[]; };
-layout(location = 0) in vec3 position;
-layout(location = 0) flat out uint first_prim;
-layout(location = 1) out vec2 uv;
-layout(location = 2) out float vertex_alpha;
-layout(push_constant) uniform Push { mat4 view_proj; } push;
-void main() {
-    gl_Position = push.view_proj * vec4(position, 1.0);
-    first_prim = uint(gl_InstanceIndex);
-    uv = vec2(cutout_uv[2 * gl_VertexIndex], cutout_uv[2 * gl_VertexIndex + 1]);
-    vertex_alpha = cutout_alpha[gl_VertexIndex];
-}
+// Shadow and camera passes of a scene with cut-outs: cutout_vertex.glsl.
+#include "cutout_vertex.glsl"

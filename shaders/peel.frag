@@ -1,20 +1,4 @@
 #version 460
-// Midpoint depth's second pass (Woo 1992): of the surfaces behind the first depth layer, the
-// nearest one. Fragments at or in front of the first layer (plus `epsilon`, a few depth quanta)
-// are peeled away; the others write the midpoint between the first layer and themselves, which
-// grows with their depth, so the depth test (less) keeps the nearest: the map ends up holding
-// (first + second) / 2, or the clear value 1 where no surface lies behind the first.
-layout(set = 0, binding = 0) uniform sampler2DArray first_layer;
-layout(push_constant) uniform Push {
-    mat4 view_proj;
-    uint layer;
-    float epsilon;
-} push;
-layout(location = 0) flat in uint first_prim;  // shadow.vert's
-layout(location = 0) out uint second_prim;
-void main() {
-    float first = texelFetch(first_layer, ivec3(ivec2(gl_FragCoord.xy), int(push.layer)), 0).r;
-    if (gl_FragCoord.z <= first + push.epsilon) discard;
-    gl_FragDepth = 0.5 * (first + gl_FragCoord.z);
-    second_prim = first_prim + uint(gl_PrimitiveID);
-}
+#extension GL_GOOGLE_include_directive : require
+// Midpoint depth's second pass: peel.glsl.
+#include "peel.glsl"
