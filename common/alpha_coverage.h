@@ -45,10 +45,12 @@ void set_alpha_image_decoder(AlphaImageDecoder decoder);
 // The registered decoder; throws EnvironmentError where none is (a program without image_io).
 AlphaImageDecoder alpha_image_decoder();
 
-// A material whose coverage can hide part of a triangle (alphaMode MASK). Opaque and blended
-// materials have none: every hit on them is a hit.
+// A material whose coverage can hide part of a triangle (alphaMode MASK), or a blended one
+// (BLEND), which the truth holds opaque and a technique's `blend` rule may draw otherwise
+// (docs/raster.md, "Blended materials"). Opaque materials have none: every hit on them is a hit.
 struct CutoutMaterial {
-    double cutoff = 0.5;        // alphaCutoff
+    AlphaMode mode = AlphaMode::mask;  // mask or blend
+    double cutoff = 0.5;        // alphaCutoff (MASK)
     double factor_alpha = 1.0;  // baseColorFactor[3]
     int texture = -1;           // Scene::alpha_textures index; -1: the factor (and COLOR_0) alone
     TextureWrap wrap_s = TextureWrap::repeat, wrap_t = TextureWrap::repeat;

@@ -262,14 +262,15 @@ void check_version(const Context& ctx, const nlohmann::json& j) {
         fail(ctx, "asset", "missing, and the file looks like glTF 1.0 (objects keyed by name), which is not supported");
 }
 
-// Per image, whether a MASK material's baseColorTexture (or its KHR_texture_transform) shows
-// it: only those are decoded. The schema has checked the types.
+// Per image, whether a MASK or BLEND material's baseColorTexture shows it: only those are
+// decoded (a technique's `blend: cutout(T)` tests a blended material's alpha). The schema has checked the types.
 std::vector<bool> cutout_images(const nlohmann::json& j) {
     const auto images = j.find("images"), textures = j.find("textures"), materials = j.find("materials");
     if (images == j.end() || textures == j.end() || materials == j.end()) return {};
     std::vector<bool> wanted(images->size(), false);
     for (const nlohmann::json& m : *materials) {
-        if (m.value("alphaMode", std::string("OPAQUE")) != "MASK") continue;
+        const std::string mode = m.value("alphaMode", std::string("OPAQUE"));
+        if (mode != "MASK" && mode != "BLEND") continue;
         const auto pbr = m.find("pbrMetallicRoughness");
         if (pbr == m.end() || !pbr->contains("baseColorTexture")) continue;
         const std::size_t t = (*pbr)["baseColorTexture"]["index"].get<std::size_t>();
@@ -615,9 +616,9 @@ glm::dmat3 texture_transform(const Context& ctx, const std::string& element, con
     return translation * rotate * scaling;
 }
 
-// The cut-out materials of a model, their images decoded: per glTF material its index into
-// scene.cutout_materials (kNoCutout where it is not MASK), and per cut-out the TEXCOORD set its
-// texture reads.
+// The cut-out (MASK) and blended (BLEND) materials of a model, their images decoded: per glTF
+// material its index into scene.cutout_materials (kNoCutout where it is OPAQUE), and per entry
+// the TEXCOORD set its texture reads.
 struct Cutouts {
     std::vector<std::uint32_t> of_material;
     std::vector<int> tex_coord;
@@ -678,9 +679,10 @@ Cutouts read_cutouts(const Context& ctx, const tinygltf::Model& m, const std::ve
     };
     for (std::size_t i = 0; i < m.materials.size(); ++i) {
         const tinygltf::Material& mat = m.materials[i];
-        if (mat.alphaMode != "MASK") continue;
+        if (mat.alphaMode != "MASK" && mat.alphaMode != "BLEND") continue;
         const std::string element = fmt::format("materials[{}]", i);
         CutoutMaterial c;
+        c.mode = mat.alphaMode == "MASK" ? AlphaMode::mask : AlphaMode::blend;
         c.label = fmt::format("{}: {}", ctx.label, named(element, mat.name));
         c.cutoff = mat.alphaCutoff;
         if (!std::isfinite(c.cutoff)) fail(ctx, element, "alphaCutoff is not finite");

@@ -1,5 +1,6 @@
 #include "common/scene.h"
 
+#include <algorithm>
 #include <glm/geometric.hpp>
 
 #include "common/receivers.h"
@@ -34,6 +35,11 @@ std::uint32_t Scene::add_triangle(const glm::dvec3& a, const glm::dvec3& b, cons
 std::string Scene::node_label(std::uint32_t node) const {
     if (node == kReceiverNode) return "receivers";
     return node < node_labels.size() ? node_labels[node] : "node " + std::to_string(node);
+}
+
+bool Scene::has_masks() const {
+    return has_cutouts() && std::any_of(cutout_materials.begin(), cutout_materials.end(),
+                                        [](const CutoutMaterial& m) { return m.mode == AlphaMode::mask; });
 }
 
 void Scene::pad_cutout_arrays() {

@@ -75,7 +75,8 @@ struct Scene {
     std::vector<Camera> cameras;               // glTF cameras, placed by their first node; index = camera index
     std::vector<bool> camera_placed;           // false where no node of the scene uses that camera
     std::vector<Light> lights;                 // KHR_lights_punctual, placed by nodes
-    // Cut-outs (alphaMode MASK, common/alpha_coverage.h). All empty in a scene without one, so
+    // Cut-outs (alphaMode MASK) and blended materials (BLEND), common/alpha_coverage.h. All
+    // empty in a scene without one, so
     // that such a scene costs nothing; otherwise triangle_cutout has one entry per triangle
     // (kNoCutout where opaque) and texcoords and vertex_alpha one per vertex.
     std::vector<CutoutMaterial> cutout_materials;
@@ -87,11 +88,18 @@ struct Scene {
     std::vector<std::string> warnings;  // skipped points/lines, degenerate triangles, ...
 
     std::size_t triangle_count() const { return triangles.size(); }
+    // Whether any triangle is MASK or BLEND (the arrays below are filled), and whether any is MASK.
     bool has_cutouts() const { return !triangle_cutout.empty(); }
-    // The cut-out material of triangle t, or nullptr where it is opaque.
-    const CutoutMaterial* cutout_of(std::size_t t) const {
+    bool has_masks() const;
+    // The MASK or BLEND material of triangle t, or nullptr where it is opaque.
+    const CutoutMaterial* alpha_material_of(std::size_t t) const {
         if (t >= triangle_cutout.size() || triangle_cutout[t] == kNoCutout) return nullptr;
         return &cutout_materials[triangle_cutout[t]];
+    }
+    // The cut-out (MASK) material of triangle t, or nullptr where it is opaque or blended.
+    const CutoutMaterial* cutout_of(std::size_t t) const {
+        const CutoutMaterial* m = alpha_material_of(t);
+        return m && m->mode == AlphaMode::mask ? m : nullptr;
     }
     // Whether the surface of cut-out triangle t is opaque at barycentrics (b1, b2) of its second
     // and third vertices, and whether that would change within reach_texels.

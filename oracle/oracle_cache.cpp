@@ -182,6 +182,7 @@ void add_scene(KeyBytes& k, const Scene& scene) {
     k.add_all(scene.vertex_alpha);
     k.add(scene.cutout_materials.size());
     for (const CutoutMaterial& m : scene.cutout_materials) {
+        k.add(m.mode);
         for (double v : {m.cutoff, m.factor_alpha}) k.add(v);
         k.add(m.texture);
         k.add(m.wrap_s);

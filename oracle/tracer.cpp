@@ -202,7 +202,7 @@ Tracer::Tracer(const Scenario& scenario, const std::string& embree_isa)
       tris_(scenario.scene.triangles),
       double_sided_(scenario.scene.double_sided),
       triangle_node_(scenario.scene.triangle_node),
-      cutouts_(scenario.scene.has_cutouts()) {}
+      cutouts_(scenario.scene.has_masks()) {}
 
 void Tracer::set_camera(const Camera& camera) {
     camera_ = camera;
@@ -251,7 +251,7 @@ void Tracer::build() {
                                   vb[3 * i + 2] = f.z;
                               }
                           });
-        if (scenario_.scene.has_cutouts()) {
+        if (cutouts_) {  // blended materials are opaque in the truth
             rtcSetGeometryUserData(geom, const_cast<Tracer*>(this));
             rtcSetGeometryIntersectFilterFunction(geom, &cutout_filter);
         }

@@ -209,7 +209,10 @@ nlohmann::json cutouts_json(const Scene& scene) {
     std::uint64_t total = 0;
     for (std::size_t k = 0; k < scene.cutout_materials.size(); ++k) {
         const CutoutMaterial& m = scene.cutout_materials[k];
-        nlohmann::json j = {{"material", m.label}, {"triangles", triangles[k]}, {"alpha_cutoff", m.cutoff},
+        nlohmann::json j = {{"material", m.label},
+                            {"alpha_mode", m.mode == AlphaMode::mask ? "MASK" : "BLEND"},
+                            {"triangles", triangles[k]},
+                            {"alpha_cutoff", m.cutoff},
                             {"factor_alpha", m.factor_alpha}, {"filter", m.nearest ? "nearest" : "linear"}};
         if (m.texture >= 0) {
             const AlphaTexture& t = scene.alpha_textures[static_cast<std::size_t>(m.texture)];

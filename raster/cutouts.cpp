@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <array>
+#include <cstring>
 
 #include "common/errors.h"
 #include "raster/technique_family.h"
@@ -27,6 +28,7 @@ std::span<const BindingDecl> cutout_bindings() {
 void upload_cutouts(SceneOnGpu& s) {
     const Scene& scene = s.scenario.scene;
     s.has_cutouts = scene.has_cutouts();
+    s.has_masks = scene.has_masks();
     if (!s.has_cutouts) return;
     const VulkanContext& ctx = s.ctx;
     std::vector<float> uv(2 * scene.texcoords.size());
@@ -52,7 +54,7 @@ void upload_cutouts(SceneOnGpu& s) {
         gpu::CutoutMaterialGpu g;
         g.row0 = glm::vec4(x[0][0], x[1][0], x[2][0], m.cutoff);
         g.row1 = glm::vec4(x[0][1], x[1][1], x[2][1], m.factor_alpha);
-        std::uint32_t flags = (m.nearest ? gpu::kCutoutNearest : 0u) |
+        std::uint32_t flags = (m.nearest ? gpu::kCutoutNearest : 0u) | (m.mode == AlphaMode::blend ? gpu::kCutoutBlend : 0u) |
                               (static_cast<std::uint32_t>(m.wrap_s) << gpu::kCutoutWrapSShift) |
                               (static_cast<std::uint32_t>(m.wrap_t) << gpu::kCutoutWrapTShift);
         g.texture = glm::uvec4(0u, 1u, 1u, flags);
@@ -86,9 +88,28 @@ void append_cutout_resources(const SceneOnGpu& s, std::vector<DescriptorResource
     }
 }
 
+std::vector<std::uint32_t> blend_spec(const Technique& t) {
+    const float cutoff = t.blend == Blend::cutout ? static_cast<float>(t.blend_cutoff) : -1.0f;
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &cutoff, sizeof bits);
+    return {bits};
+}
+
+void check_alpha_rules(const SceneOnGpu& s, const Technique& t, const std::string& family) {
+    if (s.has_masks) refuse_cutouts(s, family);
+    if (s.has_cutouts && t.blend != Blend::opaque)
+        throw InputError(fmt::format("{}: technique.blend \"{}\": {} draws blended materials opaque only",
+                                     s.scenario.label, to_string(t.blend, t.blend_cutoff), family));
+}
+
 void refuse_cutouts(const SceneOnGpu& s, const std::string& what) {
     const Scene& scene = s.scenario.scene;
-    const std::string material = scene.cutout_materials.empty() ? "a material" : scene.cutout_materials[0].label;
+    std::string material = "a material";
+    for (const CutoutMaterial& m : scene.cutout_materials)
+        if (m.mode == AlphaMode::mask) {
+            material = m.label;
+            break;
+        }
     throw InputError(fmt::format("{}: {} cannot draw cut-outs ({} is alphaMode MASK, and {} more); see docs/raster.md, "
                                  "\"Cut-outs\"",
                                  s.scenario.label, what, material,

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "raster/gpu_passes.h"
+#include "raster/technique.h"
 
 namespace penumbra::raster {
 
@@ -19,5 +20,11 @@ void upload_cutouts(SceneOnGpu& s);
 void append_cutout_resources(const SceneOnGpu& s, std::vector<DescriptorResource>& resources);
 // InputError for a family or option that cannot draw cut-outs: names it and a cut-out material.
 [[noreturn]] void refuse_cutouts(const SceneOnGpu& s, const std::string& what);
+// For a family that draws every triangle opaque: refuses a scene with cut-outs, and a `blend`
+// other than opaque on a scene with blended materials.
+void check_alpha_rules(const SceneOnGpu& s, const Technique& t, const std::string& family);
+// The alpha-tested fragment shaders' specialisation (shaders/cutout.glsl's kBlendCutoff): the
+// technique's blend cutoff, or -1 (a blended material is opaque) unless blend is cutout(T).
+std::vector<std::uint32_t> blend_spec(const Technique& t);
 
 }  // namespace penumbra::raster

@@ -165,13 +165,16 @@ class MidpointVariant final : public DepthMapVariant {
     // The technique's culling (`cull`: draw_casters' per run), depth test less.
     // A cut-out's runs peel with the alpha test (shaders/peel_cutout.frag).
     VkPipeline peel_pipeline(const Technique& t, Cull cull, bool cutout) {
-        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull, cutout}];
-        if (!p)
-            p = make_graphics_pipeline(
-                ctx_, peel_layout_.get(),
-                {cutout ? kCutoutVert : kShadowVert, cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
-                 cutout ? kPeelCutoutFrag : kPeelFrag, cutout ? sizeof(kPeelCutoutFrag) : sizeof(kPeelFrag),
-                 vk_format(t.depth_format), VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE, true, false});
+        const double blend_cutoff = cutout && t.blend == Blend::cutout ? t.blend_cutoff : -1;
+        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull, cutout, blend_cutoff}];
+        if (!p) {
+            GraphicsSetup g{cutout ? kCutoutVert : kShadowVert, cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
+                            cutout ? kPeelCutoutFrag : kPeelFrag, cutout ? sizeof(kPeelCutoutFrag) : sizeof(kPeelFrag),
+                            vk_format(t.depth_format), VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE,
+                            true, false};
+            if (cutout) g.frag_spec = blend_spec(t);
+            p = make_graphics_pipeline(ctx_, peel_layout_.get(), g);
+        }
         return p.get();
     }
 
@@ -180,7 +183,7 @@ class MidpointVariant final : public DepthMapVariant {
     DescriptorSets peel_sets_;
     UniquePipelineLayout peel_layout_;
     UniqueSampler nearest_;
-    std::map<std::tuple<VkFormat, Cull, bool>, UniquePipeline> peel_pipelines_;
+    std::map<std::tuple<VkFormat, Cull, bool, double>, UniquePipeline> peel_pipelines_;
     // The arena before what is bound to it: destroyed after it.
     MemoryArena arena_;
     std::vector<Images> images_;

@@ -66,7 +66,7 @@ std::uint64_t depth_texel_bytes(DepthFormat f) {
 // Light maps have no y flip, which mirrors the winding: counter-clockwise as seen from the light
 // is VK_FRONT_FACE_CLOCKWISE with these (pinned by the culling test).
 void draw_casters(VkCommandBuffer cmd, const SceneOnGpu& scene, const Technique& t,
-                  const std::function<VkPipeline(Cull, bool cutout)>& pipeline) {
+                  const std::function<VkPipeline(Cull, bool alpha_test)>& pipeline) {
     if (t.cull != Cull::material && !scene.has_cutouts) {
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline(t.cull, false));
         if (scene.index_count > 0) vkCmdDrawIndexed(cmd, scene.index_count, 1, 0, 0, 0);
@@ -75,7 +75,10 @@ void draw_casters(VkCommandBuffer cmd, const SceneOnGpu& scene, const Technique&
     VkPipeline bound = VK_NULL_HANDLE;
     for (const SceneOnGpu::SidedRun& run : scene.sided_runs) {
         const Cull cull = t.cull != Cull::material ? t.cull : run.double_sided ? Cull::none : t.single_sided_cull;
-        VkPipeline p = pipeline(cull, run.cutout);
+        if (run.alpha == AlphaMode::blend && t.blend == Blend::none) continue;  // blended materials cast nothing
+        const bool alpha_test =
+            run.alpha == AlphaMode::mask || (run.alpha == AlphaMode::blend && t.blend == Blend::cutout);
+        VkPipeline p = pipeline(cull, alpha_test);
         if (p != bound) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, bound = p);
         // The instance starts at the run's first triangle: the shaders add it to gl_PrimitiveID.
         vkCmdDrawIndexed(cmd, 3 * run.count, 1, 3 * run.first, 0, run.first);
@@ -292,8 +295,9 @@ class DepthMapCore final : public TechniqueFamily {
 
     DescriptorSets sets_;
     UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_;
-    // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets, alpha test.
-    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool>, UniquePipeline> shadow_pipelines_;
+    // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets, alpha test and
+    // the blend cutoff it tests blended materials at.
+    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool, double>, UniquePipeline> shadow_pipelines_;
     std::map<std::pair<const std::uint32_t*, SpecData>, UniquePipeline> lookup_pipelines_;
     std::map<std::tuple<bool, bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
@@ -354,7 +358,9 @@ std::uint32_t DepthMapCore::layers_of(const Technique& t, const Light& l) const 
 VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, Cull cull, bool cutout) {
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
     const bool caster = has_caster_offsets(t.bias);
-    auto key = std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout);
+    const double blend_cutoff = cutout && t.blend == Blend::cutout ? t.blend_cutoff : -1;
+    auto key =
+        std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout, blend_cutoff);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
         // A cut-out's pass tests alpha (shaders/shadow_cutout*.frag), with or without the ids.
@@ -383,6 +389,7 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
             g.geom_bytes = cutout ? sizeof(kCasterCutoutGeom) : sizeof(kCasterGeom);
         }
         if (!triangle_ids) g.colour_format = VK_FORMAT_UNDEFINED;  // a cut-out's depth pass: no colour target
+        if (cutout) g.frag_spec = blend_spec(t);
         p = make_graphics_pipeline(ctx_, caster ? caster_layout_.get() : shadow_layout_.get(), g);
     }
     return p.get();

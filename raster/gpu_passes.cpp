@@ -85,6 +85,11 @@ UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout
     add_stage(VK_SHADER_STAGE_VERTEX_BIT, vs.get());
     if (g.geom) add_stage(VK_SHADER_STAGE_GEOMETRY_BIT, gs.get());
     if (g.frag) add_stage(VK_SHADER_STAGE_FRAGMENT_BIT, fs.get());
+    std::vector<VkSpecializationMapEntry> entries(g.frag_spec.size());
+    for (std::uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, i * 4, 4};
+    const VkSpecializationInfo spec{static_cast<std::uint32_t>(entries.size()), entries.data(),
+                                    g.frag_spec.size() * sizeof(std::uint32_t), g.frag_spec.data()};
+    if (g.frag && !g.frag_spec.empty()) stages[stage_count - 1].pSpecializationInfo = &spec;
 
     const bool vec4 = g.vertex_input == VertexInput::vec4;
     VkVertexInputBindingDescription binding{0, (vec4 ? 4 : 3) * static_cast<std::uint32_t>(sizeof(float)),

@@ -59,6 +59,8 @@ struct GraphicsSetup {
     // `front` and `back` when stencil_test.
     bool stencil_attachment = false, stencil_test = false;
     VkStencilOpState front{}, back{};
+    // The fragment shader's specialisation constants, ids 0, 1, ... (4 bytes each).
+    std::vector<std::uint32_t> frag_spec;
 };
 UniquePipeline make_graphics_pipeline(const VulkanContext& ctx, VkPipelineLayout layout, const GraphicsSetup& g);
 UniquePipelineLayout make_pipeline_layout(const VulkanContext& ctx, VkDescriptorSetLayout set_layout,

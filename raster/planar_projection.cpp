@@ -179,7 +179,7 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
 
 void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> lights, const RenderOptions&,
                                     RasterFrame& frame, RasterStats& stats) {
-    if (s_.has_cutouts) refuse_cutouts(s_, "planar_projection");  // its flattened casters have no alpha test
+    check_alpha_rules(s_, t, "planar_projection");  // its flattened casters have no alpha test
     auto t0 = SteadyClock::now();
     stats.hw2x2 = "unused";  // no map, no compare
     const Scenario& sc = s_.scenario;

@@ -78,10 +78,12 @@ void prepare_scene(SceneOnGpu& s) {
         idx[3 * t] = scene.triangles[t].x;
         idx[3 * t + 1] = scene.triangles[t].y;
         idx[3 * t + 2] = scene.triangles[t].z;
-        const bool two = scene.double_sided[t] != 0, cutout = scene.cutout_of(t) != nullptr;
+        const bool two = scene.double_sided[t] != 0;
+        const CutoutMaterial* m = scene.alpha_material_of(t);
+        const AlphaMode alpha = m ? m->mode : AlphaMode::opaque;
         if (two) bits[t / 32] |= 1u << (t % 32);
-        if (s.sided_runs.empty() || s.sided_runs.back().double_sided != two || s.sided_runs.back().cutout != cutout)
-            s.sided_runs.push_back({static_cast<std::uint32_t>(t), 0, two, cutout});
+        if (s.sided_runs.empty() || s.sided_runs.back().double_sided != two || s.sided_runs.back().alpha != alpha)
+            s.sided_runs.push_back({static_cast<std::uint32_t>(t), 0, two, alpha});
         ++s.sided_runs.back().count;
     }
     s.index_count = static_cast<std::uint32_t>(idx.size());

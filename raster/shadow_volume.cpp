@@ -275,7 +275,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     void render(const Technique& technique, std::span<const Light> lights, const RenderOptions&, RasterFrame& frame,
                 RasterStats& stats) override {
         // A volume is extruded from a triangle's edges: a cut-out's holes have none.
-        if (s_.has_cutouts) refuse_cutouts(s_, "shadow_volume");
+        check_alpha_rules(s_, technique, "shadow_volume");
         const ShadowVolumeParameters& p = parameters_of(technique);
         // The volumes are camera-relative: a session moved to another eye (a camera path) or
         // drawing at another precision builds them again.

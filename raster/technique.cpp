@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <stdexcept>
 
 #include "common/errors.h"
@@ -26,6 +27,10 @@ const char* to_string(DepthFormat f) {
 const char* to_string(Cull c) {
     static const char* const kNames[] = {"none", "back", "front", "material"};
     return kNames[static_cast<int>(c)];
+}
+std::string to_string(Blend b, double cutoff) {
+    if (b == Blend::cutout) return fmt::format("cutout({:g})", cutoff);
+    return b == Blend::none ? "none" : "opaque";
 }
 const char* to_string(DepthLayer d) {
     static const char* const kNames[] = {"first", "midpoint", "second"};
@@ -391,6 +396,29 @@ const FamilyEntry& family_named(JsonObject& o, const json& merged) {
                                  like.empty() ? "" : fmt::format(" (did you mean \"{}\"?)", like), known));
 }
 
+// `blend` (every family): "opaque", "none" or "cutout(T)", T a number in [0, 1].
+void read_blend(JsonObject& o, Technique& t) {
+    if (!o.has("blend")) return;
+    const std::string b = o.string("blend");
+    double cutoff = 0.5;
+    bool cutout = b == "cutout";
+    if (b.size() > 8 && b.starts_with("cutout(") && b.ends_with(")")) {
+        const std::string inner = b.substr(7, b.size() - 8);
+        char* end = nullptr;
+        cutoff = std::strtod(inner.c_str(), &end);
+        cutout = end == inner.c_str() + inner.size();
+    }
+    if (b == "none") {
+        t.blend = Blend::none;
+    } else if (cutout) {
+        if (!(cutoff >= 0 && cutoff <= 1)) o.fail("blend", fmt::format("\"{}\": the cutoff must lie in [0, 1]", b));
+        t.blend = Blend::cutout;
+        t.blend_cutoff = cutoff;
+    } else if (b != "opaque") {
+        o.fail("blend", fmt::format("\"{}\" is not opaque, none or cutout(T) (T in [0, 1], e.g. cutout(0.5))", b));
+    }
+}
+
 }  // namespace
 
 Bias Technique::bias_for(std::size_t light) const {
@@ -433,6 +461,7 @@ Technique parse_technique(const json& value, const std::string& label) {
     const FamilyEntry& family = family_named(o, merged);
     t.family = family.name;
     family.parse(o, t);
+    read_blend(o, t);
     t.precision =
         pick_enum(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
     // A key of another family ("cascades" without "family": "cascaded") names that family.
@@ -531,6 +560,7 @@ json Technique::to_json() const {
     json j = {{"family", family}};
     family_of(*this).write(*this, j);
     j["precision"] = to_string(precision);
+    if (blend != Blend::opaque) j["blend"] = to_string(blend, blend_cutoff);  // absent: what it was before
     if (!preset.empty()) j["preset"] = preset;
     return j;
 }

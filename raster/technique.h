@@ -21,6 +21,9 @@ enum class DepthFormat { d16, d24, d32 };
 // material: each material's doubleSided decides (docs/raster.md, "Culling by material"): a
 // double-sided one casts both faces, a single-sided one is culled on `single_sided_cull`'s side.
 enum class Cull { none, back, front, material };
+// How the shadow pass draws a BLEND material (docs/raster.md, "Blended materials"): as an opaque
+// caster (three.js), not at all, or alpha-tested at blend_cutoff like a cut-out.
+enum class Blend { opaque, none, cutout };
 // vogel: `taps` taps on a Vogel (golden-angle) disk of `radius_texels`, rotated per pixel by
 // interleaved gradient noise (Jimenez 2014): three.js r18x's PCFShadowMap (5 taps, radius 1).
 enum class FilterType { none, hw2x2, pcf, poisson, pcss, vogel };
@@ -124,6 +127,8 @@ struct Technique {
     // With cull material: the side culled on single-sided materials (back: Babylon, PlayCanvas,
     // Godot; front: three.js, whose shadowSide casts a FrontSide material's back faces).
     Cull single_sided_cull = Cull::back;
+    Blend blend = Blend::opaque;
+    double blend_cutoff = 0.5;  // Blend::cutout's alpha threshold
     // The default bias is what a careful engine ships, not none (46-49% acne on every real model
     // tried): Filament's polygon offset, LightManager::ShadowOptions polygonOffsetConstant 0.5
     // and polygonOffsetSlope 2.0 (../shared/reference/engines.md, section 6). The `no-bias`
@@ -217,6 +222,7 @@ double filter_reach_texels(const Filter& f);
 const char* to_string(Fit f);
 const char* to_string(DepthFormat f);
 const char* to_string(Cull c);
+std::string to_string(Blend b, double cutoff);
 const char* to_string(FilterType f);
 const char* to_string(DepthLayer d);
 const char* to_string(Precision p);

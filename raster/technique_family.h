@@ -50,11 +50,12 @@ struct SceneOnGpu {
     struct SidedRun {
         std::uint32_t first = 0, count = 0;  // triangles
         bool double_sided = false;
-        bool cutout = false;
+        AlphaMode alpha = AlphaMode::opaque;  // MASK and BLEND runs: the technique's alpha rules
     };
     std::vector<SidedRun> sided_runs;
     // Cut-outs (raster/cutouts.h, shaders/cutout.glsl): set only where the scene has them.
-    bool has_cutouts = false;
+    bool has_cutouts = false;  // MASK or BLEND materials (their buffers and set are made)
+    bool has_masks = false;    // MASK materials
     GpuBuffer cutout_uv, cutout_alpha, cutout_of_triangle, cutout_materials, cutout_texels;
     std::unique_ptr<DescriptorSets> cutout_set;  // one set: the cut-out bindings, vertex and fragment stages
     GpuImage gbuffer_prim;             // R32_UINT, GENERAL layout after the camera pass: triangle per pixel

@@ -6,6 +6,9 @@ layout(std430, set = 0, binding = kBindingCutoutOfTriangle) readonly buffer Cuto
 layout(std430, set = 0, binding = kBindingCutoutMaterials) readonly buffer CutoutMaterials { CutoutMaterialGpu cutout_materials[]; };
 layout(std430, set = 0, binding = kBindingCutoutTexels) readonly buffer CutoutTexels { uint cutout_texels[]; };
 
+// A technique's blend cutout(T) for BLEND materials; -1 (the default, the camera pass's): opaque.
+layout(constant_id = 0) const float kBlendCutoff = -1.0;
+
 int cutout_wrap(int i, int size, uint mode) {
     if (mode == 1u) return clamp(i, 0, size - 1);  // clamp_to_edge
     if (mode == 2u) {                               // mirrored_repeat
@@ -43,5 +46,5 @@ bool cutout_opaque(uint prim, vec2 uv, float vertex_alpha) {
             coverage *= mix(top, bottom, f.y);
         }
     }
-    return coverage >= m.row0.w;
+    return coverage >= ((m.texture.w & kCutoutBlend) != 0u ? kBlendCutoff : m.row0.w);
 }

@@ -34,6 +34,7 @@ PENUMBRA_CONST uint kCutoutNearest = 1u;           // CutoutMaterialGpu::texture
 PENUMBRA_CONST uint kCutoutHasTexture = 2u;
 PENUMBRA_CONST uint kCutoutWrapSShift = 2u;  // TextureWrap in two bits each
 PENUMBRA_CONST uint kCutoutWrapTShift = 4u;
+PENUMBRA_CONST uint kCutoutBlend = 64u;  // a BLEND material: tested at kBlendCutoff (shaders/cutout.glsl)
 struct CutoutMaterialGpu {
     vec4 row0;     // KHR_texture_transform's first row (xyz), alphaCutoff (w)
     vec4 row1;     // its second row (xyz), baseColorFactor.a (w)

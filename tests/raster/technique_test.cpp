@@ -74,6 +74,30 @@ TEST(Technique, ErrorsNameTheKeyPath) {
     EXPECT_THAT(error_of({{"cull", "material"}, {"depth_layer", "second"}}), HasSubstr("technique.cull"));
 }
 
+TEST(Technique, BlendRulesParseAndRoundTrip) {
+    using raster::Blend;
+    using raster::Technique;
+    EXPECT_EQ(parse_technique(nlohmann::json::object(), "t").blend, Blend::opaque);
+    EXPECT_FALSE(parse_technique(nlohmann::json::object(), "t").to_json().contains("blend"));  // written only when set
+    const Technique none = parse_technique({{"blend", "none"}}, "t");
+    EXPECT_EQ(none.blend, Blend::none);
+    EXPECT_EQ(parse_technique(none.to_json(), "t").blend, Blend::none);
+    const Technique cutout = parse_technique({{"blend", "cutout(0.3)"}}, "t");
+    EXPECT_EQ(cutout.blend, Blend::cutout);
+    EXPECT_DOUBLE_EQ(cutout.blend_cutoff, 0.3);
+    EXPECT_EQ(cutout.to_json()["blend"], "cutout(0.3)");
+    EXPECT_DOUBLE_EQ(parse_technique({{"blend", "cutout"}}, "t").blend_cutoff, 0.5);
+    for (const char* bad : {"cutout(1.5)", "cutout(x)", "cutout(0.3", "glass"}) {
+        SCOPED_TRACE(bad);
+        try {
+            parse_technique({{"blend", bad}}, "t");
+            ADD_FAILURE() << "accepted";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("blend"), std::string::npos) << e.what();
+        }
+    }
+}
+
 TEST(Technique, CullByMaterialRoundTripsWithItsSingleSidedSide) {
     const raster::Technique t = parse_technique({{"cull", "material"}}, "x");
     EXPECT_EQ(t.cull, raster::Cull::material);

@@ -328,6 +328,37 @@ TEST_F(Verdict, CutoutsAreRefusedByTheFamiliesThatCannotDrawThem) {
     }
 }
 
+// The same card blended (alphaMode BLEND): the truth holds it opaque (docs/oracle.md), and the
+// technique's `blend` rule decides what the shadow pass draws: opaque as the truth, nothing (all
+// its shadow false_lit), or alpha-tested like a cut-out (its holes false_lit, about half).
+TEST_F(Verdict, BlendedMaterialsCastAsTheTechniquesBlendRuleSays) {
+    Scenario sc = checkerboard_card(true);
+    for (CutoutMaterial& m : sc.scene.cutout_materials) m.mode = AlphaMode::blend;
+    const nlohmann::json t = {{"resolution", 2048}, {"bias", {{"slope", 1.5}, {"receiver_plane", true}}}};
+    auto with = [&](const char* blend) {
+        nlohmann::json j = t;
+        j["blend"] = blend;
+        return run(sc, j).score.lights[0];
+    };
+    const metrics::LightScore opaque = with("opaque"), none = with("none"), cutout = with("cutout(0.5)");
+    EXPECT_LT(opaque.rate(PixelClass::false_lit), 0.002);
+    EXPECT_GT(none.rate(PixelClass::false_lit), 0.04);
+    EXPECT_GT(cutout.rate(PixelClass::false_lit), 0.3 * none.rate(PixelClass::false_lit));
+    EXPECT_LT(cutout.rate(PixelClass::false_lit), 0.7 * none.rate(PixelClass::false_lit));
+    // The camera sees a blended surface whatever the rule: no coverage mismatch in its holes.
+    EXPECT_LT(cutout.pixels.coverage_mismatch, cutout.pixels.surface / 200);
+    // A family that draws every triangle opaque takes blend opaque only.
+    EXPECT_NO_THROW(run(sc, {{"preset", "rtr-shadow-volume"}}));
+    try {
+        run(sc, {{"preset", "rtr-shadow-volume"}, {"blend", "none"}});
+        ADD_FAILURE() << "drawn";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("technique.blend \"none\": shadow_volume draws blended materials opaque only"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
 TEST_F(Verdict, ASheetWithInvertedWindingIsNamedAndLeadsTheHintOfMissingShadows) {
     // A terrain-like sheet with its winding inverted (front faces down), single-sided, 0.6 m over
     // the ground and seen from above: the camera culls it and sees the ground through it, while
