@@ -55,6 +55,7 @@ struct CutoutMaterial {
     int texture = -1;           // Scene::alpha_textures index; -1: the factor (and COLOR_0) alone
     TextureWrap wrap_s = TextureWrap::repeat, wrap_t = TextureWrap::repeat;
     bool nearest = false;  // magFilter NEAREST (9728); LINEAR otherwise, as engines default
+    int min_filter = -1;   // the sampler's minFilter (glTF's GL code), -1 absent: for alpha.mipmaps only
     // KHR_texture_transform: uv' = uv_transform * (uv, 1) (offset x rotation x scale).
     glm::dmat3 uv_transform{1.0};
     std::string label;          // "materials[3] \"Leaves\""

@@ -715,6 +715,7 @@ Cutouts read_cutouts(const Context& ctx, const tinygltf::Model& m, const std::ve
                 c.wrap_s = wrap_of(ctx, sampler + ".wrapS", smp.wrapS);
                 c.wrap_t = wrap_of(ctx, sampler + ".wrapT", smp.wrapT);
                 c.nearest = smp.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST;
+                c.min_filter = smp.minFilter;
             }
         }
         out.of_material[i] = static_cast<std::uint32_t>(scene.cutout_materials.size());

@@ -187,7 +187,7 @@ void add_scene(KeyBytes& k, const Scene& scene) {
         k.add(m.texture);
         k.add(m.wrap_s);
         k.add(m.wrap_t);
-        k.add(m.nearest);
+        k.add(m.nearest);  // min_filter: not the truth's (its base level), not in the key
         k.add(m.uv_transform);
     }
     k.add(scene.alpha_textures.size());

@@ -2,8 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <array>
 #include <cstring>
+#include <limits>
 
 #include "common/errors.h"
 #include "raster/technique_family.h"
@@ -12,6 +14,47 @@
 namespace penumbra::raster {
 
 namespace {
+
+// A texture's level 0 and its mip levels after it, each a 2x2 box average of the one before
+// (half its size, rounded down, at least 1: what glGenerateMipmap and engines' loaders make),
+// down to 1x1.
+void append_mip_chain(const AlphaTexture& t, std::vector<std::uint16_t>& out) {
+    std::vector<std::uint16_t> level = t.alpha;
+    int w = t.width, h = t.height;
+    while (true) {
+        out.insert(out.end(), level.begin(), level.end());
+        if (w == 1 && h == 1) return;
+        const int nw = std::max(w / 2, 1), nh = std::max(h / 2, 1);
+        std::vector<std::uint16_t> next(static_cast<std::size_t>(nw) * static_cast<std::size_t>(nh));
+        for (int y = 0; y < nh; ++y)
+            for (int x = 0; x < nw; ++x) {
+                std::uint32_t sum = 0;
+                for (int dy = 0; dy < 2; ++dy)
+                    for (int dx = 0; dx < 2; ++dx)
+                        sum += level[static_cast<std::size_t>(std::min(2 * y + dy, h - 1)) * static_cast<std::size_t>(w) +
+                                     static_cast<std::size_t>(std::min(2 * x + dx, w - 1))];
+                next[static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x)] =
+                    static_cast<std::uint16_t>((sum + 2) / 4);
+            }
+        level = std::move(next);
+        w = nw;
+        h = nh;
+    }
+}
+
+// The minFilter's mip mode and texel filter (glTF's codes: 9728 NEAREST, 9729 LINEAR, 9984 ...
+// 9987 the MIPMAP ones); absent, LINEAR_MIPMAP_LINEAR, three.js's and most loaders' default.
+std::uint32_t mip_flags(int min_filter) {
+    switch (min_filter) {
+        case 9728: return gpu::kCutoutMinNearest;
+        case 9729: return 0u;
+        case 9984: return (1u << gpu::kCutoutMipShift) | gpu::kCutoutMinNearest;
+        case 9985: return 1u << gpu::kCutoutMipShift;
+        case 9986: return (2u << gpu::kCutoutMipShift) | gpu::kCutoutMinNearest;
+        default: return 2u << gpu::kCutoutMipShift;
+    }
+}
+
 constexpr std::array<BindingDecl, 5> kCutoutBindings = {{{gpu::kBindingCutoutUv, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
                                                          {gpu::kBindingCutoutAlpha, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
                                                          {gpu::kBindingCutoutOfTriangle, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
@@ -37,24 +80,23 @@ void upload_cutouts(SceneOnGpu& s) {
         uv[2 * i + 1] = scene.texcoords[i].y;
     }
     std::vector<gpu::CutoutMaterialGpu> materials;
-    std::vector<std::uint32_t> first_texel;  // per texture
-    std::size_t texels = 0;
+    std::vector<std::uint32_t> first_texel;  // per texture: its level 0, its mip levels after it
+    std::vector<std::uint16_t> texels;
     for (const AlphaTexture& t : scene.alpha_textures) {
-        first_texel.push_back(static_cast<std::uint32_t>(texels));
-        texels += t.alpha.size();
+        first_texel.push_back(static_cast<std::uint32_t>(texels.size()));
+        append_mip_chain(t, texels);
     }
-    std::vector<std::uint32_t> packed((texels + 1) / 2 + 1, 0u);
-    for (std::size_t k = 0, at = 0; k < scene.alpha_textures.size(); ++k)
-        for (std::uint16_t a : scene.alpha_textures[k].alpha) {
-            packed[at >> 1] |= std::uint32_t(a) << ((at & 1) * 16);
-            ++at;
-        }
+    if (texels.size() > std::numeric_limits<std::uint32_t>::max())
+        throw InputError(fmt::format("{}: the cut-outs' images and their mip levels pass 2^32 texels", s.scenario.label));
+    std::vector<std::uint32_t> packed((texels.size() + 1) / 2 + 1, 0u);
+    for (std::size_t at = 0; at < texels.size(); ++at) packed[at >> 1] |= std::uint32_t(texels[at]) << ((at & 1) * 16);
     for (const CutoutMaterial& m : scene.cutout_materials) {
         const glm::dmat3& x = m.uv_transform;  // column-major: x[column][row]
         gpu::CutoutMaterialGpu g;
         g.row0 = glm::vec4(x[0][0], x[1][0], x[2][0], m.cutoff);
         g.row1 = glm::vec4(x[0][1], x[1][1], x[2][1], m.factor_alpha);
         std::uint32_t flags = (m.nearest ? gpu::kCutoutNearest : 0u) | (m.mode == AlphaMode::blend ? gpu::kCutoutBlend : 0u) |
+                              mip_flags(m.min_filter) |
                               (static_cast<std::uint32_t>(m.wrap_s) << gpu::kCutoutWrapSShift) |
                               (static_cast<std::uint32_t>(m.wrap_t) << gpu::kCutoutWrapTShift);
         g.texture = glm::uvec4(0u, 1u, 1u, flags);
@@ -88,11 +130,11 @@ void append_cutout_resources(const SceneOnGpu& s, std::vector<DescriptorResource
     }
 }
 
-std::vector<std::uint32_t> blend_spec(const Technique& t) {
+std::vector<std::uint32_t> alpha_spec(const Technique& t) {
     const float cutoff = t.blend == Blend::cutout ? static_cast<float>(t.blend_cutoff) : -1.0f;
     std::uint32_t bits = 0;
     std::memcpy(&bits, &cutoff, sizeof bits);
-    return {bits};
+    return {bits, t.alpha_mipmaps ? 1u : 0u};
 }
 
 void check_alpha_rules(const SceneOnGpu& s, const Technique& t, const std::string& family) {

@@ -23,8 +23,9 @@ void append_cutout_resources(const SceneOnGpu& s, std::vector<DescriptorResource
 // For a family that draws every triangle opaque: refuses a scene with cut-outs, and a `blend`
 // other than opaque on a scene with blended materials.
 void check_alpha_rules(const SceneOnGpu& s, const Technique& t, const std::string& family);
-// The alpha-tested fragment shaders' specialisation (shaders/cutout.glsl's kBlendCutoff): the
-// technique's blend cutoff, or -1 (a blended material is opaque) unless blend is cutout(T).
-std::vector<std::uint32_t> blend_spec(const Technique& t);
+// The alpha-tested shadow passes' specialisation (shaders/cutout.glsl): kBlendCutoff, the
+// technique's blend cutoff or -1 (a blended material is opaque) unless blend is cutout(T), and
+// kMipmaps, alpha.mipmaps.
+std::vector<std::uint32_t> alpha_spec(const Technique& t);
 
 }  // namespace penumbra::raster

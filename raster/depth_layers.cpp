@@ -166,13 +166,14 @@ class MidpointVariant final : public DepthMapVariant {
     // A cut-out's runs peel with the alpha test (shaders/peel_cutout.frag).
     VkPipeline peel_pipeline(const Technique& t, Cull cull, bool cutout) {
         const double blend_cutoff = cutout && t.blend == Blend::cutout ? t.blend_cutoff : -1;
-        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull, cutout, blend_cutoff}];
+        const bool mipmaps = cutout && t.alpha_mipmaps;
+        UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull, cutout, blend_cutoff, mipmaps}];
         if (!p) {
             GraphicsSetup g{cutout ? kCutoutVert : kShadowVert, cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
                             cutout ? kPeelCutoutFrag : kPeelFrag, cutout ? sizeof(kPeelCutoutFrag) : sizeof(kPeelFrag),
                             vk_format(t.depth_format), VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE,
                             true, false};
-            if (cutout) g.frag_spec = blend_spec(t);
+            if (cutout) g.frag_spec = alpha_spec(t);
             p = make_graphics_pipeline(ctx_, peel_layout_.get(), g);
         }
         return p.get();
@@ -183,7 +184,7 @@ class MidpointVariant final : public DepthMapVariant {
     DescriptorSets peel_sets_;
     UniquePipelineLayout peel_layout_;
     UniqueSampler nearest_;
-    std::map<std::tuple<VkFormat, Cull, bool, double>, UniquePipeline> peel_pipelines_;
+    std::map<std::tuple<VkFormat, Cull, bool, double, bool>, UniquePipeline> peel_pipelines_;
     // The arena before what is bound to it: destroyed after it.
     MemoryArena arena_;
     std::vector<Images> images_;

@@ -296,8 +296,9 @@ class DepthMapCore final : public TechniqueFamily {
     DescriptorSets sets_;
     UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_;
     // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets, alpha test and
-    // the blend cutoff it tests blended materials at.
-    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool, double>, UniquePipeline> shadow_pipelines_;
+    // the blend cutoff it tests blended materials at, alpha.mipmaps.
+    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool, double, bool>, UniquePipeline>
+        shadow_pipelines_;
     std::map<std::pair<const std::uint32_t*, SpecData>, UniquePipeline> lookup_pipelines_;
     std::map<std::tuple<bool, bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
@@ -359,8 +360,10 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
     const bool bias = t.bias.constant != 0 || t.bias.slope != 0;
     const bool caster = has_caster_offsets(t.bias);
     const double blend_cutoff = cutout && t.blend == Blend::cutout ? t.blend_cutoff : -1;
+    const bool mipmaps = cutout && t.alpha_mipmaps;
     auto key =
-        std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout, blend_cutoff);
+        std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout, blend_cutoff,
+                        mipmaps);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
         // A cut-out's pass tests alpha (shaders/shadow_cutout*.frag), with or without the ids.
@@ -389,7 +392,7 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
             g.geom_bytes = cutout ? sizeof(kCasterCutoutGeom) : sizeof(kCasterGeom);
         }
         if (!triangle_ids) g.colour_format = VK_FORMAT_UNDEFINED;  // a cut-out's depth pass: no colour target
-        if (cutout) g.frag_spec = blend_spec(t);
+        if (cutout) g.frag_spec = alpha_spec(t);
         p = make_graphics_pipeline(ctx_, caster ? caster_layout_.get() : shadow_layout_.get(), g);
     }
     return p.get();

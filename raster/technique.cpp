@@ -462,6 +462,11 @@ Technique parse_technique(const json& value, const std::string& label) {
     t.family = family.name;
     family.parse(o, t);
     read_blend(o, t);
+    if (o.has("alpha")) {
+        JsonObject a = o.object("alpha");
+        t.alpha_mipmaps = a.boolean("mipmaps", false);
+        a.finish();
+    }
     t.precision =
         pick_enum(o, "precision", Precision::camera_relative, {Precision::camera_relative, Precision::world_float32});
     // A key of another family ("cascades" without "family": "cascaded") names that family.
@@ -561,6 +566,7 @@ json Technique::to_json() const {
     family_of(*this).write(*this, j);
     j["precision"] = to_string(precision);
     if (blend != Blend::opaque) j["blend"] = to_string(blend, blend_cutoff);  // absent: what it was before
+    if (alpha_mipmaps) j["alpha"] = {{"mipmaps", true}};
     if (!preset.empty()) j["preset"] = preset;
     return j;
 }

@@ -129,6 +129,9 @@ struct Technique {
     Cull single_sided_cull = Cull::back;
     Blend blend = Blend::opaque;
     double blend_cutoff = 0.5;  // Blend::cutout's alpha threshold
+    // alpha.mipmaps: the shadow pass's alpha test samples the mip level its footprint selects, as
+    // an engine's mipmapped textures do (the truth keeps level 0: minified cut-outs lose coverage).
+    bool alpha_mipmaps = false;
     // The default bias is what a careful engine ships, not none (46-49% acne on every real model
     // tried): Filament's polygon offset, LightManager::ShadowOptions polygonOffsetConstant 0.5
     // and polygonOffsetSlope 2.0 (../shared/reference/engines.md, section 6). The `no-bias`

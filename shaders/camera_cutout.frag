@@ -13,6 +13,6 @@ void main() {
     const uint id = first_prim + uint(gl_PrimitiveID);
     const bool double_sided = ((double_sided_bits[id >> 5] >> (id & 31u)) & 1u) != 0u;
     if (!gl_FrontFacing && !double_sided) discard;
-    if (!cutout_opaque(id, uv, vertex_alpha)) discard;
+    if (!cutout_opaque(id, uv, vertex_alpha, vec2(0.0), vec2(0.0))) discard;  // level 0, as the truth
     seen_prim = id;
 }

@@ -19,7 +19,7 @@ layout(location = 2) in float vertex_alpha;
 #endif
 void main() {
 #ifdef CUTOUT
-    if (!cutout_opaque(first_prim + uint(gl_PrimitiveID), uv, vertex_alpha)) discard;
+    if (!cutout_opaque(first_prim + uint(gl_PrimitiveID), uv, vertex_alpha, dFdx(uv), dFdy(uv))) discard;
 #endif
     float first = texelFetch(first_layer, ivec3(ivec2(gl_FragCoord.xy), int(push.layer)), 0).r;
     if (gl_FragCoord.z <= first + push.epsilon) discard;

@@ -35,6 +35,8 @@ PENUMBRA_CONST uint kCutoutHasTexture = 2u;
 PENUMBRA_CONST uint kCutoutWrapSShift = 2u;  // TextureWrap in two bits each
 PENUMBRA_CONST uint kCutoutWrapTShift = 4u;
 PENUMBRA_CONST uint kCutoutBlend = 64u;  // a BLEND material: tested at kBlendCutoff (shaders/cutout.glsl)
+PENUMBRA_CONST uint kCutoutMipShift = 7u;      // two bits: 0 no mip levels, 1 the nearest level, 2 linear between two
+PENUMBRA_CONST uint kCutoutMinNearest = 512u;  // minification samples a level's nearest texel
 struct CutoutMaterialGpu {
     vec4 row0;     // KHR_texture_transform's first row (xyz), alphaCutoff (w)
     vec4 row1;     // its second row (xyz), baseColorFactor.a (w)

@@ -10,6 +10,6 @@ layout(location = 2) in float vertex_alpha;
 layout(location = 0) out uint stored_prim;
 void main() {
     const uint prim = first_prim + uint(gl_PrimitiveID);
-    if (!cutout_opaque(prim, uv, vertex_alpha)) discard;
+    if (!cutout_opaque(prim, uv, vertex_alpha, dFdx(uv), dFdy(uv))) discard;
     stored_prim = prim;
 }

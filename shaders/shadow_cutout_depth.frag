@@ -7,5 +7,5 @@ layout(location = 0) flat in uint first_prim;
 layout(location = 1) in vec2 uv;
 layout(location = 2) in float vertex_alpha;
 void main() {
-    if (!cutout_opaque(first_prim + uint(gl_PrimitiveID), uv, vertex_alpha)) discard;
+    if (!cutout_opaque(first_prim + uint(gl_PrimitiveID), uv, vertex_alpha, dFdx(uv), dFdy(uv))) discard;
 }
