@@ -12,6 +12,20 @@ using penumbra::AlphaTexture;
 using penumbra::ImageFile;
 using penumbra::OiioReadStatus;
 
+namespace {
+
+// Why read_image failed. Some readers (PNG, TIFF) fail a truncated file without a message of
+// their own: `what` ("the file", "the data") then ends before its last pixel.
+std::string pixels_unread(OIIO::ImageInput& in, const char* what) {
+    std::string why = in.geterror();
+    if (why.empty()) why = OIIO::geterror();
+    if (why.empty()) why = std::string(what) + " ends before its last pixel, or its data is damaged";
+    while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
+    return "cannot read the pixels: " + why;
+}
+
+}  // namespace
+
 extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_read_sized(const char* path, int width,
                                                                                           int height, ImageFile* image,
                                                                                           std::string* error) {
@@ -46,12 +60,7 @@ extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_r
         }
         std::vector<float> data(n * nc);
         if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, data.data())) {
-            // Some readers (PNG, TIFF) fail a truncated file without a message of their own.
-            std::string why = in->geterror();
-            if (why.empty()) why = OIIO::geterror();
-            if (why.empty()) why = "the file ends before its last pixel, or its data is damaged";
-            while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
-            *error = "cannot read the pixels: " + why;
+            *error = pixels_unread(*in, "the file");
             return OiioReadStatus::bad_input;
         }
         in->close();
@@ -93,11 +102,7 @@ extern "C" __attribute__((visibility("default"))) OiioReadStatus penumbra_oiio_r
         const int channel = spec.alpha_channel >= 0 ? spec.alpha_channel : 0;
         std::vector<std::uint16_t> pixels(static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height));
         if (!in->read_image(0, 0, channel, channel + 1, OIIO::TypeDesc::UINT16, pixels.data())) {
-            std::string why = in->geterror();
-            if (why.empty()) why = OIIO::geterror();
-            if (why.empty()) why = "the data ends before its last pixel, or is damaged";
-            while (!why.empty() && (why.back() == '\n' || why.back() == ' ')) why.pop_back();
-            *error = "cannot read the pixels: " + why;
+            *error = pixels_unread(*in, "the data");
             return OiioReadStatus::bad_input;
         }
         in->close();
