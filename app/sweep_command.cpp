@@ -10,6 +10,7 @@
 #include "common/json_reader.h"
 #include "common/memory_estimate.h"
 #include "common/output_files.h"
+#include "common/progress.h"
 #include "oracle/oracle_cache.h"
 #include "raster/vulkan_context.h"
 #include "sweep/sweep_files.h"
@@ -70,12 +71,15 @@ int run_sweep_command(const SweepArgs& a) {
     options.validate = validate_options(c, a.verdict);
     options.validate.oracle.progress = false;
     options.repeat = a.repeat;
+    const auto sweep_start = SteadyClock::now();
     if (!c.quiet)
         options.progress = [&](const sweep::Row& r, std::size_t done, std::size_t of) {
             std::string what;
             for (std::size_t k = 0; k < r.values.size(); ++k) what += fmt::format(" {}={}", keys[k], r.values[k]);
-            fmt::print(stderr, "sweep: [{}/{}]{}: wrong {:.5f}, production {:.3f} ms, diagnostic {:.3f} ms\n", done, of,
-                       what, r.verdict[0], sweep::median(r.production_ms), sweep::median(r.diagnostic_ms));
+            const std::string left = time_left(seconds_since(sweep_start), done, of);
+            fmt::print(stderr, "sweep: [{}/{}]{}: wrong {:.5f}, production {:.3f} ms, diagnostic {:.3f} ms{}\n", done,
+                       of, what, r.verdict[0], sweep::median(r.production_ms), sweep::median(r.diagnostic_ms),
+                       left.empty() ? "" : "; " + left);
         };
     raster::ContextOptions co;
     co.device = a.technique.device;

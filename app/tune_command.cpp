@@ -10,6 +10,7 @@
 #include "common/errors.h"
 #include "common/json_reader.h"
 #include "common/output_files.h"
+#include "common/progress.h"
 #include "common/stopwatch.h"
 #include "engines/engine_units.h"
 #include "metrics/metric_table.h"
@@ -137,11 +138,13 @@ int run_tune_command(const TuneArgs& a) {
 
     options.validate = validate_options(c, a.verdict);
     options.validate.oracle.progress = false;
+    const auto tune_start = SteadyClock::now();
     if (!c.quiet)
         options.progress = [&](const tune::Evaluation& e, std::size_t i) {
-            fmt::print(stderr, "tune: [{}/{}] {}: worst acne {:.5f}, {} {:.5f}{}\n", i + 1, options.budget,
+            const std::string left = time_left(seconds_since(tune_start), i + 1, options.budget);
+            fmt::print(stderr, "tune: [{}/{}] {}: worst acne {:.5f}, {} {:.5f}{}{}\n", i + 1, options.budget,
                        tune::describe(e.setting, options.knobs), e.worst_acne, options.objective.minimize, e.minimized,
-                       e.feasible ? "" : " (acne too high)");
+                       e.feasible ? "" : " (acne too high)", left.empty() ? "" : "; " + left);
         };
 
     raster::ContextOptions co;

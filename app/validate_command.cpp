@@ -9,6 +9,7 @@
 #include "common/json_reader.h"
 #include "common/memory_estimate.h"
 #include "common/output_files.h"
+#include "common/progress.h"
 #include "common/stopwatch.h"
 #include "metrics/gate.h"
 #include "metrics/metric_table.h"
@@ -82,6 +83,8 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     ValidateOptions options = validate_options(c, v.verdict);
     options.keep_oracle_frame = v.frames;
     options.device = t.device;
+    ProgressLine progress("validate", !c.quiet);
+    options.progress = &progress;
     OutputTransaction out(c.out);
     // A camera path is judged frame by frame (pipeline/camera_path.h); its report is the last frame's.
     std::optional<CameraPathResult> path;
@@ -93,6 +96,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     const ValidateResult& r = path ? path->last : *single;
 
     auto t0 = SteadyClock::now();
+    progress.phase("writing the report and images");
     const ValidateFiles files{v.frames, v.errors, v.class_map_tint == "cascade"};
     if (path)
         write_camera_path_outputs(out, scenario, *path, files);
@@ -107,6 +111,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
         junit.commit();
     }
 
+    progress.clear();
     if (!c.quiet) {
         for (const auto& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
         fmt::print(

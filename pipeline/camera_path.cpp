@@ -106,7 +106,9 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
     raster::VulkanContext ctx(co);
     const double device_s = seconds_since(t0);
     raster::RasterSession session(frame, ctx);
-    OracleSession oracle(frame, options.oracle);
+    OracleSettings oracle_settings = options.oracle;
+    if (options.progress) oracle_settings.progress = false;  // the frames are counted instead
+    OracleSession oracle(frame, oracle_settings);
     out.bvh_builds = oracle.bvh_builds();
 
     const std::size_t lights = scenario.lights.size();
@@ -134,7 +136,11 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
         oracle_s += run->seconds;
         trace_s.push_back(run->seconds);
         last_run = run;
-        ValidateResult r = validate(frame, technique, gate, options, &session, std::move(run));
+        // The frames, counted, on a terminal: a frame's own phases would flicker past.
+        if (options.progress) options.progress->step(static_cast<std::size_t>(f), static_cast<std::size_t>(path.frames), "frames judged");
+        ValidateOptions quiet_frame = options;
+        quiet_frame.progress = nullptr;
+        ValidateResult r = validate(frame, technique, gate, quiet_frame, &session, std::move(run));
         if (r.gate) metrics::fold_worst_frame(worst, *r.gate, f);
         raster_s += r.raster_s;
         metrics_s += r.metrics_s;

@@ -153,11 +153,13 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
                         std::shared_ptr<const OracleRun> oracle) {
     ValidateResult r;
     r.technique = technique;
+    if (options.progress && !oracle) options.progress->phase("the truth (traced, or read from the cache)");
     r.oracle = oracle ? std::move(oracle) : std::make_shared<const OracleRun>(oracle_for(scenario, options));
     if (r.oracle->warning) r.warnings.push_back(*r.oracle->warning);
 
     std::unique_ptr<raster::VulkanContext> ctx;
     std::unique_ptr<raster::RasterSession> own;
+    if (options.progress) options.progress->phase(fmt::format("drawing the {} technique", technique.family));
     if (!session) {
         auto t1 = SteadyClock::now();
         raster::ContextOptions co;
@@ -176,6 +178,7 @@ ValidateResult validate(const Scenario& scenario, const raster::Technique& techn
     r.warnings.insert(r.warnings.end(), r.raster.stats.warnings.begin(), r.raster.stats.warnings.end());
 
     auto t3 = SteadyClock::now();
+    if (options.progress) options.progress->phase("scoring every pixel");
     r.scoring = scoring_options(scenario, technique, options.tolerance, options.visible_threshold);
     r.score = metrics::score_frames(r.oracle->frame, r.raster.frame, r.scoring);
     r.metrics_s = seconds_since(t3);

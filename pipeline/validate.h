@@ -14,6 +14,7 @@
 
 #include "common/frames.h"
 #include "common/output_files.h"
+#include "common/progress.h"
 #include "common/scenario.h"
 #include "metrics/classification.h"
 #include "metrics/gate.h"
@@ -36,6 +37,7 @@ struct ValidateOptions {
     double visible_threshold = 0.1;                // |error| from which a wrong pixel is also visible (docs/metrics.md)
     std::string device;                            // Vulkan device when no session is given
     raster::RenderOptions render;                  // lookups on for reports; V only for objectives
+    ProgressLine* progress = nullptr;              // the phases on a terminal (common/progress.h), if any
 };
 
 // The oracle's frame for a scenario, with the oracle.json of the run that produced it.

@@ -65,4 +65,31 @@ check "a temporal check without a camera path exits 2" test "$rc" -eq 2
 check "it says why" grep -q -F 'temporal.flicker_rate is measured over a camera path only' <<<"$err"
 check "and writes nothing" test ! -e "$tmp/still"
 
+# Progress on a terminal (common/progress.h): the frames counted on one line rewritten in place,
+# then cleared before the results; nothing of it where stderr is a pipe, or under -q on a terminal.
+scenario 6 "$(key 0 45)" "$(key 1 45)" >"$tmp/tty.json"
+on_terminal() {  # on_terminal OUT ARGS... -> what a terminal shows (stdout and stderr), on stdout
+    python3 - "$bin" validate "$tmp/tty.json" --out "$@" <<'PY'
+import os, pty, sys
+pid, fd = pty.fork()
+if pid == 0:
+    os.execv(sys.argv[1], sys.argv[1:])
+out = b""
+while True:
+    try:
+        data = os.read(fd, 4096)
+    except OSError:
+        break
+    if not data:
+        break
+    out += data
+sys.stdout.write(out.decode(errors="replace"))
+PY
+}
+shown=$(on_terminal "$tmp/tty1")
+check "terminal: the frames are counted" grep -q $'validate: 3/6 frames judged' <<<"$shown"
+check "terminal: the line is cleared before the results" grep -q $'\r\e\[Kvalidate: 64x48 px' <<<"$shown"
+check "terminal: -q shows nothing" test -z "$(on_terminal "$tmp/tty2" -q)"
+"$bin" validate "$tmp/tty.json" --out "$tmp/tty3" 2>"$tmp/piped.err" >/dev/null
+check "a pipe: no progress line" fails grep -q 'frames judged' "$tmp/piped.err"
 finish
