@@ -31,7 +31,7 @@ add_library(penumbra::penumbra ALIAS penumbra_library)
 # Every header the umbrella header reaches (the package test fails on a missing one).
 set(penumbra_public_headers
   common/alpha_coverage.h common/errors.h common/frames.h common/json_reader.h common/memory_estimate.h common/model_placement.h common/output_files.h
-  common/ranges.h common/receivers.h common/scenario.h common/scene.h common/version.h
+  common/progress.h common/ranges.h common/receivers.h common/scenario.h common/scene.h common/stopwatch.h common/version.h
   metrics/classification.h metrics/gate.h metrics/metric_table.h
   oracle/oracle.h
   pipeline/facing.h pipeline/validate.h pipeline/validate_files.h pipeline/compare.h pipeline/compare_files.h
