@@ -25,6 +25,8 @@
 #include "raster/vk_check.h"
 #include "shaders/penumbra_shared.h"
 // SPIR-V compiled from shaders/ at build time.
+#include "planar_cutout_frag.h"
+#include "planar_cutout_vert.h"
 #include "shadow_frag.h"
 #include "shadow_vert.h"
 
@@ -89,15 +91,28 @@ class PlanarProjectionFamily final : public TechniqueFamily {
                 RasterStats& stats) override;
 
   private:
+    // A light's casters flattened onto the plane: camera-relative float3 per vertex, three per
+    // triangle; the cut-outs' (and blend cutout(T)'s blended) apart, with what their alpha test
+    // reads (shaders/planar_cutout.vert).
+    struct Flattened {
+        std::vector<float> opaque, cutout;
+        std::vector<glm::vec4> cutout_over_w;      // (u, v, alpha, 1) / w per cut-out vertex
+        std::vector<std::uint32_t> cutout_triangles;  // the scene triangle of each
+    };
     void ensure_resources();
-    // The flattened casters of `light` (camera-relative float3 per vertex, three per triangle).
-    std::vector<float> flattened_casters(const glm::dvec4& plane, const Light& light) const;
+    Flattened flattened_casters(const glm::dvec4& plane, const Light& light, const Technique& t) const;
+    VkPipeline cutout_pipeline(const Technique& t);
     std::vector<float> visibility(const glm::dvec4& plane, const Light& light, const std::uint32_t* coverage) const;
 
     const SceneOnGpu& s_;
     const VulkanContext& ctx_;
     UniquePipelineLayout layout_;
     UniquePipeline pipeline_;
+    // Cut-outs: their set (the cut-out bindings and the flattened attributes, one set per light),
+    // layout and pipelines by blend cutoff.
+    std::unique_ptr<DescriptorSets> cutout_sets_;
+    UniquePipelineLayout cutout_layout_;
+    std::map<double, UniquePipeline> cutout_pipelines_;
     MemoryArena arena_;
     GpuImage coverage_, depth_;
     GpuTimestamps timer_;
@@ -116,6 +131,15 @@ void PlanarProjectionFamily::ensure_resources() {
         ctx_, layout_.get(),
         {kShadowVert, sizeof(kShadowVert), kShadowFrag, sizeof(kShadowFrag), kCoverageDepthFormat, VK_COMPARE_OP_ALWAYS,
          VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE, false, false});
+    if (s_.has_cutouts) {
+        std::vector<BindingDecl> bindings(cutout_bindings().begin(), cutout_bindings().end());
+        bindings.push_back({gpu::kBindingPlanarAttributes, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER});
+        bindings.push_back({gpu::kBindingPlanarTriangles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER});
+        cutout_sets_ = std::make_unique<DescriptorSets>(ctx_, bindings,
+                                                        VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+        cutout_layout_ =
+            make_pipeline_layout(ctx_, cutout_sets_->layout(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
+    }
     arena_ = MemoryArena(ctx_);
     arena_.add(coverage_, kPrimFormat, s_.width, s_.height, 1,
                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_IMAGE_ASPECT_COLOR_BIT, false);
@@ -124,14 +148,20 @@ void PlanarProjectionFamily::ensure_resources() {
     arena_.commit();
 }
 
-std::vector<float> PlanarProjectionFamily::flattened_casters(const glm::dvec4& plane, const Light& light) const {
+PlanarProjectionFamily::Flattened PlanarProjectionFamily::flattened_casters(const glm::dvec4& plane, const Light& light,
+                                                                            const Technique& t) const {
     const Scene& scene = s_.scenario.scene;
     const glm::dmat4 m = planar_shadow_matrix(plane, homogeneous_light(light));
-    std::vector<float> out;
+    Flattened out;
     for (std::size_t ti = 0; ti < scene.triangles.size(); ++ti) {
         if (on_plane_[ti]) continue;  // the receiver itself
+        const CutoutMaterial* material = scene.alpha_material_of(ti);
+        const bool blended = material && material->mode == AlphaMode::blend;
+        if (blended && t.blend == Blend::none) continue;
+        const bool alpha_test = material && (!blended || t.blend == Blend::cutout);
         const glm::u32vec3 tri = scene.triangles[ti];
         std::array<glm::dvec3, 3> flat;
+        std::array<double, 3> w{};
         bool kept = true;
         for (int k = 0; k < 3; ++k) {
             const glm::dvec4 p = m * glm::dvec4(scene.positions[tri[k]], 1.0);
@@ -139,14 +169,35 @@ std::vector<float> PlanarProjectionFamily::flattened_casters(const glm::dvec4& p
             // matrix sends it through infinity to the far side (an anti-shadow): dropped.
             if (!(p.w > 1e-12 * std::abs(glm::dot(plane, homogeneous_light(light))))) kept = false;
             flat[k] = glm::dvec3(p) / p.w;
+            w[k] = p.w;
         }
         if (!kept) continue;
-        for (const glm::dvec3& p : flat) {
-            const glm::vec3 local(p - s_.origin);
-            out.insert(out.end(), {local.x, local.y, local.z});
+        std::vector<float>& target = alpha_test ? out.cutout : out.opaque;
+        for (int k = 0; k < 3; ++k) {
+            const glm::vec3 local(flat[k] - s_.origin);
+            target.insert(target.end(), {local.x, local.y, local.z});
+            if (!alpha_test) continue;
+            const glm::dvec2 uv(scene.texcoords[tri[k]]);
+            out.cutout_over_w.emplace_back(uv.x / w[k], uv.y / w[k], scene.vertex_alpha[tri[k]] / w[k], 1.0 / w[k]);
         }
+        if (alpha_test) out.cutout_triangles.push_back(static_cast<std::uint32_t>(ti));
     }
     return out;
+}
+
+VkPipeline PlanarProjectionFamily::cutout_pipeline(const Technique& t) {
+    const double blend_cutoff = t.blend == Blend::cutout ? t.blend_cutoff : -1;
+    UniquePipeline& p = cutout_pipelines_[blend_cutoff];
+    if (!p) {
+        GraphicsSetup g{kPlanarCutoutVert, sizeof(kPlanarCutoutVert), kPlanarCutoutFrag, sizeof(kPlanarCutoutFrag),
+                        kCoverageDepthFormat, VK_COMPARE_OP_ALWAYS, VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE,
+                        false, false};
+        Technique level0 = t;
+        level0.alpha_mipmaps = false;  // a flattened triangle has no map texels to minify over
+        g.frag_spec = alpha_spec(level0);
+        p = make_graphics_pipeline(ctx_, cutout_layout_.get(), g);
+    }
+    return p.get();
 }
 
 std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, const Light& light,
@@ -179,7 +230,6 @@ std::vector<float> PlanarProjectionFamily::visibility(const glm::dvec4& plane, c
 
 void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> lights, const RenderOptions&,
                                     RasterFrame& frame, RasterStats& stats) {
-    check_alpha_rules(s_, t, "planar_projection");  // its flattened casters have no alpha test
     auto t0 = SteadyClock::now();
     stats.hw2x2 = "unused";  // no map, no compare
     const Scenario& sc = s_.scenario;
@@ -207,16 +257,39 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
     ensure_resources();
     const std::size_t n = lights.size();
     timer_.ensure(static_cast<std::uint32_t>(2 * n));
-    // Per light: its flattened casters and the host copy of its coverage.
-    std::vector<GpuBuffer> vertices(n), readback(n);
-    std::vector<std::uint32_t> vertex_counts(n, 0);
+    // Per light: its flattened casters (the cut-outs' apart) and the host copy of its coverage.
+    std::vector<GpuBuffer> vertices(n), readback(n), cutout_vertices(n), cutout_over_w(n), cutout_triangles(n);
+    std::vector<std::uint32_t> vertex_counts(n, 0), cutout_counts(n, 0);
     const glm::mat4 vp = s_.camera_view_proj;
+    auto host_buffer = [&](const void* data, std::size_t bytes, VkBufferUsageFlags usage) {
+        GpuBuffer b = create_buffer(ctx_, std::max<std::size_t>(bytes, 4), usage, true);
+        if (bytes) std::memcpy(b.mapped, data, bytes);
+        return b;
+    };
+    if (cutout_sets_) cutout_sets_->reserve(n);
     for (std::size_t li = 0; li < n; ++li) {
-        const std::vector<float> flat = flattened_casters(*plane, lights[li]);
-        vertex_counts[li] = static_cast<std::uint32_t>(flat.size() / 3);
-        if (!flat.empty()) {
-            vertices[li] = create_buffer(ctx_, flat.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, true);
-            std::memcpy(vertices[li].mapped, flat.data(), flat.size() * sizeof(float));
+        const Flattened flat = flattened_casters(*plane, lights[li], t);
+        vertex_counts[li] = static_cast<std::uint32_t>(flat.opaque.size() / 3);
+        if (!flat.opaque.empty())
+            vertices[li] = host_buffer(flat.opaque.data(), flat.opaque.size() * sizeof(float),
+                                       VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+        cutout_counts[li] = static_cast<std::uint32_t>(flat.cutout.size() / 3);
+        if (cutout_sets_) {
+            cutout_vertices[li] = host_buffer(flat.cutout.data(), flat.cutout.size() * sizeof(float),
+                                              VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+            cutout_over_w[li] = host_buffer(flat.cutout_over_w.data(), flat.cutout_over_w.size() * sizeof(glm::vec4),
+                                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+            cutout_triangles[li] =
+                host_buffer(flat.cutout_triangles.data(), flat.cutout_triangles.size() * sizeof(std::uint32_t),
+                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+            std::vector<DescriptorResource> resources;
+            append_cutout_resources(s_, resources);
+            for (const GpuBuffer* b : {&cutout_over_w[li], &cutout_triangles[li]}) {
+                DescriptorResource r;
+                r.buffer = {b->buffer.get(), 0, VK_WHOLE_SIZE};
+                resources.push_back(r);
+            }
+            cutout_sets_->write(li, resources);
         }
         readback[li] = create_buffer(ctx_, s_.pixels * sizeof(std::uint32_t), VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
     }
@@ -243,6 +316,17 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
                 VkDeviceSize zero = 0;
                 vkCmdBindVertexBuffers(cmd, 0, 1, vertices[li].buffer.ptr(), &zero);
                 vkCmdDraw(cmd, vertex_counts[li], 1, 0, 0);
+            }
+            if (cutout_counts[li] > 0) {  // the cut-outs' shadows where they are opaque
+                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, cutout_pipeline(t));
+                VkDescriptorSet set = (*cutout_sets_)[li];
+                vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, cutout_layout_.get(), 0, 1, &set, 0,
+                                        nullptr);
+                vkCmdSetDepthBias(cmd, 0.0f, 0.0f, 0.0f);
+                vkCmdPushConstants(cmd, cutout_layout_.get(), VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(vp), &vp);
+                VkDeviceSize zero = 0;
+                vkCmdBindVertexBuffers(cmd, 0, 1, cutout_vertices[li].buffer.ptr(), &zero);
+                vkCmdDraw(cmd, cutout_counts[li], 1, 0, 0);
             }
             vkCmdEndRendering(cmd);
             timer_.write(cmd, q + 1);

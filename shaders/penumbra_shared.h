@@ -37,6 +37,10 @@ PENUMBRA_CONST uint kCutoutWrapTShift = 4u;
 PENUMBRA_CONST uint kCutoutBlend = 64u;  // a BLEND material: tested at kBlendCutoff (shaders/cutout.glsl)
 PENUMBRA_CONST uint kCutoutMipShift = 7u;      // two bits: 0 no mip levels, 1 the nearest level, 2 linear between two
 PENUMBRA_CONST uint kCutoutMinNearest = 512u;  // minification samples a level's nearest texel
+// Planar projection of a scene with cut-outs (shaders/planar_cutout.vert): per flattened vertex
+// (u, v, COLOR_0 alpha, 1) / w of Blinn's projection, and per flattened triangle its scene triangle.
+PENUMBRA_CONST uint kBindingPlanarAttributes = 6;  // vec4[3 * flattened cut-out triangles]
+PENUMBRA_CONST uint kBindingPlanarTriangles = 7;   // uint[flattened cut-out triangles]
 struct CutoutMaterialGpu {
     vec4 row0;     // KHR_texture_transform's first row (xyz), alphaCutoff (w)
     vec4 row1;     // its second row (xyz), baseColorFactor.a (w)

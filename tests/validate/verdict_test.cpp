@@ -316,7 +316,7 @@ TEST_F(Verdict, CutoutsCastThroughTheirHolesInEveryDepthMapFamily) {
 
 TEST_F(Verdict, CutoutsAreRefusedByTheFamiliesThatCannotDrawThem) {
     const Scenario sc = checkerboard_card(true);
-    for (const char* preset : {"rtr-shadow-volume", "rtr-planar"}) {
+    for (const char* preset : {"rtr-shadow-volume"}) {
         SCOPED_TRACE(preset);
         try {
             run(sc, {{"preset", preset}});
@@ -325,6 +325,20 @@ TEST_F(Verdict, CutoutsAreRefusedByTheFamiliesThatCannotDrawThem) {
             EXPECT_NE(std::string(e.what()).find("cannot draw cut-outs (card is alphaMode MASK"), std::string::npos)
                 << e.what();
         }
+    }
+}
+
+// Planar projection flattens the card onto the ground with its texture coordinates over Blinn's
+// w, and tests alpha there: the holes' light reaches the ground (the plane is its only receiver,
+// and the card itself receives nothing: its own pixels are the technique's false light).
+TEST_F(Verdict, PlanarProjectionCastsACutoutThroughItsHoles) {
+    for (const bool point : {false, true}) {
+        SCOPED_TRACE(point ? "point light" : "sun");
+        Scenario sc = checkerboard_card(true);
+        if (point) sc.lights = {test::point({0.6, 4.0, 0.4})};
+        const metrics::LightScore l = run(sc, {{"preset", "rtr-planar"}}).score.lights[0];
+        // Drawn opaque the holes were 2,755 (sun) and 3,856 (point) wrong pixels (classed acne).
+        EXPECT_LT(l.wrong, l.pixels.scored / 500);
     }
 }
 
