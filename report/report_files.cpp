@@ -295,7 +295,7 @@ std::string dominant_class(const metrics::LightScore& l) {
 }
 
 std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, const nlohmann::json& report,
-                      const OutputTransaction& out) {
+                      const OutputTransaction& out, bool facing_view) {
     auto src = [&](const std::string& file) {
         return "data:image/png;base64," + base64_encode(out.written_bytes(file));
     };
@@ -317,7 +317,9 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
     for (std::size_t li = 0; li < score.lights.size(); ++li)
         h += fmt::format(" &middot; <a href=\"#light-{0}\">light {0}</a>", li);
     h += " &middot; <a href=\"#classes\">the classes</a> &middot; <a href=\"#timing\">timing</a> &middot; <a "
-         "href=\"#technique\">technique</a> &middot; <a href=\"#scoring\">scoring</a></nav>\n";
+         "href=\"#technique\">technique</a> &middot; <a href=\"#scoring\">scoring</a>";
+    if (facing_view) h += " &middot; <a href=\"#facing\">facing</a>";
+    h += "</nav>\n";
     h += "<h2 id=\"summary\">Summary</h2>\n<div class=\"scroll\"><table id=\"summary-table\"><tr><th>light</th>"
          "<th title=\"wrong pixels, of the scored\">wrong</th><th title=\"wrong with |error| at least the visible "
          "threshold\">visibly wrong</th><th>dominant visible class</th><th>reading</th></tr>\n";
@@ -382,6 +384,21 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
              img(light_file(li, "error"), fmt::format("error map, light {}", li));
         h += "<h3>Oracle and raster</h3>" +
              img(light_file(li, "compare"), fmt::format("oracle and raster, light {}", li));
+    }
+    if (facing_view) {
+        h += "<h2 id=\"facing\">Facing</h2>\n<p>Which side of its triangle each pixel sees. Where the camera's ray "
+             "met a single-sided triangle's back first, it saw past it (culled, as an engine culls) to what lies "
+             "behind: a mesh with inverted winding, or one seen from inside, shows through there.</p>\n";
+        const nlohmann::json& meshes = report["facing"]["meshes"];
+        if (!meshes.empty()) {
+            h += "<table><tr><th>mesh</th><th>its pixels</th><th>rays that passed its back faces</th><th>share</th></tr>\n";
+            for (const nlohmann::json& m : meshes)
+                h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1f}%</td></tr>\n",
+                                 escape_markup(m.value("mesh", "")), m.value("pixels", std::uint64_t{0}),
+                                 m.value("from_behind_px", std::uint64_t{0}), 100.0 * m.value("share", 0.0));
+            h += "</table>\n";
+        }
+        h += img("facing.png", "facing view");
     }
     // The classes in words, with the colours the class maps draw them in.
     h += "<h2 id=\"classes\">The classes</h2>\n<dl class=\"classes\">\n";
@@ -489,6 +506,54 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
     write_png(out, name, oracle.width, h, classes);
 }
 
+namespace {
+
+constexpr glm::vec3 kFrontSeen{0.55f, 0.55f, 0.55f};
+constexpr glm::vec3 kBackSeen{0.95f, 0.45f, 0.1f};
+
+// Whether a facing view is drawn: where the camera met single-sided back faces first (the
+// report's facing), the view a user needs to see which geometry faces the wrong way.
+bool wants_facing_view(const ReportInputs& in, const nlohmann::json& report) {
+    return in.scenario && !in.scenario->camera_path && report.contains("facing") &&
+           report["facing"].value("from_behind_px", std::uint64_t{0}) > 0;
+}
+
+// The side of its triangle each pixel sees (docs/metrics.md, "Facing"): the front (counter-
+// clockwise as seen) grey, the back of a double-sided triangle orange, with the legend naming the
+// meshes whose back faces the camera met first and saw past (single-sided: culled, as engines do).
+std::vector<float> facing_image(const ReportInputs& in, const OracleFrame& oracle, const nlohmann::json& facing, int& h) {
+    const Scene& scene = in.scenario->scene;
+    const int W = oracle.width, H = oracle.height;
+    const PrimaryRays rays(in.scenario->camera, W, H);
+    std::vector<float> rgb(3 * oracle.pixel_count(), 0.01f);
+    std::uint64_t back = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(x);
+            const std::uint32_t p = oracle.prim[i];
+            if (p == kNoPrimitive || p >= scene.triangles.size()) continue;
+            const glm::u32vec3 t = scene.triangles[p];
+            const glm::dvec3 n = glm::cross(scene.positions[t.y] - scene.positions[t.x],
+                                            scene.positions[t.z] - scene.positions[t.x]);
+            const bool from_behind = glm::dot(n, rays.at(x + 0.5, y + 0.5).direction) > 0;
+            back += from_behind;
+            const glm::vec3 c = from_behind ? kBackSeen : kFrontSeen;
+            for (int k = 0; k < 3; ++k) rgb[3 * i + static_cast<std::size_t>(k)] = c[k];
+        }
+    const double frame = std::max<double>(1.0, static_cast<double>(oracle.pixel_count()));
+    std::vector<LegendEntry> legend = {
+        {kFrontSeen, "front face seen"},
+        {kBackSeen, fmt::format("back face seen (double-sided), {:.1f}% of the image", 100.0 * static_cast<double>(back) / frame)},
+        {glm::vec3(0.01f), "background"}};
+    const std::uint64_t culled = facing.value("from_behind_px", std::uint64_t{0});
+    if (culled > 0)
+        legend.push_back({glm::vec3(0.04f), fmt::format("{:.1f}% of the rays passed single-sided back faces (see the list)",
+                                                        100.0 * static_cast<double>(culled) / frame)});
+    return with_legend(std::move(rgb), W, H, legend, h);
+}
+
+}  // namespace
+
 void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFrame& oracle, const RasterFrame& raster,
                   const metrics::FrameScore& score, const nlohmann::json& report) {
     const int W = oracle.width, H = oracle.height;
@@ -533,9 +598,16 @@ void write_report(OutputTransaction& out, const ReportInputs& in, const OracleFr
                       compare_image(oracle.A, oracle.lights[li].V, raster.lights[li].V, W, H));
         });
     }
+    const bool facing_view = wants_facing_view(in, report);
+    if (facing_view)
+        files.run([&] {
+            int h = 0;
+            const std::vector<float> rgb = facing_image(in, oracle, report["facing"], h);
+            write_png(out, "facing.png", W, h, rgb);
+        });
     files.wait();
     out.write_json("report.json", report);
-    out.write_text("report.html", html_page(in, score, report, out));
+    out.write_text("report.html", html_page(in, score, report, out, facing_view));
 }
 
 }  // namespace penumbra::report

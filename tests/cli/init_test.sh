@@ -196,6 +196,9 @@ import json; c = json.load(open('$tmp/terrain/scenario.json'))['camera']; assert
     check "terrain: report.json's facing names the mesh" python3 -c "
 import json; f = json.load(open('$tmp/terrain/facing/report.json'))['facing']
 assert f['meshes'][0]['mesh'] == 'nodes[0] \"terrain_root\"' and f['meshes'][0]['share'] > 0.5, f"
+    check "terrain: facing.png and report.html's facing view" test -s "$tmp/terrain/facing/facing.png"
+    check "terrain: report.html has a facing section" grep -q 'id="facing"' "$tmp/terrain/facing/report.html"
+    check "terrain: report.html's facing table" grep -q 'nodes\[0\] &quot;terrain_root&quot;\|nodes\[0\] "terrain_root"' "$tmp/terrain/facing/report.html"
     run init "$tmp/conv/terrain.glb" --out "$tmp/terrain-y/scenario.json" --up y -q
     check "terrain --up y: no up key" fails grep -q '"up": "z"' "$tmp/terrain-y/scenario.json"
 
