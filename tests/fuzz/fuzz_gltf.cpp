@@ -4,6 +4,7 @@
 #include "fuzz_support.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    penumbra::fuzz::stand_in_for_images();
     using namespace penumbra;
     const auto file = fuzz::write_file(PENUMBRA_FUZZ_SCENE_NAME, data, size);
     fuzz::expect_input_errors_only([&] {

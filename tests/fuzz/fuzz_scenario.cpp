@@ -44,6 +44,7 @@ void write_scene() {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    penumbra::fuzz::stand_in_for_images();
     using namespace penumbra;
     static const bool scene_written = (write_scene(), true);
     (void)scene_written;

@@ -12,9 +12,24 @@
 #include <fstream>
 #include <string>
 
+#include "common/alpha_coverage.h"
 #include "common/errors.h"
 
 namespace penumbra::fuzz {
+
+// A cut-out's image is decoded by image_io (OpenImageIO, not fuzzed here; these targets link
+// common alone): a stand-in decodes every image to one opaque texel, so that the loader's
+// material, sampler, texture-transform and attribute checks are fuzzed through to the end.
+inline AlphaTexture one_texel(const EncodedImage& e) {
+    AlphaTexture t;
+    t.width = t.height = 1;
+    t.alpha = {65535};
+    t.label = e.label;
+    return t;
+}
+inline void stand_in_for_images() {
+    set_alpha_image_decoder(&one_texel);
+}
 
 // Memory a fuzzed scene may ask for before it is refused: well under -rss_limit_mb.
 inline constexpr std::uint64_t kMaxMemory = 1ull << 30;
