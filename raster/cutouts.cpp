@@ -72,7 +72,9 @@ void upload_cutouts(SceneOnGpu& s) {
     const Scene& scene = s.scenario.scene;
     s.has_cutouts = scene.has_cutouts();
     s.has_masks = scene.has_masks();
-    if (!s.has_cutouts) return;
+    // Nothing of them depends on the eye: a camera moved (RasterSession::set_camera) keeps them,
+    // and the set whose layout the families' pipelines were made with.
+    if (!s.has_cutouts || s.cutout_set) return;
     const VulkanContext& ctx = s.ctx;
     std::vector<float> uv(2 * scene.texcoords.size());
     for (std::size_t i = 0; i < scene.texcoords.size(); ++i) {

@@ -14,7 +14,8 @@ struct SceneOnGpu;
 
 // The cut-out bindings (kBindingCutoutUv ... kBindingCutoutTexels), in their resources' order.
 std::span<const BindingDecl> cutout_bindings();
-// Uploads the scene's cut-outs and writes SceneOnGpu::cutout_set; nothing where it has none.
+// Uploads the scene's cut-outs and writes SceneOnGpu::cutout_set, once per SceneOnGpu; nothing
+// where it has none.
 void upload_cutouts(SceneOnGpu& s);
 // The resources of cutout_bindings(), appended to `resources`.
 void append_cutout_resources(const SceneOnGpu& s, std::vector<DescriptorResource>& resources);

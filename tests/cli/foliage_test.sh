@@ -25,6 +25,19 @@ done
 check "validate: the class map" test -s "$tmp/v/light0.classes.png"
 check "validate: the cut-outs are said" grep -q '"cutouts"' "$tmp/v/report.json"
 
+# Over a camera path: the session's moved camera keeps the cut-outs' buffers and set.
+python3 - "$tmp/scene/small.json" "$tmp/scene/path.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+key = dict(s.pop("camera"))
+s["camera_path"] = {"frames": 3, "keys": [key, dict(key, eye=[4.5, 3.5, 8.0])]}
+json.dump(s, open(sys.argv[2], "w"))
+PY
+run validate "$tmp/scene/path.json" --out "$tmp/path" -q
+check "camera path: exit 0" test "$rc" = 0
+check "camera path: flicker.exr" test -s "$tmp/path/flicker.exr"
+check "camera path: no false_shadow in the holes" below "$(rate "$tmp/path/report.json" 0 false_shadow)" 0.002
+
 run tune "$tmp/scene/small.json" --out "$tmp/t" --set resolution=1024 --budget 6 -q
 check "tune: exit 0" test "$rc" = 0
 check "tune: technique.json" test -s "$tmp/t/technique.json"

@@ -145,6 +145,27 @@ TEST(CameraPath, AMovedRasterSessionDrawsWhatAColdOneDraws) {
     EXPECT_EQ(warm.frame.lights[0].V, cold.frame.lights[0].V);
 }
 
+// The same with cut-outs: the moved session keeps their buffers and set (raster/cutouts.h), and
+// its camera and shadow passes test alpha as a cold session's do.
+TEST(CameraPath, AMovedRasterSessionDrawsCutoutsAsAColdOneDraws) {
+    Scenario sc = panning(3, 96, 64);
+    test::add_cutout_card(sc.scene, {-1.2, 1.2, 1.2}, {2.4, 0, 0}, {0, 0, -2.4}, test::checkerboard_alpha(6), true);
+    raster::VulkanContext ctx{raster::ContextOptions{}};
+    Scenario moving = sc;
+    raster::RasterSession session(moving, ctx);
+    const raster::Technique t = raster::parse_technique({{"resolution", 1024}}, "test: technique");
+    session.render(t);
+    const Camera last = path_camera(*sc.camera_path, 2).value();
+    moving.camera = last;
+    session.set_camera(last);
+    const raster::RasterResult warm = session.render(t);
+    Scenario alone = sc;
+    alone.camera = last;
+    const raster::RasterResult cold = raster::run_raster(alone, t, ctx);
+    EXPECT_EQ(warm.frame.prim, cold.frame.prim);
+    EXPECT_EQ(warm.frame.lights[0].V, cold.frame.lights[0].V);
+}
+
 // The flicker rule on two synthetic frames from one orthographic camera (pixel j sees the same
 // point in both): a raster change where the truth changes too is a moving true edge, not
 // shimmer; one where the truth holds is flicker (docs/metrics.md, "Flicker over a camera path").
