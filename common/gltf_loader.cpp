@@ -306,15 +306,14 @@ RawFacts prevalidate(const Context& ctx, std::string_view bytes, bool binary) {
     if (j.is_discarded() || !j.is_object()) return facts;  // tinygltf reports syntax errors
     check_version(ctx, j);
     check_gltf_schema(j, ctx.label);
-    for (const char* kind : {"buffers", "images"}) {
-        auto it = j.find(kind);
-        if (it == j.end() || !it->is_array()) continue;
+    // Buffers are all read; images only where a cut-out shows them (read_cutouts checks those
+    // then): a texture outside the folder that penumbra never reads refuses nothing.
+    if (auto it = j.find("buffers"); it != j.end() && it->is_array())
         for (std::size_t i = 0; i < it->size(); ++i) {
             const auto& e = (*it)[i];
             if (e.is_object() && e.contains("uri") && e["uri"].is_string())
-                check_uri(ctx, fmt::format("{}[{}].uri", kind, i), e["uri"].get<std::string>());
+                check_uri(ctx, fmt::format("buffers[{}].uri", i), e["uri"].get<std::string>());
         }
-    }
     if (auto cams = j.find("cameras"); cams != j.end())  // an array of objects: the schema checked it
         for (const auto& c : *cams) {
             auto persp = c.find("perspective");
@@ -658,12 +657,13 @@ Cutouts read_cutouts(const Context& ctx, const tinygltf::Model& m, const std::ve
             if (it == capture.data_uri_bytes.end()) fail(ctx, element, "its data URI holds no bytes");
             e.bytes = it->second;
         } else {
+            // The buffers' URI policy (check_uri), for the images penumbra reads.
+            check_uri(ctx, element + ".uri", image.uri);
             bool bad = false;
             const std::string decoded = percent_decode(image.uri, bad);
             if (bad) fail(ctx, element, fmt::format("malformed percent-encoding in uri \"{}\"", image.uri));
+            if (decoded.find('\0') != std::string::npos) fail(ctx, element, "uri contains a NUL character");
             e.file = ctx.dir / decoded;
-            if (!ctx.allow_external && !inside(ctx.dir, e.file))
-                fail(ctx, element, "uri resolves outside the scene's folder (use --allow-external-paths to lift this)");
         }
         AlphaTexture t = alpha_image_decoder()(e);
         pixels += static_cast<std::uint64_t>(t.width) * static_cast<std::uint64_t>(t.height);

@@ -189,10 +189,16 @@ TEST(CutoutImages, BadImagesAreInputErrorsNamingTheImage) {
         EXPECT_NE(e.find(name + ": images[0]"), std::string::npos) << e;
         EXPECT_NE(e.find(what), std::string::npos) << e;
     }
-    // Outside the scene's folder: refused before anything is read.
+    // Outside the scene's folder: refused, the buffers' rule; but only for an image penumbra
+    // reads: an opaque material's texture outside the folder refuses nothing.
     const std::string outside = error_of(masked_quad({{"uri", "../leaf.png"}}).write(dir, "outside.gltf"));
     EXPECT_NE(outside.find("images[0].uri"), std::string::npos) << outside;
     EXPECT_NE(outside.find("outside the scene's folder"), std::string::npos) << outside;
+    EXPECT_NE(error_of(masked_quad({{"uri", "/etc/leaf.png"}}).write(dir, "absolute.gltf")).find("absolute path"),
+              std::string::npos);
+    GltfFixture opaque = masked_quad({{"uri", "../../elsewhere/albedo.png"}});
+    opaque.doc["materials"][0]["alphaMode"] = "OPAQUE";
+    EXPECT_EQ(error_of(opaque.write(dir, "opaque_outside.gltf")), "");
     // The decoder is image_io's: a read of an ordinary image goes through the same module.
     test::write_text(dir / "leaf.png", png);
     EXPECT_EQ(read_image(dir / "leaf.png").width, 3);
