@@ -2,6 +2,7 @@
 // penumbra's technique keys) for one light's map of a scenario (docs/units.md).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -49,7 +50,7 @@ int run_units_command(const UnitsArgs& a) {
     // Everything the user wrote is checked before the scene is read.
     engines::engine_info(a.from, "--from");
     engines::engine_info(a.to, "--to");
-    const engines::EngineBias from = engines::parse_engine_bias(a.from, a.assignments, "--from " + a.from);
+    engines::EngineBias from = engines::parse_engine_bias(a.from, a.assignments, "--from " + a.from);
     const nlohmann::json to_assumptions = engines::parse_engine_bias(a.to, a.assume, "--assume", true).assumptions;
 
     Common c;
@@ -61,10 +62,40 @@ int run_units_command(const UnitsArgs& a) {
         throw InputError(
             fmt::format("--light: {} is not a light of {} (it has {})", a.light, s.label, s.lights.size()));
     const Light& light = s.lights[a.light];
+    // `--from penumbra` without values converts the technique's own bias for the light (what
+    // `--technique tuned.json` means), not penumbra's zero defaults.
+    const bool from_technique = a.from == "penumbra" && a.assignments.empty();
+    if (from_technique) {
+        const nlohmann::json tj = t.for_light(a.light).to_json();
+        std::vector<std::string> values;
+        if (tj.contains("bias"))
+            for (auto it = tj["bias"].begin(); it != tj["bias"].end(); ++it) {
+                if (it->is_object()) {
+                    for (auto k = it->begin(); k != it->end(); ++k)
+                        values.push_back(fmt::format("{}.{}={}", it.key(), k.key(),
+                                                     k->is_string() ? k->get<std::string>() : k->dump()));
+                } else {
+                    values.push_back(fmt::format("{}={}", it.key(), it->is_string() ? it->get<std::string>() : it->dump()));
+                }
+            }
+        from = engines::parse_engine_bias(a.from, values, "the technique's bias");
+    }
     const engines::ReferenceReceiver ref = engines::reference_receiver(s, light, a.angle_deg);
     const std::vector<engines::MapContext> maps = engines::map_contexts(s, t, a.light, ref);
 
     std::vector<std::string> notes;
+    const bool all_zero = std::none_of(from.values.begin(), from.values.end(), [](const nlohmann::json& v) {
+        return v.is_number() && v.get<double>() != 0.0;
+    });
+    if (all_zero)
+        notes.push_back(fmt::format(
+            "every value converted is 0 ({}): give the --from engine's values as KEY=VALUE{}", from_technique ? "the technique has no bias" : "the --from engine's defaults",
+            a.from == "penumbra" ? ", or a technique with a bias (--technique tuned.json)" : ""));
+    if (maps.size() > 1)
+        notes.push_back(fmt::format(
+            "{} cascades, each with its own texel and depth range, so each gets its own values; the maps are the "
+            "technique's ({}): a technique that draws other maps (another preset) gets other numbers",
+            maps.size(), t.preset.empty() ? t.family : "preset " + t.preset));
     if (from.engine == "penumbra" &&
         (from.values.value("clamp", 0.0) != 0.0 || from.values.value("receiver_plane", false)))
         notes.push_back("bias.clamp and bias.receiver_plane are not part of the conversion");
@@ -101,7 +132,11 @@ int run_units_command(const UnitsArgs& a) {
             {"light", a.light},
             {"light_type", to_string(light.type)},
             {"technique", t.preset.empty() ? t.family : t.preset},
-            {"from", {{"engine", from.engine}, {"values", from.values}, {"assumptions", from.assumptions}}},
+            {"from",
+             {{"engine", from.engine},
+              {"values", from.values},
+              {"assumptions", from.assumptions},
+              {"source", from_technique ? "technique" : "arguments"}}},
             {"to", a.to},
             {"reference",
              {{"angle_deg", angle_deg},
@@ -116,7 +151,7 @@ int run_units_command(const UnitsArgs& a) {
         return kExitSuccess;
     }
     fmt::print("units: {} light {} ({}), {} -> {}\n", s.label, a.light, light.origin, from.engine, a.to);
-    fmt::print("  from: {}", describe_values(from.values));
+    fmt::print("  from: {}{}", from_technique ? "the technique's bias: " : "", describe_values(from.values));
     if (!from.assumptions.empty()) fmt::print(" (assuming {})", describe_values(from.assumptions));
     fmt::print(
         "\n  reference receiver: {:.2f} deg between its normal and the light ({}; plane of {:.4g} m^2 at "

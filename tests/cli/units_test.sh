@@ -87,4 +87,15 @@ for u in units:
 check "the summary prints three's parameters" grep -q "three: bias = " "$tmp/stdout"
 run tune "$tmp/small.json" --out "$tmp/t2" --budget 2 --units ogre
 check "tune --units with an unknown engine: exit 2, nothing written" test "$rc" -eq 2 -a ! -e "$tmp/t2"
+# --from penumbra without values converts the technique's own bias (d3d12-textbook: constant
+# 100000, slope 1), not zeros; zeros and cascades are said (issue #53).
+run units "$scenario" --from penumbra --to three --json
+check "--from penumbra, no values: the technique's bias" python3 -c '
+import json, sys; j = json.loads(sys.stdin.read()); f = j["from"]
+assert f["source"] == "technique" and f["values"]["constant"] == 100000 and f["values"]["slope"] == 1, f
+assert j["maps"][0]["values"]["bias"] != 0, j["maps"]' <"$tmp/stdout"
+run units "$scenario" --from penumbra --to three --preset no-bias
+check "all zeros are said" grep -q "note: every value converted is 0" "$tmp/stdout"
+run units "$scenario" --from penumbra --to godot --preset godot
+check "cascades are said" grep -q "note: 4 cascades, each with its own texel and depth range" "$tmp/stdout"
 finish
