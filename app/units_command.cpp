@@ -75,7 +75,8 @@ int run_units_command(const UnitsArgs& a) {
                         values.push_back(fmt::format("{}.{}={}", it.key(), k.key(),
                                                      k->is_string() ? k->get<std::string>() : k->dump()));
                 } else {
-                    values.push_back(fmt::format("{}={}", it.key(), it->is_string() ? it->get<std::string>() : it->dump()));
+                    values.push_back(
+                        fmt::format("{}={}", it.key(), it->is_string() ? it->get<std::string>() : it->dump()));
                 }
             }
         from = engines::parse_engine_bias(a.from, values, "the technique's bias");
@@ -84,13 +85,13 @@ int run_units_command(const UnitsArgs& a) {
     const std::vector<engines::MapContext> maps = engines::map_contexts(s, t, a.light, ref);
 
     std::vector<std::string> notes;
-    const bool all_zero = std::none_of(from.values.begin(), from.values.end(), [](const nlohmann::json& v) {
-        return v.is_number() && v.get<double>() != 0.0;
-    });
+    const bool all_zero = std::none_of(from.values.begin(), from.values.end(),
+                                       [](const nlohmann::json& v) { return v.is_number() && v.get<double>() != 0.0; });
     if (all_zero)
-        notes.push_back(fmt::format(
-            "every value converted is 0 ({}): give the --from engine's values as KEY=VALUE{}", from_technique ? "the technique has no bias" : "the --from engine's defaults",
-            a.from == "penumbra" ? ", or a technique with a bias (--technique tuned.json)" : ""));
+        notes.push_back(
+            fmt::format("every value converted is 0 ({}): give the --from engine's values as KEY=VALUE{}",
+                        from_technique ? "the technique has no bias" : "the --from engine's defaults",
+                        a.from == "penumbra" ? ", or a technique with a bias (--technique tuned.json)" : ""));
     if (maps.size() > 1)
         notes.push_back(fmt::format(
             "{} cascades, each with its own texel and depth range, so each gets its own values; the maps are the "

@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <glm/mat3x3.hpp>
-#include <span>
 #include <glm/vec2.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,15 +50,15 @@ AlphaImageDecoder alpha_image_decoder();
 // (docs/raster.md, "Blended materials"). Opaque materials have none: every hit on them is a hit.
 struct CutoutMaterial {
     AlphaMode mode = AlphaMode::mask;  // mask or blend
-    double cutoff = 0.5;        // alphaCutoff (MASK)
-    double factor_alpha = 1.0;  // baseColorFactor[3]
-    int texture = -1;           // Scene::alpha_textures index; -1: the factor (and COLOR_0) alone
+    double cutoff = 0.5;               // alphaCutoff (MASK)
+    double factor_alpha = 1.0;         // baseColorFactor[3]
+    int texture = -1;                  // Scene::alpha_textures index; -1: the factor (and COLOR_0) alone
     TextureWrap wrap_s = TextureWrap::repeat, wrap_t = TextureWrap::repeat;
     bool nearest = false;  // magFilter NEAREST (9728); LINEAR otherwise, as engines default
     int min_filter = -1;   // the sampler's minFilter (glTF's GL code), -1 absent: for alpha.mipmaps only
     // KHR_texture_transform: uv' = uv_transform * (uv, 1) (offset x rotation x scale).
     glm::dmat3 uv_transform{1.0};
-    std::string label;          // "materials[3] \"Leaves\""
+    std::string label;  // "materials[3] \"Leaves\""
 };
 
 // What a point of a cut-out is: opaque or not, and whether that answer would change within

@@ -596,7 +596,8 @@ glm::dmat3 texture_transform(const Context& ctx, const std::string& element, con
         if (n == 1 && v.IsNumber()) out.push_back(v.GetNumberAsDouble());
         if (n > 1 && v.IsArray() && v.ArrayLen() == n)
             for (std::size_t k = 0; k < n; ++k)
-                if (v.Get(static_cast<int>(k)).IsNumber()) out.push_back(v.Get(static_cast<int>(k)).GetNumberAsDouble());
+                if (v.Get(static_cast<int>(k)).IsNumber())
+                    out.push_back(v.Get(static_cast<int>(k)).GetNumberAsDouble());
         if (out.size() != n || !std::all_of(out.begin(), out.end(), [](double d) { return std::isfinite(d); }))
             fail(ctx, where, fmt::format("{} must be {} finite number{}", key, n, n > 1 ? "s" : ""));
         return out;
@@ -669,8 +670,8 @@ Cutouts read_cutouts(const Context& ctx, const tinygltf::Model& m, const std::ve
         pixels += static_cast<std::uint64_t>(t.width) * static_cast<std::uint64_t>(t.height);
         if (pixels > kMaxCutoutPixels)
             fail(ctx, element,
-                 fmt::format("the cut-outs' images pass {} Mpixels together (this one is {}x{})", kMaxCutoutPixels >> 20,
-                             t.width, t.height));
+                 fmt::format("the cut-outs' images pass {} Mpixels together (this one is {}x{})",
+                             kMaxCutoutPixels >> 20, t.width, t.height));
         t.label = e.label;
         scene.alpha_textures.push_back(std::move(t));
         const int k = static_cast<int>(scene.alpha_textures.size()) - 1;
@@ -699,17 +700,19 @@ Cutouts read_cutouts(const Context& ctx, const tinygltf::Model& m, const std::ve
             c.uv_transform = texture_transform(ctx, where, info.extensions, tex_coord);
             const tinygltf::Texture& tex = m.textures[static_cast<std::size_t>(info.index)];
             if (tex.source < 0) {
-                scene.warnings.push_back(fmt::format(
-                    "{}: textures[{}] has no source penumbra reads; the cut-out {} uses its factor alone", ctx.label,
-                    info.index, c.label));
+                scene.warnings.push_back(
+                    fmt::format("{}: textures[{}] has no source penumbra reads; the cut-out {} uses its factor alone",
+                                ctx.label, info.index, c.label));
             } else {
                 if (static_cast<std::size_t>(tex.source) >= m.images.size())
-                    fail(ctx, fmt::format("textures[{}]", info.index), fmt::format("source {} out of range", tex.source));
+                    fail(ctx, fmt::format("textures[{}]", info.index),
+                         fmt::format("source {} out of range", tex.source));
                 c.texture = decode(tex.source);
             }
             if (tex.sampler >= 0) {
                 if (static_cast<std::size_t>(tex.sampler) >= m.samplers.size())
-                    fail(ctx, fmt::format("textures[{}]", info.index), fmt::format("sampler {} out of range", tex.sampler));
+                    fail(ctx, fmt::format("textures[{}]", info.index),
+                         fmt::format("sampler {} out of range", tex.sampler));
                 const tinygltf::Sampler& smp = m.samplers[static_cast<std::size_t>(tex.sampler)];
                 const std::string sampler = fmt::format("samplers[{}]", tex.sampler);
                 c.wrap_s = wrap_of(ctx, sampler + ".wrapS", smp.wrapS);
@@ -742,8 +745,8 @@ struct Flattener {
     void add_cutout_attributes(const tinygltf::Primitive& p, const std::string& element, std::size_t base,
                                std::size_t vertex_count, std::size_t first_triangle, std::uint32_t cutout) {
         scene.triangle_cutout.resize(scene.triangles.size(), kNoCutout);
-        std::fill(scene.triangle_cutout.begin() + static_cast<std::ptrdiff_t>(first_triangle), scene.triangle_cutout.end(),
-                  cutout);
+        std::fill(scene.triangle_cutout.begin() + static_cast<std::ptrdiff_t>(first_triangle),
+                  scene.triangle_cutout.end(), cutout);
         scene.texcoords.resize(base + vertex_count, glm::vec2(0.0f));
         scene.vertex_alpha.resize(base + vertex_count, 1.0f);
         if (cutout == kNoCutout) return;
@@ -751,8 +754,8 @@ struct Flattener {
                              std::size_t& count) -> std::optional<AccessorView> {
             const auto it = p.attributes.find(name);
             if (it == p.attributes.end()) return std::nullopt;
-            const AccessorView v = checked_accessor(ctx, m, buffers, it->second, element + ".attributes." + name, type,
-                                                    components);
+            const AccessorView v =
+                checked_accessor(ctx, m, buffers, it->second, element + ".attributes." + name, type, components);
             if (v.count < vertex_count)
                 fail(ctx, element + ".attributes." + name,
                      fmt::format("{} elements where POSITION has {}", v.count, vertex_count));
@@ -773,8 +776,9 @@ struct Flattener {
                     scene.texcoords[base + i] = t;
                 }
             } else {
-                scene.warnings.push_back(fmt::format("{}: {}: the cut-out {} reads {}, which it lacks: uv (0, 0) is used",
-                                                     ctx.label, element, scene.cutout_materials[cutout].label, set));
+                scene.warnings.push_back(
+                    fmt::format("{}: {}: the cut-out {} reads {}, which it lacks: uv (0, 0) is used", ctx.label,
+                                element, scene.cutout_materials[cutout].label, set));
             }
         }
         const auto it = p.attributes.find("COLOR_0");
@@ -786,7 +790,8 @@ struct Flattener {
                                               count))
                 for (std::size_t i = 0; i < vertex_count; ++i) {
                     const double a = unorm_at(*colour, i, 3);
-                    if (!std::isfinite(a)) fail(ctx, element + ".attributes.COLOR_0", fmt::format("element {} is not finite", i));
+                    if (!std::isfinite(a))
+                        fail(ctx, element + ".attributes.COLOR_0", fmt::format("element {} is not finite", i));
                     scene.vertex_alpha[base + i] = static_cast<float>(a);
                 }
     }

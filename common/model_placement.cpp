@@ -88,7 +88,8 @@ void append_model(Scene& scene, Scene&& part, const std::string& label) {
             if (!label.empty()) t.label = label + ": " + t.label;
             scene.alpha_textures.push_back(std::move(t));
         }
-        for (std::uint32_t c : part.triangle_cutout) scene.triangle_cutout.push_back(c == kNoCutout ? c : c + material_base);
+        for (std::uint32_t c : part.triangle_cutout)
+            scene.triangle_cutout.push_back(c == kNoCutout ? c : c + material_base);
         scene.texcoords.insert(scene.texcoords.end(), part.texcoords.begin(), part.texcoords.end());
         scene.vertex_alpha.insert(scene.vertex_alpha.end(), part.vertex_alpha.begin(), part.vertex_alpha.end());
     } else if (!scene.triangle_cutout.empty()) {

@@ -28,7 +28,8 @@ void ProgressLine::phase(std::string_view what) {
 
 void ProgressLine::step(std::size_t done, std::size_t total, std::string_view what) {
     const std::string left = time_left(seconds_since(start_), done, total);
-    write(fmt::format("{}/{}{}{}{}", done, total, what.empty() ? "" : " ", what, left.empty() ? "" : " (" + left + ")"));
+    write(
+        fmt::format("{}/{}{}{}{}", done, total, what.empty() ? "" : " ", what, left.empty() ? "" : " (" + left + ")"));
 }
 
 void ProgressLine::clear() {

@@ -52,8 +52,8 @@ CoverageAnswer Scene::cutout_coverage(std::size_t t, double b1, double b2, doubl
     const CutoutMaterial& m = cutout_materials[triangle_cutout[t]];
     const glm::u32vec3& tri = triangles[t];
     const double b0 = 1.0 - b1 - b2;
-    const glm::dvec2 uv = b0 * glm::dvec2(texcoords[tri.x]) + b1 * glm::dvec2(texcoords[tri.y]) +
-                          b2 * glm::dvec2(texcoords[tri.z]);
+    const glm::dvec2 uv =
+        b0 * glm::dvec2(texcoords[tri.x]) + b1 * glm::dvec2(texcoords[tri.y]) + b2 * glm::dvec2(texcoords[tri.z]);
     const double alpha = b0 * vertex_alpha[tri.x] + b1 * vertex_alpha[tri.y] + b2 * vertex_alpha[tri.z];
     const AlphaTexture* texture = m.texture >= 0 ? &alpha_textures[static_cast<std::size_t>(m.texture)] : nullptr;
     return judge_coverage(m, texture, uv, alpha, reach_texels);

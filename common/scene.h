@@ -63,7 +63,7 @@ struct Bounds {
 };
 
 // A flattened triangle soup; triangle index = primitive id in every output (oracle and raster).
-inline constexpr std::size_t kMaxNodeLabelBytes = 64;  // of a node's name, in messages
+inline constexpr std::size_t kMaxNodeLabelBytes = 64;   // of a node's name, in messages
 inline constexpr std::uint32_t kNoCutout = UINT32_MAX;  // Scene::triangle_cutout of an opaque triangle
 
 struct Scene {

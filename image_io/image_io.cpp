@@ -724,9 +724,10 @@ AlphaTexture decode_alpha_image(const EncodedImage& e) {
         case OiioReadStatus::ok: return t;
         case OiioReadStatus::bad_input: throw InputError(fmt::format("{}: {}", e.label, error));
         case OiioReadStatus::wrong_size:
-            throw InputError(fmt::format("{}: {}x{} pixels declared; a cut-out's image may have at most {} a side and {} "
-                                         "Mpixels",
-                                         e.label, t.width, t.height, kMaxTextureSide, kMaxTexturePixels >> 20));
+            throw InputError(
+                fmt::format("{}: {}x{} pixels declared; a cut-out's image may have at most {} a side and {} "
+                            "Mpixels",
+                            e.label, t.width, t.height, kMaxTextureSide, kMaxTexturePixels >> 20));
         case OiioReadStatus::failed: break;
     }
     throw EnvironmentError(fmt::format("{}: {}", e.label, error));

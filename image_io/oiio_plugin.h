@@ -9,7 +9,6 @@
 #include <string>
 
 #include "common/alpha_coverage.h"
-
 #include "image_io/image_io.h"
 
 namespace penumbra {

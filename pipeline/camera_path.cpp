@@ -137,7 +137,8 @@ CameraPathResult validate_camera_path(const Scenario& scenario, const raster::Te
         trace_s.push_back(run->seconds);
         last_run = run;
         // The frames, counted, on a terminal: a frame's own phases would flicker past.
-        if (options.progress) options.progress->step(static_cast<std::size_t>(f), static_cast<std::size_t>(path.frames), "frames judged");
+        if (options.progress)
+            options.progress->step(static_cast<std::size_t>(f), static_cast<std::size_t>(path.frames), "frames judged");
         ValidateOptions quiet_frame = options;
         quiet_frame.progress = nullptr;
         ValidateResult r = validate(frame, technique, gate, quiet_frame, &session, std::move(run));

@@ -216,7 +216,8 @@ nlohmann::json cutouts_json(const Scene& scene) {
                             {"alpha_mode", m.mode == AlphaMode::mask ? "MASK" : "BLEND"},
                             {"triangles", triangles[k]},
                             {"alpha_cutoff", m.cutoff},
-                            {"factor_alpha", m.factor_alpha}, {"filter", m.nearest ? "nearest" : "linear"}};
+                            {"factor_alpha", m.factor_alpha},
+                            {"filter", m.nearest ? "nearest" : "linear"}};
         if (m.texture >= 0) {
             const AlphaTexture& t = scene.alpha_textures[static_cast<std::size_t>(m.texture)];
             j["image"] = {{"label", t.label}, {"width", t.width}, {"height", t.height}};

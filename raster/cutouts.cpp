@@ -31,8 +31,9 @@ void append_mip_chain(const AlphaTexture& t, std::vector<std::uint16_t>& out) {
                 std::uint32_t sum = 0;
                 for (int dy = 0; dy < 2; ++dy)
                     for (int dx = 0; dx < 2; ++dx)
-                        sum += level[static_cast<std::size_t>(std::min(2 * y + dy, h - 1)) * static_cast<std::size_t>(w) +
-                                     static_cast<std::size_t>(std::min(2 * x + dx, w - 1))];
+                        sum +=
+                            level[static_cast<std::size_t>(std::min(2 * y + dy, h - 1)) * static_cast<std::size_t>(w) +
+                                  static_cast<std::size_t>(std::min(2 * x + dx, w - 1))];
                 next[static_cast<std::size_t>(y) * static_cast<std::size_t>(nw) + static_cast<std::size_t>(x)] =
                     static_cast<std::uint16_t>((sum + 2) / 4);
             }
@@ -55,11 +56,12 @@ std::uint32_t mip_flags(int min_filter) {
     }
 }
 
-constexpr std::array<BindingDecl, 5> kCutoutBindings = {{{gpu::kBindingCutoutUv, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-                                                         {gpu::kBindingCutoutAlpha, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-                                                         {gpu::kBindingCutoutOfTriangle, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-                                                         {gpu::kBindingCutoutMaterials, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
-                                                         {gpu::kBindingCutoutTexels, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}}};
+constexpr std::array<BindingDecl, 5> kCutoutBindings = {
+    {{gpu::kBindingCutoutUv, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+     {gpu::kBindingCutoutAlpha, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+     {gpu::kBindingCutoutOfTriangle, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+     {gpu::kBindingCutoutMaterials, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+     {gpu::kBindingCutoutTexels, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}}};
 static_assert(sizeof(gpu::CutoutMaterialGpu) == 48);
 static_assert(kNoCutout == gpu::kNoPrim);
 }  // namespace
@@ -89,7 +91,8 @@ void upload_cutouts(SceneOnGpu& s) {
         append_mip_chain(t, texels);
     }
     if (texels.size() > std::numeric_limits<std::uint32_t>::max())
-        throw InputError(fmt::format("{}: the cut-outs' images and their mip levels pass 2^32 texels", s.scenario.label));
+        throw InputError(
+            fmt::format("{}: the cut-outs' images and their mip levels pass 2^32 texels", s.scenario.label));
     std::vector<std::uint32_t> packed((texels.size() + 1) / 2 + 1, 0u);
     for (std::size_t at = 0; at < texels.size(); ++at) packed[at >> 1] |= std::uint32_t(texels[at]) << ((at & 1) * 16);
     for (const CutoutMaterial& m : scene.cutout_materials) {
@@ -97,8 +100,8 @@ void upload_cutouts(SceneOnGpu& s) {
         gpu::CutoutMaterialGpu g;
         g.row0 = glm::vec4(x[0][0], x[1][0], x[2][0], m.cutoff);
         g.row1 = glm::vec4(x[0][1], x[1][1], x[2][1], m.factor_alpha);
-        std::uint32_t flags = (m.nearest ? gpu::kCutoutNearest : 0u) | (m.mode == AlphaMode::blend ? gpu::kCutoutBlend : 0u) |
-                              mip_flags(m.min_filter) |
+        std::uint32_t flags = (m.nearest ? gpu::kCutoutNearest : 0u) |
+                              (m.mode == AlphaMode::blend ? gpu::kCutoutBlend : 0u) | mip_flags(m.min_filter) |
                               (static_cast<std::uint32_t>(m.wrap_s) << gpu::kCutoutWrapSShift) |
                               (static_cast<std::uint32_t>(m.wrap_t) << gpu::kCutoutWrapTShift);
         g.texture = glm::uvec4(0u, 1u, 1u, flags);
@@ -125,7 +128,8 @@ void upload_cutouts(SceneOnGpu& s) {
 }
 
 void append_cutout_resources(const SceneOnGpu& s, std::vector<DescriptorResource>& resources) {
-    for (const GpuBuffer* b : {&s.cutout_uv, &s.cutout_alpha, &s.cutout_of_triangle, &s.cutout_materials, &s.cutout_texels}) {
+    for (const GpuBuffer* b :
+         {&s.cutout_uv, &s.cutout_alpha, &s.cutout_of_triangle, &s.cutout_materials, &s.cutout_texels}) {
         DescriptorResource r;
         r.buffer = {b->buffer.get(), 0, VK_WHOLE_SIZE};
         resources.push_back(r);
@@ -154,10 +158,10 @@ void refuse_cutouts(const SceneOnGpu& s, const std::string& what) {
             material = m.label;
             break;
         }
-    throw InputError(fmt::format("{}: {} cannot draw cut-outs ({} is alphaMode MASK, and {} more); see docs/raster.md, "
-                                 "\"Cut-outs\"",
-                                 s.scenario.label, what, material,
-                                 scene.cutout_materials.empty() ? 0 : scene.cutout_materials.size() - 1));
+    throw InputError(fmt::format(
+        "{}: {} cannot draw cut-outs ({} is alphaMode MASK, and {} more); see docs/raster.md, "
+        "\"Cut-outs\"",
+        s.scenario.label, what, material, scene.cutout_materials.empty() ? 0 : scene.cutout_materials.size() - 1));
 }
 
 }  // namespace penumbra::raster

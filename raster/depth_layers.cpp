@@ -169,10 +169,16 @@ class MidpointVariant final : public DepthMapVariant {
         const bool mipmaps = cutout && t.alpha_mipmaps;
         UniquePipeline& p = peel_pipelines_[{vk_format(t.depth_format), cull, cutout, blend_cutoff, mipmaps}];
         if (!p) {
-            GraphicsSetup g{cutout ? kCutoutVert : kShadowVert, cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
-                            cutout ? kPeelCutoutFrag : kPeelFrag, cutout ? sizeof(kPeelCutoutFrag) : sizeof(kPeelFrag),
-                            vk_format(t.depth_format), VK_COMPARE_OP_LESS, vk_cull(cull), VK_FRONT_FACE_CLOCKWISE,
-                            true, false};
+            GraphicsSetup g{cutout ? kCutoutVert : kShadowVert,
+                            cutout ? sizeof(kCutoutVert) : sizeof(kShadowVert),
+                            cutout ? kPeelCutoutFrag : kPeelFrag,
+                            cutout ? sizeof(kPeelCutoutFrag) : sizeof(kPeelFrag),
+                            vk_format(t.depth_format),
+                            VK_COMPARE_OP_LESS,
+                            vk_cull(cull),
+                            VK_FRONT_FACE_CLOCKWISE,
+                            true,
+                            false};
             if (cutout) g.frag_spec = alpha_spec(t);
             p = make_graphics_pipeline(ctx_, peel_layout_.get(), g);
         }

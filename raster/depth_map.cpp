@@ -37,8 +37,8 @@
 #include "caster_cutout_vert.h"
 #include "caster_geom.h"
 #include "caster_vert.h"
-#include "lookup_depth_map_comp.h"
 #include "cutout_vert.h"
+#include "lookup_depth_map_comp.h"
 #include "shadow_cutout_depth_frag.h"
 #include "shadow_cutout_frag.h"
 #include "shadow_frag.h"
@@ -297,8 +297,7 @@ class DepthMapCore final : public TechniqueFamily {
     UniquePipelineLayout shadow_layout_, caster_layout_, lookup_layout_;
     // By format, culling, hardware bias, triangle ids, reversed Z, caster offsets, alpha test and
     // the blend cutoff it tests blended materials at, alpha.mipmaps.
-    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool, double, bool>, UniquePipeline>
-        shadow_pipelines_;
+    std::map<std::tuple<VkFormat, Cull, bool, bool, bool, bool, bool, double, bool>, UniquePipeline> shadow_pipelines_;
     std::map<std::pair<const std::uint32_t*, SpecData>, UniquePipeline> lookup_pipelines_;
     std::map<std::tuple<bool, bool, bool>, UniqueSampler> compare_samplers_;
     UniqueSampler nearest_;
@@ -361,19 +360,21 @@ VkPipeline DepthMapCore::shadow_pipeline(const Technique& t, bool triangle_ids, 
     const bool caster = has_caster_offsets(t.bias);
     const double blend_cutoff = cutout && t.blend == Blend::cutout ? t.blend_cutoff : -1;
     const bool mipmaps = cutout && t.alpha_mipmaps;
-    auto key =
-        std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout, blend_cutoff,
-                        mipmaps);
+    auto key = std::make_tuple(vk_format(t.depth_format), cull, bias, triangle_ids, t.reversed_z, caster, cutout,
+                               blend_cutoff, mipmaps);
     UniquePipeline& p = shadow_pipelines_[key];
     if (!p) {
         // A cut-out's pass tests alpha (shaders/shadow_cutout*.frag), with or without the ids.
-        const std::uint32_t* frag = cutout ? (triangle_ids ? kShadowCutoutFrag : kShadowCutoutDepthFrag)
+        const std::uint32_t* frag = cutout         ? (triangle_ids ? kShadowCutoutFrag : kShadowCutoutDepthFrag)
                                     : triangle_ids ? kShadowFrag
                                                    : nullptr;
-        const std::size_t frag_bytes = cutout ? (triangle_ids ? sizeof(kShadowCutoutFrag) : sizeof(kShadowCutoutDepthFrag))
+        const std::size_t frag_bytes = cutout
+                                           ? (triangle_ids ? sizeof(kShadowCutoutFrag) : sizeof(kShadowCutoutDepthFrag))
                                        : triangle_ids ? sizeof(kShadowFrag)
                                                       : 0;
-        const std::uint32_t* vert = caster ? (cutout ? kCasterCutoutVert : kCasterVert) : cutout ? kCutoutVert : kShadowVert;
+        const std::uint32_t* vert = caster   ? (cutout ? kCasterCutoutVert : kCasterVert)
+                                    : cutout ? kCutoutVert
+                                             : kShadowVert;
         const std::size_t vert_bytes = caster   ? (cutout ? sizeof(kCasterCutoutVert) : sizeof(kCasterVert))
                                        : cutout ? sizeof(kCutoutVert)
                                                 : sizeof(kShadowVert);
@@ -719,8 +720,8 @@ void DepthMapCore::record_light(VkCommandBuffer cmd, const Technique& t, const L
         if (s_.has_cutouts) {  // with the layout the technique's pipelines use (their push ranges differ)
             VkDescriptorSet set = (*s_.cutout_set)[0];
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-                                    has_caster_offsets(t.bias) ? caster_layout_.get() : shadow_layout_.get(), 0, 1, &set,
-                                    0, nullptr);
+                                    has_caster_offsets(t.bias) ? caster_layout_.get() : shadow_layout_.get(), 0, 1,
+                                    &set, 0, nullptr);
         }
         for (std::uint32_t layer = 0; layer < ls.projection.view_proj.size(); ++layer) {
             if (!(ls.layers_sampled & (1u << layer))) continue;  // no receiver samples this face

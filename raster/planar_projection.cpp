@@ -6,8 +6,6 @@
 // is ever shadowed: that is the technique, and its false light is what the verdict shows.
 #include "raster/planar_projection.h"
 
-#include "raster/cutouts.h"
-
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -20,6 +18,7 @@
 #include "common/camera.h"
 #include "common/errors.h"
 #include "common/stopwatch.h"
+#include "raster/cutouts.h"
 #include "raster/surface_seen.h"
 #include "raster/technique_family.h"
 #include "raster/vk_check.h"
@@ -96,7 +95,7 @@ class PlanarProjectionFamily final : public TechniqueFamily {
     // reads (shaders/planar_cutout.vert).
     struct Flattened {
         std::vector<float> opaque, cutout;
-        std::vector<glm::vec4> cutout_over_w;      // (u, v, alpha, 1) / w per cut-out vertex
+        std::vector<glm::vec4> cutout_over_w;         // (u, v, alpha, 1) / w per cut-out vertex
         std::vector<std::uint32_t> cutout_triangles;  // the scene triangle of each
     };
     void ensure_resources();
@@ -135,8 +134,8 @@ void PlanarProjectionFamily::ensure_resources() {
         std::vector<BindingDecl> bindings(cutout_bindings().begin(), cutout_bindings().end());
         bindings.push_back({gpu::kBindingPlanarAttributes, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER});
         bindings.push_back({gpu::kBindingPlanarTriangles, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER});
-        cutout_sets_ = std::make_unique<DescriptorSets>(ctx_, bindings,
-                                                        VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
+        cutout_sets_ =
+            std::make_unique<DescriptorSets>(ctx_, bindings, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT);
         cutout_layout_ =
             make_pipeline_layout(ctx_, cutout_sets_->layout(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
     }
@@ -189,9 +188,16 @@ VkPipeline PlanarProjectionFamily::cutout_pipeline(const Technique& t) {
     const double blend_cutoff = t.blend == Blend::cutout ? t.blend_cutoff : -1;
     UniquePipeline& p = cutout_pipelines_[blend_cutoff];
     if (!p) {
-        GraphicsSetup g{kPlanarCutoutVert, sizeof(kPlanarCutoutVert), kPlanarCutoutFrag, sizeof(kPlanarCutoutFrag),
-                        kCoverageDepthFormat, VK_COMPARE_OP_ALWAYS, VK_CULL_MODE_NONE, VK_FRONT_FACE_COUNTER_CLOCKWISE,
-                        false, false};
+        GraphicsSetup g{kPlanarCutoutVert,
+                        sizeof(kPlanarCutoutVert),
+                        kPlanarCutoutFrag,
+                        sizeof(kPlanarCutoutFrag),
+                        kCoverageDepthFormat,
+                        VK_COMPARE_OP_ALWAYS,
+                        VK_CULL_MODE_NONE,
+                        VK_FRONT_FACE_COUNTER_CLOCKWISE,
+                        false,
+                        false};
         Technique level0 = t;
         level0.alpha_mipmaps = false;  // a flattened triangle has no map texels to minify over
         g.frag_spec = alpha_spec(level0);
@@ -271,12 +277,12 @@ void PlanarProjectionFamily::render(const Technique& t, std::span<const Light> l
         const Flattened flat = flattened_casters(*plane, lights[li], t);
         vertex_counts[li] = static_cast<std::uint32_t>(flat.opaque.size() / 3);
         if (!flat.opaque.empty())
-            vertices[li] = host_buffer(flat.opaque.data(), flat.opaque.size() * sizeof(float),
-                                       VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+            vertices[li] =
+                host_buffer(flat.opaque.data(), flat.opaque.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
         cutout_counts[li] = static_cast<std::uint32_t>(flat.cutout.size() / 3);
         if (cutout_sets_) {
-            cutout_vertices[li] = host_buffer(flat.cutout.data(), flat.cutout.size() * sizeof(float),
-                                              VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+            cutout_vertices[li] =
+                host_buffer(flat.cutout.data(), flat.cutout.size() * sizeof(float), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
             cutout_over_w[li] = host_buffer(flat.cutout_over_w.data(), flat.cutout_over_w.size() * sizeof(glm::vec4),
                                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
             cutout_triangles[li] =

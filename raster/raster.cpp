@@ -114,9 +114,9 @@ void prepare_scene(SceneOnGpu& s) {
         bindings.insert(bindings.end(), cutout_bindings().begin(), cutout_bindings().end());
         append_cutout_resources(s, resources);
     }
-    DescriptorSets sets(ctx, bindings,
-                        s.has_cutouts ? VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT
-                                      : VK_SHADER_STAGE_FRAGMENT_BIT);
+    DescriptorSets sets(
+        ctx, bindings,
+        s.has_cutouts ? VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT : VK_SHADER_STAGE_FRAGMENT_BIT);
     sets.reserve(1);
     sets.write(0, resources);
     UniquePipelineLayout layout =

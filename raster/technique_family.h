@@ -58,7 +58,7 @@ struct SceneOnGpu {
     bool has_masks = false;    // MASK materials
     GpuBuffer cutout_uv, cutout_alpha, cutout_of_triangle, cutout_materials, cutout_texels;
     std::unique_ptr<DescriptorSets> cutout_set;  // one set: the cut-out bindings, vertex and fragment stages
-    GpuImage gbuffer_prim;             // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
+    GpuImage gbuffer_prim;                       // R32_UINT, GENERAL layout after the camera pass: triangle per pixel
     glm::mat4 camera_view_proj{1.0f};  // the camera pass's clip space (reversed depth), for families that redraw it
     std::vector<float> A;              // 1 where a triangle covers the pixel
     std::vector<std::uint32_t> prim;

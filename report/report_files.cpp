@@ -391,7 +391,8 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
              "behind: a mesh with inverted winding, or one seen from inside, shows through there.</p>\n";
         const nlohmann::json& meshes = report["facing"]["meshes"];
         if (!meshes.empty()) {
-            h += "<table><tr><th>mesh</th><th>its pixels</th><th>rays that passed its back faces</th><th>share</th></tr>\n";
+            h += "<table><tr><th>mesh</th><th>its pixels</th><th>rays that passed its back "
+                 "faces</th><th>share</th></tr>\n";
             for (const nlohmann::json& m : meshes)
                 h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.1f}%</td></tr>\n",
                                  escape_markup(m.value("mesh", "")), m.value("pixels", std::uint64_t{0}),
@@ -521,7 +522,8 @@ bool wants_facing_view(const ReportInputs& in, const nlohmann::json& report) {
 // The side of its triangle each pixel sees (docs/metrics.md, "Facing"): the front (counter-
 // clockwise as seen) grey, the back of a double-sided triangle orange, with the legend naming the
 // meshes whose back faces the camera met first and saw past (single-sided: culled, as engines do).
-std::vector<float> facing_image(const ReportInputs& in, const OracleFrame& oracle, const nlohmann::json& facing, int& h) {
+std::vector<float> facing_image(const ReportInputs& in, const OracleFrame& oracle, const nlohmann::json& facing,
+                                int& h) {
     const Scene& scene = in.scenario->scene;
     const int W = oracle.width, H = oracle.height;
     const PrimaryRays rays(in.scenario->camera, W, H);
@@ -529,26 +531,28 @@ std::vector<float> facing_image(const ReportInputs& in, const OracleFrame& oracl
     std::uint64_t back = 0;
     for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(x);
+            const std::size_t i =
+                static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + static_cast<std::size_t>(x);
             const std::uint32_t p = oracle.prim[i];
             if (p == kNoPrimitive || p >= scene.triangles.size()) continue;
             const glm::u32vec3 t = scene.triangles[p];
-            const glm::dvec3 n = glm::cross(scene.positions[t.y] - scene.positions[t.x],
-                                            scene.positions[t.z] - scene.positions[t.x]);
+            const glm::dvec3 n =
+                glm::cross(scene.positions[t.y] - scene.positions[t.x], scene.positions[t.z] - scene.positions[t.x]);
             const bool from_behind = glm::dot(n, rays.at(x + 0.5, y + 0.5).direction) > 0;
             back += from_behind;
             const glm::vec3 c = from_behind ? kBackSeen : kFrontSeen;
             for (int k = 0; k < 3; ++k) rgb[3 * i + static_cast<std::size_t>(k)] = c[k];
         }
     const double frame = std::max<double>(1.0, static_cast<double>(oracle.pixel_count()));
-    std::vector<LegendEntry> legend = {
-        {kFrontSeen, "front face seen"},
-        {kBackSeen, fmt::format("back face seen (double-sided), {:.1f}% of the image", 100.0 * static_cast<double>(back) / frame)},
-        {glm::vec3(0.01f), "background"}};
+    std::vector<LegendEntry> legend = {{kFrontSeen, "front face seen"},
+                                       {kBackSeen, fmt::format("back face seen (double-sided), {:.1f}% of the image",
+                                                               100.0 * static_cast<double>(back) / frame)},
+                                       {glm::vec3(0.01f), "background"}};
     const std::uint64_t culled = facing.value("from_behind_px", std::uint64_t{0});
     if (culled > 0)
-        legend.push_back({glm::vec3(0.04f), fmt::format("{:.1f}% of the rays passed single-sided back faces (see the list)",
-                                                        100.0 * static_cast<double>(culled) / frame)});
+        legend.push_back(
+            {glm::vec3(0.04f), fmt::format("{:.1f}% of the rays passed single-sided back faces (see the list)",
+                                           100.0 * static_cast<double>(culled) / frame)});
     return with_legend(std::move(rgb), W, H, legend, h);
 }
 

@@ -34,7 +34,7 @@ PENUMBRA_CONST uint kCutoutNearest = 1u;           // CutoutMaterialGpu::texture
 PENUMBRA_CONST uint kCutoutHasTexture = 2u;
 PENUMBRA_CONST uint kCutoutWrapSShift = 2u;  // TextureWrap in two bits each
 PENUMBRA_CONST uint kCutoutWrapTShift = 4u;
-PENUMBRA_CONST uint kCutoutBlend = 64u;  // a BLEND material: tested at kBlendCutoff (shaders/cutout.glsl)
+PENUMBRA_CONST uint kCutoutBlend = 64u;        // a BLEND material: tested at kBlendCutoff (shaders/cutout.glsl)
 PENUMBRA_CONST uint kCutoutMipShift = 7u;      // two bits: 0 no mip levels, 1 the nearest level, 2 linear between two
 PENUMBRA_CONST uint kCutoutMinNearest = 512u;  // minification samples a level's nearest texel
 // Planar projection of a scene with cut-outs (shaders/planar_cutout.vert): per flattened vertex
@@ -42,9 +42,9 @@ PENUMBRA_CONST uint kCutoutMinNearest = 512u;  // minification samples a level's
 PENUMBRA_CONST uint kBindingPlanarAttributes = 6;  // vec4[3 * flattened cut-out triangles]
 PENUMBRA_CONST uint kBindingPlanarTriangles = 7;   // uint[flattened cut-out triangles]
 struct CutoutMaterialGpu {
-    vec4 row0;     // KHR_texture_transform's first row (xyz), alphaCutoff (w)
-    vec4 row1;     // its second row (xyz), baseColorFactor.a (w)
-    uvec4 texture; // first texel, width, height, kCutout* flags
+    vec4 row0;      // KHR_texture_transform's first row (xyz), alphaCutoff (w)
+    vec4 row1;      // its second row (xyz), baseColorFactor.a (w)
+    uvec4 texture;  // first texel, width, height, kCutout* flags
 };
 
 // Lookup pass (one dispatch per light).
@@ -129,8 +129,8 @@ struct LookupParams {
     vec4 light_axis[kMaxLayers];        // perspective: unit forward axis of each layer
     vec4 poisson[kMaxPoissonTaps / 2];  // two taps (x, y) per vec4, unit disk
     vec4 pcss;                          // light radius (m), near, far (m, perspective layers), largest radius (texels)
-    // Cascades (raster/cascades_lookup.comp): x = cascade count, y = overlap fraction; per cascade (4 a vec4) the far end
-    // of its slice of view depth (metres) and its texel size (metres).
+    // Cascades (raster/cascades_lookup.comp): x = cascade count, y = overlap fraction; per cascade (4 a vec4) the far
+    // end of its slice of view depth (metres) and its texel size (metres).
     vec4 cascade;
     vec4 cascade_far[kMaxLayers / 4];
     vec4 cascade_texel[kMaxLayers / 4];

@@ -72,12 +72,14 @@ TEST_P(CutoutCard, MatchesTheCheckerboardsClosedForm) {
     const std::uint32_t ground = b.quad(offset + glm::dvec3(-12, 0, 12), offset + glm::dvec3(12, 0, 12),
                                         offset + glm::dvec3(12, 0, -12), offset + glm::dvec3(-12, 0, -12));
     Scene scene = b.build();
-    const Card card{offset + glm::dvec3(-1.5, 1.2, 1.5), {3, 0, 0}, {0, 0, -3},
+    const Card card{offset + glm::dvec3(-1.5, 1.2, 1.5),
+                    {3, 0, 0},
+                    {0, 0, -3},
                     test::add_cutout_card(scene, offset + glm::dvec3(-1.5, 1.2, 1.5), {3, 0, 0}, {0, 0, -3},
                                           test::checkerboard_alpha(kTexels), cc.nearest)};
     const glm::dvec3 point_light = offset + glm::dvec3(0.4, 5.0, -0.3);
-    const glm::dvec3 sun = cc.light == 0 ? glm::dvec3(0, -1, 0)
-                                         : glm::dvec3(std::sin(M_PI / 6), -std::cos(M_PI / 6), 0);
+    const glm::dvec3 sun =
+        cc.light == 0 ? glm::dvec3(0, -1, 0) : glm::dvec3(std::sin(M_PI / 6), -std::cos(M_PI / 6), 0);
     const Light light = cc.light == 2 ? test::point(point_light) : test::directional(sun);
     const glm::dvec3 eye = offset + glm::dvec3(0.3, 6.5, 4.5);
     Scenario sc = test::make_scenario(scene, test::look_at(eye, offset, 55), {light}, 320, 240);
@@ -135,16 +137,14 @@ TEST_P(CutoutCard, MatchesTheCheckerboardsClosedForm) {
     EXPECT_LT(ambiguous, f.pixel_count() / 200);
 }
 
-INSTANTIATE_TEST_SUITE_P(Oracle, CutoutCard,
-                         ::testing::Values(CutoutCase{"sun_down_nearest", 0, true, 0},
-                                           CutoutCase{"sun_down_linear", 0, false, 0},
-                                           CutoutCase{"sun_30_nearest", 1, true, 0},
-                                           CutoutCase{"sun_30_linear", 1, false, 0},
-                                           CutoutCase{"point_nearest", 2, true, 0},
-                                           CutoutCase{"point_linear", 2, false, 0},
-                                           CutoutCase{"sun_30_far_from_origin", 1, true, 1e6},
-                                           CutoutCase{"point_far_from_origin", 2, false, 1e6}),
-                         [](const auto& param_info) { return std::string(param_info.param.name); });
+INSTANTIATE_TEST_SUITE_P(
+    Oracle, CutoutCard,
+    ::testing::Values(CutoutCase{"sun_down_nearest", 0, true, 0}, CutoutCase{"sun_down_linear", 0, false, 0},
+                      CutoutCase{"sun_30_nearest", 1, true, 0}, CutoutCase{"sun_30_linear", 1, false, 0},
+                      CutoutCase{"point_nearest", 2, true, 0}, CutoutCase{"point_linear", 2, false, 0},
+                      CutoutCase{"sun_30_far_from_origin", 1, true, 1e6},
+                      CutoutCase{"point_far_from_origin", 2, false, 1e6}),
+    [](const auto& param_info) { return std::string(param_info.param.name); });
 
 // glTF's coverage rule itself: factor x texture x COLOR_0, >= cutoff, wrap modes and the
 // KHR_texture_transform matrix (offset, rotation, scale in that product).
@@ -161,8 +161,8 @@ TEST(AlphaCoverage, FollowsGltfsRuleAndVulkansAddressing) {
     EXPECT_DOUBLE_EQ(sample_alpha(t, m, {1.30, 0.5}), 1.0 / 3);
     EXPECT_DOUBLE_EQ(sample_alpha(t, m, {-0.10, 0.5}), 1.0);  // texel -1 wraps to 3
     m.wrap_s = TextureWrap::mirrored_repeat;
-    EXPECT_DOUBLE_EQ(sample_alpha(t, m, {-0.10, 0.5}), 0.0);   // texel -1 mirrors to 0
-    EXPECT_DOUBLE_EQ(sample_alpha(t, m, {1.10, 0.5}), 1.0);    // texel 4 mirrors to 3
+    EXPECT_DOUBLE_EQ(sample_alpha(t, m, {-0.10, 0.5}), 0.0);  // texel -1 mirrors to 0
+    EXPECT_DOUBLE_EQ(sample_alpha(t, m, {1.10, 0.5}), 1.0);   // texel 4 mirrors to 3
     m.wrap_s = TextureWrap::clamp_to_edge;
     EXPECT_DOUBLE_EQ(sample_alpha(t, m, {7.0, 0.5}), 1.0);
     m.nearest = false;  // halfway between texel centres 1 and 2

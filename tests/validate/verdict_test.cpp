@@ -296,13 +296,14 @@ TEST_F(Verdict, CutoutsCastThroughTheirHolesInEveryDepthMapFamily) {
     const nlohmann::json bias = {{"slope", 1.5}, {"receiver_plane", true}};
     for (const bool nearest : {true, false}) {
         const Scenario sc = checkerboard_card(nearest);
-        for (const nlohmann::json& t : {nlohmann::json{{"resolution", 2048}, {"bias", bias}},
-                                        nlohmann::json{{"resolution", 2048}, {"bias", bias}, {"filter", {{"type", "pcf"}, {"size", 3}}}},
-                                        nlohmann::json{{"family", "cascaded"}, {"resolution", 2048}, {"bias", bias}, {"cascades", {{"max_distance", 20}}}},
-                                        nlohmann::json{{"family", "vsm"}, {"resolution", 2048}},
-                                        nlohmann::json{{"preset", "rtr-midpoint"}, {"resolution", 2048}},
-                                        nlohmann::json{{"preset", "babylon"}, {"resolution", 2048}},
-                                        nlohmann::json{{"preset", "unreal-csm"}}}) {
+        for (const nlohmann::json& t :
+             {nlohmann::json{{"resolution", 2048}, {"bias", bias}},
+              nlohmann::json{{"resolution", 2048}, {"bias", bias}, {"filter", {{"type", "pcf"}, {"size", 3}}}},
+              nlohmann::json{
+                  {"family", "cascaded"}, {"resolution", 2048}, {"bias", bias}, {"cascades", {{"max_distance", 20}}}},
+              nlohmann::json{{"family", "vsm"}, {"resolution", 2048}},
+              nlohmann::json{{"preset", "rtr-midpoint"}, {"resolution", 2048}},
+              nlohmann::json{{"preset", "babylon"}, {"resolution", 2048}}, nlohmann::json{{"preset", "unreal-csm"}}}) {
             SCOPED_TRACE(fmt::format("{} {}", nearest ? "nearest" : "linear", t.dump()));
             const ValidateResult r = run(sc, t);
             const metrics::LightScore& l = r.score.lights[0];
@@ -367,8 +368,9 @@ TEST_F(Verdict, BlendedMaterialsCastAsTheTechniquesBlendRuleSays) {
         run(sc, {{"preset", "rtr-shadow-volume"}, {"blend", "none"}});
         ADD_FAILURE() << "drawn";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("technique.blend \"none\": shadow_volume draws blended materials opaque only"),
-                  std::string::npos)
+        EXPECT_NE(
+            std::string(e.what()).find("technique.blend \"none\": shadow_volume draws blended materials opaque only"),
+            std::string::npos)
             << e.what();
     }
 }
