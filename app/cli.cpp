@@ -209,7 +209,7 @@ nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, 
     nlohmann::json j = scenario.technique;
     label = scenario.label + ": technique";
     if (!t.file.empty()) {
-        j = read_json_file(t.file);
+        j = read_json_file(t.file, kTechniqueJson);
         label = t.file.filename().string();
     }
     if (!t.preset.empty()) j["preset"] = t.preset;

@@ -59,7 +59,7 @@ int run_compare_command(const std::filesystem::path& scenario_file, const Common
     } else {
         for (std::size_t li = 0; li < scenario.lights.size(); ++li) lights.push_back(li);
     }
-    const nlohmann::json gate_json = a.gate_file.empty() ? scenario.gate : read_json_file(a.gate_file);
+    const nlohmann::json gate_json = a.gate_file.empty() ? scenario.gate : read_json_file(a.gate_file, kGateJson);
     const std::string gate_label = a.gate_file.empty() ? scenario.label + ": gate" : path_text(a.gate_file.filename());
     const metrics::Gate gate =
         metrics::parse_gate(gate_json, gate_label, scenario.lights,

@@ -141,7 +141,7 @@ void check_json_nesting(std::string_view text, const std::string& file_label) {
     }
 }
 
-RegularFile::RegularFile(const std::filesystem::path& file, std::uint64_t max_bytes) {
+RegularFile::RegularFile(const std::filesystem::path& file, std::uint64_t max_bytes, const char* kind) {
     // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
     fd_ = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd_ < 0) throw InputError(fmt::format("{}: cannot open file: {}", file.string(), std::strerror(errno)));
@@ -152,7 +152,8 @@ RegularFile::RegularFile(const std::filesystem::path& file, std::uint64_t max_by
     }
     if (static_cast<std::uint64_t>(st.st_size) > max_bytes) {
         ::close(fd_);
-        throw InputError(fmt::format("{}: {} bytes exceeds the {} byte limit", file.string(), st.st_size, max_bytes));
+        throw InputError(fmt::format("{}: {} bytes exceeds the {} byte limit{}{}", file.string(), st.st_size, max_bytes,
+                                     kind ? " of " : "", kind ? fmt::format("{} file", kind) : ""));
     }
     size_ = static_cast<std::size_t>(st.st_size);
 }
@@ -161,8 +162,8 @@ RegularFile::~RegularFile() {
     ::close(fd_);
 }
 
-std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes) {
-    const RegularFile f(file, max_bytes);
+std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes, const char* kind) {
+    const RegularFile f(file, max_bytes, kind);
     const int fd = f.fd();
     std::string bytes(f.size(), '\0');
     std::size_t done = 0;
@@ -270,8 +271,8 @@ json parse_json_strict(const std::string& text, const std::string& file_label) {
     return std::move(builder.result);
 }
 
-json read_json_file(const std::filesystem::path& file) {
-    return parse_json_strict(read_regular_file(file, kMaxJsonFileBytes), file.filename().string());
+json read_json_file(const std::filesystem::path& file, const JsonKind& kind) {
+    return parse_json_strict(read_regular_file(file, kind.max_bytes, kind.name), file.filename().string());
 }
 
 JsonObject::JsonObject(const json& value, std::string file_label, std::string path)

@@ -298,7 +298,7 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     Scenario s;
     s.file = file;
     s.label = file.filename().string();
-    nlohmann::json root = read_json_file(file);
+    nlohmann::json root = read_json_file(file, kScenarioJson);
     JsonObject top(root, s.label, "");
     top.only_keys({"scene", "scale", "up", "image", "camera", "camera_path", "lights", "receivers", "technique", "gate"});
 
