@@ -283,8 +283,11 @@ void check_output_file(const fs::path& file, const fs::path& out_dir, const std:
     std::error_code ec;
     const fs::path target = fs::weakly_canonical(fs::absolute(file), ec);
     if (!ec && target == fs::weakly_canonical(fs::absolute(out_dir), ec)) bad("is the --out folder");
-    if (fs::is_directory(file, ec)) bad("is a folder");
-    if (fs::exists(file, ec) && !fs::is_regular_file(file, ec)) bad("exists and is not a regular file");
+    if (fs::is_directory(fs::symlink_status(file, ec))) bad("is a folder");
+    // Checked without following a link, as the final rename refuses one: a run must not do all
+    // its work only to be refused its --junit file at the end (#50).
+    if (std::string why = replaceable_target_problem(file); !why.empty())
+        throw InputError(fmt::format("{} {}", option, why));
     // The file, and the folders missing on the way to it, are made in the nearest folder that
     // exists.
     if (std::string why = unwritable_problem(fs::absolute(file).parent_path()); !why.empty()) bad(why);

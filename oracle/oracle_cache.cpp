@@ -355,7 +355,8 @@ std::optional<CachedOracle> OracleCache::load(const std::string& key, std::strin
     bool ok = ours && std::memcmp(magic, kMagic, 8) == 0 && read(stored_key, 32) &&
               std::string_view(stored_key, 32) == key && read(size, sizeof size) && size[0] > 0 && size[1] > 0 &&
               size[0] <= kMaxImageSide && size[1] <= kMaxImageSide && read(&lights, 4) && lights < 4096 &&
-              read(&c.frame.frame_origin, sizeof c.frame.frame_origin) && read(&info_len, 8) && info_len < (1u << 26);
+              read(&c.frame.frame_origin, sizeof c.frame.frame_origin) && read(&info_len, 8) &&
+              info_len <= kReportJson.max_bytes;  // the info is oracle.json's facts: a report's size at most
     if (ok && request &&
         (size[0] != request->width || size[1] != request->height || lights != request->light_types.size())) {
         ok = false;
@@ -543,8 +544,8 @@ std::vector<CacheEntry> OracleCache::clear() const {
 
 void OracleCache::sweep_temporaries() const {
     // Only a store's own temporaries go: the exact name a store gives one, a regular file of
-    // this user that starts with the entry format's magic (written first), of a process that is
-    // gone. Anything else of a similar name is the user's, and stays.
+    // this user that starts with the entry format's magic (written first) or is empty, of a
+    // process that is gone. Anything else of a similar name is the user's, and stays.
     std::error_code ec;
     const auto now = fs::file_time_type::clock::now();
     for (const auto& e : fs::directory_iterator(dir_, ec)) {
@@ -553,10 +554,12 @@ void OracleCache::sweep_temporaries() const {
         struct stat st {};
         const int fd = open_regular(e.path(), st);
         if (fd < 0) continue;
+        // An empty file of the exact name is a store killed before it wrote its header: it holds
+        // nothing of anyone's, and would otherwise stay forever.
         char head[7];
         const bool ours = st.st_uid == ::getuid() &&
-                          ::read(fd, head, sizeof head) == static_cast<ssize_t>(sizeof head) &&
-                          std::string_view(head, sizeof head) == kMagicFamily;
+                          (st.st_size == 0 || (::read(fd, head, sizeof head) == static_cast<ssize_t>(sizeof head) &&
+                                               std::string_view(head, sizeof head) == kMagicFamily));
         ::close(fd);
         std::error_code fec;
         if (ours && is_stale_temporary(pid, fs::last_write_time(e.path(), fec), now) && !fec)

@@ -194,6 +194,58 @@ TEST(OracleCache, AFileThatIsNotAnEntryIsLeftAndNotReplaced) {
     EXPECT_EQ(text, "the user's");
 }
 
+// Every triangle index a cached frame holds lies below the scene's count (the last one is
+// count - 1): one at the count itself is a damaged entry.
+TEST(OracleCache, ATriangleIndexAtTheScenesCountIsRefused) {
+    test::TempDir tmp;
+    OracleCache cache(tmp.path() / "c", 0);
+    OracleFrame f = valid_frame(1);
+    f.prim[5] = 1;  // the request's scene has 1 triangle: index 0 only
+    ASSERT_FALSE(cache.store(key(4), f, info_of(1)));
+    const CacheRequest one = request_of(1);
+    std::string warning;
+    EXPECT_FALSE(cache.load(key(4), &warning, &one));
+    EXPECT_NE(warning.find("triangle index"), std::string::npos) << warning;
+    f.prim[5] = 0;
+    ASSERT_FALSE(cache.store(key(5), f, info_of(1)));
+    EXPECT_TRUE(cache.load(key(5), &warning, &one));
+}
+
+// A cut entry is refused from its size alone, before anything is allocated for what its header
+// claims (#50: an 86-byte entry made validate allocate 8 GiB).
+TEST(OracleCache, ACutEntryIsRefusedByItsSizeBeforeItsPixelsAreRead) {
+    test::TempDir tmp;
+    OracleCache cache(tmp.path() / "c", 0);
+    ASSERT_FALSE(cache.store(key(6), valid_frame(1), info_of(1)));
+    const auto full = fs::file_size(cache.entry(key(6)));
+    fs::resize_file(cache.entry(key(6)), full - 20);
+    const CacheRequest one = request_of(1);
+    std::string warning;
+    EXPECT_FALSE(cache.load(key(6), &warning, &one));
+    EXPECT_NE(warning.find(fmt::format("{} bytes where its header makes {}", full - 20, full)), std::string::npos)
+        << warning;
+}
+
+// The clean-up of temporaries removes a store's own, of a process that is gone: one holding the
+// entry's magic, and an empty one (a store killed before it wrote its header); a file of the
+// same name holding anything else is the user's and stays.
+TEST(OracleCache, ClearRemovesOnlyTheTemporariesOfDeadStores) {
+    test::TempDir tmp;
+    const OracleCache cache(tmp.path() / "c", 0);
+    ASSERT_FALSE(cache.store(key(7), valid_frame(1), info_of(1)));
+    const int dead = 4194000;  // no such process (beyond the default pid_max of 4194304 less a margin)
+    auto temporary = [&](int i) {
+        return cache.dir() / fmt::format(".oracle-{}.bin.tmp-{}-{:016x}", key(i), dead, 0xabcdef0123456789ull);
+    };
+    fs::copy_file(cache.entry(key(7)), temporary(1));
+    { std::ofstream(temporary(2)); }
+    { std::ofstream(temporary(3)) << "the user's own"; }
+    cache.clear();
+    EXPECT_FALSE(fs::exists(temporary(1))) << "a dead store's temporary";
+    EXPECT_FALSE(fs::exists(temporary(2))) << "an empty temporary of a store killed before its header";
+    EXPECT_TRUE(fs::exists(temporary(3))) << "a file without the entry's magic is not penumbra's";
+}
+
 TEST(OracleCache, SizesAreWholeBytesWithRealSuffixes) {
     EXPECT_EQ(parse_cache_size("1.5G", "x"), 3ull << 29);
     EXPECT_EQ(parse_cache_size("512MiB", "x"), 512ull << 20);
