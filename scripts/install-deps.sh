@@ -15,6 +15,7 @@ packages=(
   chromium libxml2-utils  # tests: report.html in a headless browser, JUnit against its schema
   clang libclang-rt-14-dev  # tests: the libFuzzer targets (tests/fuzz, docs/testing.md)
   valgrind  # tests: the oracle under memcheck (tests/cli/valgrind_oracle.sh)
+  xxhash  # tests: xxhsum remakes a crafted cache entry's checksum (tests/cli/files_under_attack.sh)
   slurm-wlm munge  # tests: sweeps as a Slurm job array (tests/cli/slurm_sweep_test.sh)
   nodejs  # tests/engines: real engines in chromium (npm installs what its package-lock.json pins; below)
 )

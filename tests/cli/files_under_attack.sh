@@ -129,15 +129,46 @@ secret64=$(base64 -w0 "$tmp/secret.txt" | head -c 40)
 check "6: the link's target is not embedded" fails grep -q "$secret64" "$tmp/d6/diff.html"
 check "6: the page says why" grep -q "symbolic link" "$tmp/d6/diff.html"
 
-# 7: strict JSON is linear: a 6 MB technique file of objects is refused (an unknown key) at once.
+# 7: strict JSON is linear: a 6 MB scenario of objects is refused (an unknown key) at once.
 python3 -c "
-import json
-print(json.dumps({'preset': 'd3d12-textbook', 'junk': [{'a': i, 'b': [i]} for i in range(300000)]}))" >"$tmp/big.json"
+import json, sys
+s = json.load(open(sys.argv[1]))
+s['junk'] = [{'a': i, 'b': [i]} for i in range(300000)]
+print(json.dumps(s))" "$tmp/s.json" >"$tmp/big.json"
 start=$(date +%s)
-run validate "$tmp/s.json" --out "$tmp/o7" --cache "$cache" --technique "$tmp/big.json"
-check "7: a 6 MB technique file: exit 2" test "$rc" -eq 2
+run validate "$tmp/big.json" --out "$tmp/o7" --cache "$cache" "${preset[@]}"
+check "7: a 6 MB scenario: exit 2" test "$rc" -eq 2
 check "7: ... naming the unknown key" grep -q "junk" <<<"$err"
 check "7: ... in under 20 s" test $(($(date +%s) - start)) -lt 20
+# Each kind of JSON file has its size: a 64 MiB scenario, technique or report is refused before
+# a byte is read (sparse files: only the size is looked at); a scenario of small objects at its
+# 16 MiB limit is parsed and refused for its unknown key.
+truncate -s 64M "$tmp/huge.json"
+start=$(date +%s)
+run validate "$tmp/huge.json" --out "$tmp/o7b" --cache "$cache" "${preset[@]}"
+check "7: a 64 MiB scenario: exit 2" test "$rc" -eq 2
+check "7: ... naming the limit of a scenario file" grep -q "16777216 byte limit of a scenario file" <<<"$err"
+run validate "$tmp/s.json" --out "$tmp/o7c" --cache "$cache" --technique "$tmp/huge.json"
+check "7: a 64 MiB technique: exit 2, the limit of a technique file" grep -q "1048576 byte limit of a technique file" <<<"$err"
+mkdir -p "$tmp/hugerun"
+cp "$tmp/huge.json" "$tmp/hugerun/report.json"
+run diff "$tmp/hugerun" "$tmp/hugerun" --out "$tmp/d7"
+check "7: a 64 MiB report for diff: exit 2, the limit of a report file" grep -q "byte limit of a report file" <<<"$err"
+check "7: ... at once" test $(($(date +%s) - start)) -lt 5
+rm -f "$tmp/huge.json" "$tmp/hugerun/report.json"
+python3 - "$tmp/s.json" "$tmp/big_scenario.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+text = json.dumps(s)[:-1] + ', "junk": ['
+unit = '{"a":1,"b":[2]},'
+n = (16 * 1024 * 1024 - len(text) - 2) // len(unit)
+open(sys.argv[2], "w").write(text + unit * (n - 1) + unit[:-1] + "]}")
+PY
+start=$(date +%s)
+run validate "$tmp/big_scenario.json" --out "$tmp/o7d" --cache "$cache" "${preset[@]}"
+check "7: a 16 MiB scenario of small objects is parsed: exit 2 for its unknown key" grep -q "junk" <<<"$err"
+check "7: ... in under 10 s (1.1 s on a quiet 2-core VM)" test $(($(date +%s) - start)) -lt 10
+rm -f "$tmp/big_scenario.json"
 
 # 8: a damaged entry whose header claims a huge frame allocates nothing and is removed.
 fresh_cache
@@ -164,6 +195,33 @@ check "9: validate exits 0 (no hang)" test "$rc" -eq 0
 check "9: the FIFO stays" test -p "$cache/$entry"
 fresh_cache
 
+# 10: diff.html embeds class maps within a total budget (256 MiB): 8 lights of 60 MB "maps"
+# (sparse files that start like a PNG) on either side make a page of at most the budget.
+python3 - "$tmp/da/report.json" "$tmp/d10" <<'PY'
+import json, os, sys
+r = json.load(open(sys.argv[1]))
+light = r["lights"][0]
+r["lights"] = [dict(light, index=i) for i in range(8)]
+for side in ("a", "b"):
+    d = os.path.join(sys.argv[2], side)
+    os.makedirs(d, exist_ok=True)
+    json.dump(r, open(os.path.join(d, "report.json"), "w"))
+    for i in range(8):
+        with open(os.path.join(d, f"light{i}.classes.png"), "wb") as f:
+            f.write(b"\x89PNG\r\n\x1a\n")
+            f.truncate(60 << 20)
+PY
+run diff "$tmp/d10/a" "$tmp/d10/b" --out "$tmp/d10/out"
+check "10: diff of 16 x 60 MB class maps runs" test "$rc" -eq 0
+page=$(stat -c %s "$tmp/d10/out/diff.html" 2>/dev/null || echo 0)
+check "10: the page stays within the budget (base64 of 256 MiB and the text)" \
+    test "$page" -le $(((256 << 20) / 3 * 4 + (1 << 20)))
+check "10: ... embeds what fits (four maps)" \
+    test "$(grep -o 'data:image/png;base64' "$tmp/d10/out/diff.html" | wc -l)" -eq 4
+check "10: ... and says why the rest is not there" \
+    grep -q "budget for embedded images is spent" "$tmp/d10/out/diff.html"
+rm -rf "${tmp:?}/d10"
+
 # 11: a long camera path at a large image is refused up front, with the estimate.
 python3 - "$tmp/s.json" "$tmp/path.json" <<'PY'
 import json, sys
@@ -178,6 +236,53 @@ run validate "$tmp/path.json" --out "$tmp/o11" --cache "$cache" "${preset[@]}"
 check "11: a 10000-frame 2048^2 path: exit 2" test "$rc" -eq 2
 check "11: ... with the estimate in hours" grep -q "camera_path: 10000 frames.* h" <<<"$err"
 check "11: nothing in --out" test ! -e "$tmp/o11"
+
+# 12: a foreign entry with a valid checksum (another light count, or NaN truth) is a miss: the
+# run traces afresh and gives the verdict a clean cache gives.
+# rewrite_entry IN OUT KEY [nan]: IN's entry under KEY (its header's key replaced), with the
+# first visibility value NaN when asked, and its XXH3-64 checksum made again (xxhsum -H3).
+rewrite_entry() {
+    python3 -c '
+import math, struct, subprocess, sys
+src, dst, key = sys.argv[1], sys.argv[2], sys.argv[3].encode()
+b = bytearray(open(src, "rb").read())
+b[8:40] = key
+w, h, lights = struct.unpack_from("<iiI", b, 40)
+info_len, = struct.unpack_from("<Q", b, 40 + 12 + 24)
+if len(sys.argv) > 4:  # light 0 V follows the header, the info, A (floats) and prim (uint32s)
+    struct.pack_into("<f", b, 40 + 12 + 24 + 8 + info_len + 8 * w * h, math.nan)
+out = subprocess.run(["xxhsum", "-H3", "-"], input=bytes(b[8:-8]), capture_output=True, check=True).stdout.decode()
+digest = out.split("=")[-1].strip() if "=" in out else out.split()[0]
+b[-8:] = bytes.fromhex(digest)[::-1]  # the entry stores it little-endian
+open(dst, "wb").write(bytes(b))' "$@"
+}
+python3 - "$tmp/s.json" "$tmp/one.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["lights"] = s["lights"][:1]
+json.dump(s, open(sys.argv[2], "w"))
+PY
+fresh_cache
+run validate "$tmp/one.json" --out "$tmp/o12one" --cache "$cache" "${preset[@]}"
+one_entry=$(cd "$cache" && ls oracle-*.bin | head -1)
+check "12: a one-light run made an entry" test -n "$one_entry"
+mv "$cache/$one_entry" "$tmp/one.bin"
+rewrite_entry "$tmp/one.bin" "$cache/$entry" "$key"
+run validate "$tmp/s.json" --out "$tmp/o12" --cache "$cache" "${preset[@]}"
+check "12: an entry of another light count: validate exits 0, not 4" test "$rc" -eq 0
+check "12: ... warning that it holds another frame" grep -q "with 1 lights" <<<"$err"
+check "12: ... the verdict a clean cache gives" \
+    same_bytes "$tmp/o12/light0.classes.png" "$tmp/prime/light0.classes.png"
+check "12: ... the entry replaced by the run's own" \
+    test "$(stat -c %s "$cache/$entry")" -gt "$(stat -c %s "$tmp/one.bin")"
+cp "$cache/$entry" "$tmp/good.bin"
+rewrite_entry "$tmp/good.bin" "$cache/$entry" "$key" nan
+run validate "$tmp/s.json" --out "$tmp/o12nan" --cache "$cache" "${preset[@]}"
+check "12: NaN truth in an entry with a valid checksum: exit 0" test "$rc" -eq 0
+check "12: ... refused with a warning naming NaN" grep -q "NaN" <<<"$err"
+check "12: ... the verdict a clean cache gives" \
+    same_bytes "$tmp/o12nan/light0.classes.png" "$tmp/prime/light0.classes.png"
+fresh_cache
 
 # 13: units refuses overflowing results and keys given twice.
 run units "$tmp/s.json" --from bevy --to godot shadow_depth_bias=1e308 shadow_normal_bias=1e308
