@@ -18,8 +18,9 @@ if command -v clang++ >/dev/null; then
     cmake -S "$root" -B "$root/build-fuzz" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
         "-DCMAKE_CXX_FLAGS=-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer" \
         -DPENUMBRA_FUZZ=ON -DPENUMBRA_BUILD_BENCH=OFF >/dev/null
-    ninja -C "$root/build-fuzz" fuzz_gltf fuzz_glb fuzz_scenario fuzz_technique fuzz_gate fuzz_sweep_shard fuzz_sweep_vary fuzz_diff
-    for target in gltf glb scenario technique gate sweep_shard sweep_vary diff; do
+    ninja -C "$root/build-fuzz" fuzz_gltf fuzz_glb fuzz_scenario fuzz_technique fuzz_gate fuzz_sweep_shard fuzz_sweep_vary fuzz_diff \
+        fuzz_cache_entry fuzz_units
+    for target in gltf glb scenario technique gate sweep_shard sweep_vary diff cache_entry units; do
         if ! bash "$root/tests/fuzz/run.sh" "$target" "${PENUMBRA_FUZZ_SECONDS:-30}" >"$root/build-fuzz/smoke-$target.log" 2>&1; then
             tail -n 60 "$root/build-fuzz/smoke-$target.log"
             echo "fuzz smoke: fuzz_$target failed (log: build-fuzz/smoke-$target.log)" >&2

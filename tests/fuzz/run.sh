@@ -3,7 +3,7 @@
 # tests/fuzz/seeds, data/ and Debian's assimp-testmodels, the target's dictionary, inputs up to
 # 1 MB so deep nesting is reachable. Crashes land in build-fuzz/artifacts/.
 # Usage: run.sh TARGET SECONDS [libFuzzer options...]
-#   (TARGET: gltf glb scenario technique gate sweep_shard sweep_vary diff)
+#   (TARGET: gltf glb scenario technique gate sweep_shard sweep_vary diff cache_entry units)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 target=$1
@@ -39,12 +39,17 @@ case $target in
         dict=scenario.dict
         copy_seeds "$root/tests/fuzz/seeds/scenario" "$root/data" -name '*.json'
         ;;
-    technique | gate | sweep_shard | sweep_vary | diff)
+    technique | gate | sweep_shard | sweep_vary | diff | units)
         dict=$target.dict
         copy_seeds "$root/tests/fuzz/seeds/$target"
         ;;
+    cache_entry)
+        # No dictionary: the target stores a valid entry among the seeds as it starts.
+        dict=
+        export PENUMBRA_FUZZ_SEEDS=$seeds
+        ;;
     *)
-        echo "unknown target $target (gltf glb scenario technique gate sweep_shard sweep_vary diff)" >&2
+        echo "unknown target $target (gltf glb scenario technique gate sweep_shard sweep_vary diff cache_entry units)" >&2
         exit 2
         ;;
 esac
@@ -54,5 +59,5 @@ esac
 # that campaigns of two targets at once do not write into each other's log.
 mkdir -p "$build/logs/$target"
 cd "$build/logs/$target"
-exec "$bin" "$corpus" "$seeds" -dict="$root/tests/fuzz/$dict" -max_len=1048576 -timeout=20 -rss_limit_mb=4096 \
+exec "$bin" "$corpus" "$seeds" ${dict:+-dict="$root/tests/fuzz/$dict"} -max_len=1048576 -timeout=20 -rss_limit_mb=4096 \
     -max_total_time="$seconds" -artifact_prefix="$build/artifacts/$target-" -print_final_stats=1 "$@"
