@@ -635,6 +635,30 @@ TEST(Gate, PassesAndFailsPerLightWithOneLinePerFailure) {
     EXPECT_EQ(bad.outcomes[0].name(), "rates.acne <= 0.001");
 }
 
+// The verdict is every check's, not the last one's: the first of two checks failing fails the
+// gate though the second passes, on one light and on a camera path's folded frames (#50).
+TEST(Gate, AFailingFirstCheckFailsTheGateThoughTheLaterOnesPass) {
+    const auto one_sun = lights_of({LightType::directional});
+    const Gate g = gate_file(R"({"checks": [{"metric": "rates.acne", "max": 0.001},
+        {"metric": "peter_panning_gap.max", "max": 0.05}]})",
+                             one_sun);
+    const std::vector<LightScore> first_fails = {light_with(123, 0.01)};
+    const GateResult r = evaluate_gate(g, first_fails);
+    ASSERT_EQ(r.outcomes.size(), 2u);
+    EXPECT_FALSE(r.outcomes[0].passed);
+    EXPECT_TRUE(r.outcomes[1].passed);
+    EXPECT_FALSE(r.passed) << "the gate took the last check's verdict";
+    // Over a path: a failing first frame, then a passing one.
+    GateResult worst;
+    fold_worst_frame(worst, r, 0);
+    const std::vector<LightScore> passes = {light_with(5, 0.01)};
+    const GateResult later = evaluate_gate(g, passes);
+    ASSERT_TRUE(later.passed);
+    fold_worst_frame(worst, later, 1);
+    EXPECT_FALSE(worst.passed) << "a later passing frame cleared an earlier failure";
+    EXPECT_FALSE(camera_path_gate(later, worst).passed);
+}
+
 TEST(Gate, MinimumBounds) {
     Gate g = gate_file(R"({"checks": [{"metric": "pixels.scored", "min": 100}]})", lights_of({LightType::spot}));
     LightScore l;
