@@ -125,24 +125,32 @@ TEST(CameraPath, OneBvhTracesEveryFrameAsAFreshOracleWould) {
     EXPECT_EQ(session.bvh_builds(), 1);
 }
 
-// A session whose camera moved draws what a cold session of that camera draws, bit for bit.
-TEST(CameraPath, AMovedRasterSessionDrawsWhatAColdOneDraws) {
-    const Scenario sc = panning(3, 96, 64);
+// `t` drawn by a session moved from the path's first camera to its last, and by a cold run at the
+// last camera.
+struct WarmAndCold {
+    raster::RasterResult warm, cold;
+};
+WarmAndCold moved_and_cold(const Scenario& sc, const raster::Technique& t) {
     raster::VulkanContext ctx{raster::ContextOptions{}};
     Scenario moving = sc;
     raster::RasterSession session(moving, ctx);
-    const raster::Technique t = cascaded(true);
     session.render(t);
     const Camera last = path_camera(*sc.camera_path, 2).value();
     moving.camera = last;
     session.set_camera(last);
-    const raster::RasterResult warm = session.render(t);
+    WarmAndCold r{session.render(t), {}};
     Scenario alone = sc;
     alone.camera = last;
-    const raster::RasterResult cold = raster::run_raster(alone, t, ctx);
-    EXPECT_EQ(warm.frame.prim, cold.frame.prim);
-    EXPECT_EQ(warm.frame.frame_origin, cold.frame.frame_origin);
-    EXPECT_EQ(warm.frame.lights[0].V, cold.frame.lights[0].V);
+    r.cold = raster::run_raster(alone, t, ctx);
+    return r;
+}
+
+// A session whose camera moved draws what a cold session of that camera draws, bit for bit.
+TEST(CameraPath, AMovedRasterSessionDrawsWhatAColdOneDraws) {
+    const WarmAndCold r = moved_and_cold(panning(3, 96, 64), cascaded(true));
+    EXPECT_EQ(r.warm.frame.prim, r.cold.frame.prim);
+    EXPECT_EQ(r.warm.frame.frame_origin, r.cold.frame.frame_origin);
+    EXPECT_EQ(r.warm.frame.lights[0].V, r.cold.frame.lights[0].V);
 }
 
 // The same with cut-outs: the moved session keeps their buffers and set (raster/cutouts.h), and
@@ -150,20 +158,9 @@ TEST(CameraPath, AMovedRasterSessionDrawsWhatAColdOneDraws) {
 TEST(CameraPath, AMovedRasterSessionDrawsCutoutsAsAColdOneDraws) {
     Scenario sc = panning(3, 96, 64);
     test::add_cutout_card(sc.scene, {-1.2, 1.2, 1.2}, {2.4, 0, 0}, {0, 0, -2.4}, test::checkerboard_alpha(6), true);
-    raster::VulkanContext ctx{raster::ContextOptions{}};
-    Scenario moving = sc;
-    raster::RasterSession session(moving, ctx);
-    const raster::Technique t = raster::parse_technique({{"resolution", 1024}}, "test: technique");
-    session.render(t);
-    const Camera last = path_camera(*sc.camera_path, 2).value();
-    moving.camera = last;
-    session.set_camera(last);
-    const raster::RasterResult warm = session.render(t);
-    Scenario alone = sc;
-    alone.camera = last;
-    const raster::RasterResult cold = raster::run_raster(alone, t, ctx);
-    EXPECT_EQ(warm.frame.prim, cold.frame.prim);
-    EXPECT_EQ(warm.frame.lights[0].V, cold.frame.lights[0].V);
+    const WarmAndCold r = moved_and_cold(sc, raster::parse_technique({{"resolution", 1024}}, "test: technique"));
+    EXPECT_EQ(r.warm.frame.prim, r.cold.frame.prim);
+    EXPECT_EQ(r.warm.frame.lights[0].V, r.cold.frame.lights[0].V);
 }
 
 // The flicker rule on two synthetic frames from one orthographic camera (pixel j sees the same
