@@ -130,10 +130,14 @@ check "a 10^6-configuration product exits 2" test "$rc" -eq 2
 check "the product is named" grep -qF "bias.constant (1000 values) x bias.slope (1000 values) gives 1000000" <<<"$err"
 run sweep "$tmp/a.json" --out "$tmp/b8" --vary resolution=256 --repeat 1000000000
 check "--repeat 1000000000 exits 2" test "$rc" -eq 2
+python3 -c "import json; json.dump(['d3d12-textbook'] * 200000, open('$tmp/many.json', 'w'))"
+run sweep "$tmp/a.json" --out "$tmp/b9" --configs "$tmp/many.json"
+check "a 200,000-entry --configs exits 2" test "$rc" -eq 2
+check "the --configs count is named" grep -qF "200000 configurations" <<<"$err"
 python3 -c "import json; json.dump(['d3d12-textbook'] * 1000000, open('$tmp/million.json', 'w'))"
 run sweep "$tmp/a.json" --out "$tmp/b9" --configs "$tmp/million.json"
-check "a 10^6-entry --configs exits 2" test "$rc" -eq 2
-check "the --configs count is named" grep -qF "1000000 configurations" <<<"$err"
+check "an 18 MB --configs is refused by its size before it is read" \
+    grep -qF "byte limit of a sweep configuration list file" <<<"$err"
 run sweep "$tmp/a.json" --out "$tmp/b10" --vary bias.constant=$(seq -s, 1 100) --vary bias.slope=$(seq -s, 1 100) \
     --repeat 100
 check "a run beyond the time limit exits 2" test "$rc" -eq 2
