@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
+#include <optional>
 #include <unordered_map>
 
 #include "common/camera.h"
@@ -138,15 +139,20 @@ SceneTopology scene_topology(const Scene& scene) {
 
 ShadowVolumeGeometry build_shadow_volume(std::span<const glm::vec3> positions, const Scene& scene,
                                          const SceneTopology& topology, const Light& light, const glm::dvec3& light_rel,
-                                         OpenMeshRule rule) {
+                                         OpenMeshRule rule, double finite_reach_m) {
     ShadowVolumeGeometry g;
     const bool directional = light.type == LightType::directional;
+    const bool finite = finite_reach_m > 0;
     const glm::dvec3 dir = glm::normalize(light.direction);
     auto at = [&](std::uint32_t v) { return glm::vec4(positions[v], 1.0f); };
-    // The point at infinity behind v, seen from the light (Everitt & Kilgard's w = 0).
+    // The point at infinity behind v, seen from the light (Everitt & Kilgard's w = 0), or the
+    // point `finite_reach_m` beyond.
     auto infinity = [&](std::uint32_t v) {
-        const glm::dvec3 d = directional ? dir : glm::dvec3(positions[v]) - light_rel;
-        return glm::vec4(glm::vec3(d), 0.0f);
+        const glm::dvec3 p(positions[v]);
+        const glm::dvec3 d = directional ? dir : p - light_rel;
+        if (!finite) return glm::vec4(glm::vec3(d), 0.0f);
+        const glm::dvec3 far = directional ? p + dir * finite_reach_m : light_rel + glm::normalize(d) * finite_reach_m;
+        return glm::vec4(glm::vec3(far), 1.0f);
     };
     std::vector<bool> skipped(topology.meshes.size(), false);
     // Directed silhouette candidates: (welded pair key, +1 min->max / -1, a scene vertex of each end).
@@ -176,7 +182,7 @@ ShadowVolumeGeometry build_shadow_volume(std::span<const glm::vec3> positions, c
         ++g.caster_triangles;
         const std::uint32_t v[3] = {tri.x, tri.y, tri.z};
         for (int k = 0; k < 3; ++k) g.vertices.push_back(at(v[k]));  // near cap
-        if (!directional) {  // far cap (a directional light's collapses to one point)
+        if (!directional || finite) {  // far cap (a directional light's at infinity collapses to one point)
             g.vertices.push_back(infinity(v[0]));
             g.vertices.push_back(infinity(v[2]));
             g.vertices.push_back(infinity(v[1]));
@@ -206,6 +212,12 @@ ShadowVolumeGeometry build_shadow_volume(std::span<const glm::vec3> positions, c
     for (std::uint32_t m = 0; m < skipped.size(); ++m)
         if (skipped[m]) g.skipped_meshes.push_back(m);
     return g;
+}
+
+double volume_reach(const Light& light, const glm::dvec3& light_rel, const glm::dvec3& center_rel, double radius) {
+    const double diameter = 2.0 * std::max(radius, 1e-9);
+    if (light.type == LightType::directional) return 2.0 * diameter;
+    return 1e4 * (glm::length(light_rel - center_rel) + diameter);
 }
 
 namespace {
@@ -257,6 +269,7 @@ struct LightVolume {
     LightType type{};
     glm::dvec3 position{0.0}, direction{0.0};
     OpenMeshRule rule{};
+    double reach = 0;               // build_shadow_volume's finite_reach_m (0: to infinity)
     ShadowVolumeGeometry geometry;  // vertices dropped once uploaded
     std::size_t vertex_count = 0;
     GpuBuffer vertices;
@@ -284,6 +297,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             drawn_origin_ = s_.origin;
             drawn_precision_ = s_.precision;
             for (LightVolume& v : volumes_) v.valid = false;
+            drawn_bounds_.reset();
         }
         prepare(lights.size());
         const Scene& scene = s_.scenario.scene;
@@ -291,13 +305,18 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             const Light& l = lights[li];
             LightVolume& v = volumes_[li];
             v.build_ms = 0;
+            const glm::dvec3 light_rel = drawn_light_position(l, s_.origin, s_.precision);
+            // An orthographic camera cannot draw points at infinity: its volumes end beyond the scene.
+            const double reach = s_.camera.type == ProjectionType::orthographic
+                                     ? volume_reach(l, light_rel, drawn_bounds().center(), drawn_bounds().radius())
+                                     : 0.0;
             v.reused = v.valid && v.type == l.type && v.position == l.position && v.direction == l.direction &&
-                       v.rule == p.open_meshes;
+                       v.rule == p.open_meshes && v.reach == reach;
             if (v.reused) continue;
             auto t0 = SteadyClock::now();
             v = LightVolume{};
-            v.geometry = build_shadow_volume(s_.drawn_positions, scene, topology_, l,
-                                             drawn_light_position(l, s_.origin, s_.precision), p.open_meshes);
+            v.geometry =
+                build_shadow_volume(s_.drawn_positions, scene, topology_, l, light_rel, p.open_meshes, reach);
             v.build_ms = seconds_since(t0) * 1e3;
             v.vertex_count = v.geometry.vertices.size();
             if (v.vertex_count > 0)
@@ -308,6 +327,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             v.position = l.position;
             v.direction = l.direction;
             v.rule = p.open_meshes;
+            v.reach = reach;
             v.valid = true;
         }
         if (!volumes_.empty()) skipped_warning(scene, volumes_[0].geometry.skipped_meshes, stats);
@@ -405,6 +425,15 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     }
 
   private:
+    // The bounds of the positions as drawn (the frame the volumes are built in), once per frame.
+    const Bounds& drawn_bounds() {
+        if (!drawn_bounds_) {
+            drawn_bounds_.emplace();
+            for (const glm::vec3& p : s_.drawn_positions) drawn_bounds_->grow(glm::dvec3(p));
+        }
+        return *drawn_bounds_;
+    }
+
     // What open_meshes "skip" left out, said on every render that leaves something out (the
     // volumes of every light skip the same meshes): the count, their share of the triangles and
     // the largest by name, so that a run's false_lit is not read as the technique's.
@@ -570,6 +599,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
     bool drawn_once_ = false;
     glm::dvec3 drawn_origin_{0.0};  // the frame origin and precision the volumes were built for
     Precision drawn_precision_ = Precision::camera_relative;
+    std::optional<Bounds> drawn_bounds_;
     DescriptorSets depth_sets_;
     VkFormat format_ = VK_FORMAT_UNDEFINED;
     GpuImage depth_, visibility_;
@@ -586,7 +616,7 @@ void parse_keys(JsonObject& o, Technique& t) {
     auto p = std::make_shared<ShadowVolumeParameters>();
     if (o.has("shadow_volume")) {
         JsonObject v = o.object("shadow_volume");
-        p->open_meshes = pick_enum(v, "open_meshes", OpenMeshRule::skip, {OpenMeshRule::skip, OpenMeshRule::include});
+        p->open_meshes = pick_enum(v, "open_meshes", OpenMeshRule::include, {OpenMeshRule::skip, OpenMeshRule::include});
         p->method = pick_enum(v, "method", StencilMethod::zfail, {StencilMethod::zfail, StencilMethod::zpass});
         v.finish();
     }

@@ -30,7 +30,7 @@ const char* to_string(OpenMeshRule r);
 const char* to_string(StencilMethod m);
 
 struct ShadowVolumeParameters final : FamilyParameters {
-    OpenMeshRule open_meshes = OpenMeshRule::skip;
+    OpenMeshRule open_meshes = OpenMeshRule::include;
     StencilMethod method = StencilMethod::zfail;
 };
 // The family's parameters when `t` is drawn by it, else null.
@@ -72,8 +72,21 @@ struct ShadowVolumeGeometry {
 // closed mesh draws its silhouette alone. A closed mesh casts from its triangles facing away
 // from the light (the near caps then lie on unlit faces, never on a lit one); an included open
 // mesh from every triangle.
+//
+// `finite_reach_m` > 0 extrudes to finite points instead, that far from the light (spot, point)
+// or from the vertex (directional, whose far cap is then drawn too): an orthographic camera
+// projects a point at infinity to clip w = 0, which no rasteriser can draw, so its volumes end
+// beyond the scene (volume_reach says how far).
 ShadowVolumeGeometry build_shadow_volume(std::span<const glm::vec3> positions, const Scene& scene,
                                          const SceneTopology& topology, const Light& light, const glm::dvec3& light_rel,
-                                         OpenMeshRule rule);
+                                         OpenMeshRule rule, double finite_reach_m = 0);
+
+// How far an orthographic camera's volumes reach (build_shadow_volume's `finite_reach_m`), the
+// scene's bounds relative to the frame as `center_rel` and `radius`: a directional prism spans
+// the scene's diameter twice, so its far cap lies beyond every receiver; a spot or point light's
+// far vertices lie 10^4 times beyond the scene's farthest point from the light, so the far cap
+// of any triangle whose plane passes farther than 10^-4 of its vertices' distance from the light
+// lies beyond every receiver (nearer to edge-on, a sliver of its shadow may be cut off).
+double volume_reach(const Light& light, const glm::dvec3& light_rel, const glm::dvec3& center_rel, double radius);
 
 }  // namespace penumbra::raster

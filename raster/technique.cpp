@@ -122,8 +122,8 @@ const std::vector<Preset>& presets() {
          json{{"cull", "back"}, {"bias", kNoBias}, {"filter", {{"type", "none"}}}}},
         {"rtr-shadow-volume",
          "seed 001's stencil shadow volumes: silhouettes extruded to infinity, z-fail (Carmack's reverse) with "
-         "two-sided stencil, open meshes skipped (Everitt & Kilgard 2002)",
-         json{{"family", "shadow_volume"}, {"shadow_volume", {{"open_meshes", "skip"}, {"method", "zfail"}}}}},
+         "two-sided stencil (Everitt & Kilgard 2002); open meshes cast as two-sided sheets",
+         json{{"family", "shadow_volume"}, {"shadow_volume", {{"open_meshes", "include"}, {"method", "zfail"}}}}},
         {"rtr-midpoint",
          "seed 001's midpoint row (Woo, Graphics Gems III, 1992): the map stores the midpoint between the nearest "
          "surface and the next one behind it (a second, peeled depth pass), both faces drawn, no bias of any kind, "

@@ -32,6 +32,7 @@ using metrics::PixelClass;
 class ShadowVolume : public test::VulkanSuite<ShadowVolume> {};
 
 const nlohmann::json kVolumes = {{"preset", "rtr-shadow-volume"}};
+const nlohmann::json kSkipOpen = {{"preset", "rtr-shadow-volume"}, {"shadow_volume", {{"open_meshes", "skip"}}}};
 
 // Wrong pixels of light `li` (as the metrics count them) that have no shadow boundary within
 // one pixel: no pixel of the 3x3 around them where the oracle's V differs from theirs by half.
@@ -66,8 +67,8 @@ WrongPixels wrong_pixels(const ValidateResult& r, std::size_t li) {
     return w;
 }
 
-// Two closed boxes on a 12 m ground plane (the ground is an open mesh: it casts nothing under
-// the default rule, and nothing lies under it).
+// Two closed boxes on a 12 m ground plane (the ground is an open mesh: it casts as a sheet under
+// the default rule, onto nothing).
 test::SceneBuilder boxes_on_a_plane() {
     test::SceneBuilder b;
     b.quad({-6, 0, -6}, {-6, 0, 6}, {6, 0, 6}, {6, 0, -6});
@@ -106,12 +107,12 @@ TEST_F(ShadowVolume, ClosedBoxesOnAPlaneAreExactUnderDirectionalSpotAndPointLigh
             shadowed += r.oracle->frame.lights[li].lightable[i] != 0 && r.oracle->frame.lights[li].V[i] < 0.5f;
         EXPECT_GT(shadowed, 1000u) << names[li];
     }
-    // raster.json says what was drawn: the two boxes cast, the ground is open and skipped.
+    // raster.json says what was drawn: the two boxes cast, and so does the ground, open.
     const nlohmann::json& light = r.raster_info["lights"][0]["shadow_volume"];
     EXPECT_EQ(light["meshes"], 3);
     EXPECT_EQ(light["closed_meshes"], 2);
     EXPECT_EQ(light["open_meshes"][0]["open_edges"], 4);
-    EXPECT_EQ(light["open_meshes"][0]["casts"], false);
+    EXPECT_EQ(light["open_meshes"][0]["casts"], true);
     EXPECT_GT(light["silhouette_edges"].get<int>(), 8);
     EXPECT_GT(r.raster.stats.gpu_ms["stencil"] + r.raster.stats.gpu_ms["resolve"], 0.0);
 }
@@ -158,7 +159,7 @@ TEST_F(ShadowVolume, AnOpenMeshIsReportedAndTheRuleDecidesWhetherItCasts) {
     const Scenario sc = test::make_scenario(b.build(), test::look_at({3, 6, 7}, {0, 0.3, 0}, 45),
                                             {test::directional({0.55, -0.7, 0.45})}, 320, 240);
 
-    const ValidateResult skipped = judge(sc, kVolumes);
+    const ValidateResult skipped = judge(sc, kSkipOpen);
     const nlohmann::json& report = skipped.raster_info["lights"][0]["shadow_volume"];
     ASSERT_EQ(report["open_meshes"].size(), 2u);  // the ground and the box
     const nlohmann::json& box = report["open_meshes"][1];
@@ -192,11 +193,68 @@ TEST_F(ShadowVolume, AnOpenMeshIsReportedAndTheRuleDecidesWhetherItCasts) {
     expect_exact(cast, 0, "open box included");
 }
 
+// Open geometry the closed-box test never had (#49): a single-sided ground sheet facing the
+// light, a scatter of thin single-sided triangles tilted either way, an open frame (a box
+// without top and bottom) and a closed box, under a sun and a point light straight above, a
+// spot straight down and an oblique sun; seen by a top-down orthographic camera and an oblique
+// perspective one, at the origin and 10^6 m from it. Every light is exact up to rasterisation
+// with the default rule: open meshes cast, and a sheet facing the light does not shadow itself.
+test::SceneBuilder open_geometry(glm::dvec3 o) {
+    test::SceneBuilder b;
+    b.quad(o + glm::dvec3(-6, 0, -6), o + glm::dvec3(-6, 0, 6), o + glm::dvec3(6, 0, 6), o + glm::dvec3(6, 0, -6),
+           false);
+    std::uint32_t seed = 7;
+    auto next = [&] {
+        seed = seed * 1664525u + 1013904223u;
+        return static_cast<double>(seed >> 8) / static_cast<double>(1u << 24);
+    };
+    for (int k = 0; k < 24; ++k) {
+        const glm::dvec3 c = o + glm::dvec3(-4.5 + 9 * next(), 0.4 + 2.2 * next(), -4.5 + 9 * next());
+        const glm::dvec3 u(0.3 + 0.5 * next(), 0.6 * (next() - 0.5), 0.2 * next());
+        const glm::dvec3 v(0.2 * next(), 0.6 * (next() - 0.5), 0.3 + 0.5 * next());
+        if (k % 2)
+            b.triangle(c, c + u, c + v, false);  // facing down
+        else
+            b.triangle(c, c + v, c + u, false);  // facing up
+    }
+    const glm::dvec3 lo = o + glm::dvec3(1.5, 0.8, 1.5), hi = o + glm::dvec3(3.0, 1.6, 2.6);
+    glm::dvec3 p[8];
+    for (int i = 0; i < 8; ++i) p[i] = {i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z};
+    b.quad(p[0], p[4], p[6], p[2], false);
+    b.quad(p[1], p[3], p[7], p[5], false);
+    b.quad(p[0], p[2], p[3], p[1], false);
+    b.quad(p[4], p[5], p[7], p[6], false);
+    b.box(o + glm::dvec3(-3.0, 0, 1.0), o + glm::dvec3(-2.0, 1.0, 2.0));
+    return b;
+}
+
+TEST_F(ShadowVolume, OpenSoupsSheetsAndFramesAreExactFromEitherCameraAtTheOriginAndFarFromIt) {
+    for (const double offset : {0.0, 1e6}) {
+        const glm::dvec3 o(offset, 0, offset);
+        const std::vector<Light> lights = {test::directional({0, -1, 0}), test::point(o + glm::dvec3(0.3, 6, -0.2)),
+                                           test::spot(o + glm::dvec3(-0.5, 7, 0.4), {0, -1, 0}, 70),
+                                           test::directional({0.5, -0.8, 0.3})};
+        const char* names[] = {"sun straight above", "point straight above", "spot straight down", "oblique sun"};
+        const std::pair<const char*, Camera> cameras[] = {
+            {"orthographic from above", test::look_at_ortho(o + glm::dvec3(0, 12, 0), o, 6.5, 5, {0, 0, -1})},
+            {"perspective", test::look_at(o + glm::dvec3(5, 7, 9), o + glm::dvec3(0, 0.5, 0), 50)}};
+        for (const auto& [camera_name, camera] : cameras) {
+            const Scenario sc = test::make_scenario(open_geometry(o).build(), camera, lights, 320, 240);
+            const ValidateResult r = judge(sc, kVolumes);
+            for (std::size_t li = 0; li < lights.size(); ++li)
+                expect_exact(r, li, fmt::format("{}, {}, at {} m", names[li], camera_name, offset));
+            EXPECT_TRUE(std::none_of(r.warnings.begin(), r.warnings.end(), [](const std::string& w) {
+                return w.starts_with("shadow_volume.open_meshes");
+            })) << "the default casts open meshes";
+        }
+    }
+}
+
 TEST_F(ShadowVolume, AWarmSessionKeepsEachLightsVolumesUntilTheRuleChanges) {
     const Scenario sc = test::make_scenario(boxes_on_a_plane().build(), test::look_at({3, 6, 7}, {0, 0.3, 0}, 45),
                                             {test::point({2.2, 2.5, 1.8})}, 160, 120);
     raster::RasterSession session(sc, *ctx_);
-    const raster::Technique skip = raster::parse_technique(kVolumes, "test: technique");
+    const raster::Technique skip = raster::parse_technique(kSkipOpen, "test: technique");
     nlohmann::json include_json = kVolumes;
     include_json["shadow_volume"] = {{"open_meshes", "include"}};
     const raster::Technique include = raster::parse_technique(include_json, "test: technique");
@@ -247,7 +305,10 @@ TEST(ShadowVolumeTechnique, KeysRoundTripAndForeignKeysAreRefused) {
     const nlohmann::json j = t.to_json();
     EXPECT_EQ(raster::parse_technique(j, "test: technique").to_json(), j);
     EXPECT_EQ(raster::parse_technique(kVolumes, "test: technique").to_json()["shadow_volume"],
-              (nlohmann::json{{"open_meshes", "skip"}, {"method", "zfail"}}));
+              (nlohmann::json{{"open_meshes", "include"}, {"method", "zfail"}}));
+    EXPECT_EQ(raster::parse_technique({{"family", "shadow_volume"}}, "test: technique").to_json()["shadow_volume"],
+              (nlohmann::json{{"open_meshes", "include"}, {"method", "zfail"}}))
+        << "open meshes cast by default";
     try {
         raster::parse_technique({{"family", "shadow_volume"}, {"resolution", 1024}}, "test: technique");
         ADD_FAILURE() << "resolution accepted";
