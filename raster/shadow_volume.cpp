@@ -535,6 +535,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
                 make_pipeline_layout(ctx, depth_sets_.layout(), sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
             volume_layout_ = make_pipeline_layout(ctx, VK_NULL_HANDLE, sizeof(glm::mat4), VK_SHADER_STAGE_VERTEX_BIT);
             GraphicsSetup d = volume_setup(kVolumeVert, sizeof(kVolumeVert), kVolumeFrag, sizeof(kVolumeFrag), format_);
+            d.depth_clamp = true;  // rasterised as the volumes are; volume.frag clips at near and far
             depth_pipeline_ = make_graphics_pipeline(ctx, depth_layout_.get(), d);
             // The volumes: depth-tested against the camera's depth, never written; depth clamp
             // keeps the far caps at infinity (clip w = 0) from being clipped by the far plane.

@@ -4,4 +4,9 @@
 // point at infinity (an extruded vertex), Everitt & Kilgard 2002.
 layout(location = 0) in vec4 position;  // camera-relative
 layout(push_constant) uniform Push { mat4 view_proj; } push;
-void main() { gl_Position = push.view_proj * position; }
+// Clip z and w: the depth pass clips at the near and far planes itself (volume.frag).
+layout(location = 0) out vec2 clip_zw;
+void main() {
+    gl_Position = push.view_proj * position;
+    clip_zw = gl_Position.zw;
+}
