@@ -266,6 +266,42 @@ std::string metric_rows(const metrics::LightScore& l) {
     return rows;
 }
 
+// The layers a family reports per light (report.json's per-layer metrics, under the family's own
+// key: "cascades" for the cascaded family), one row each: the view range it serves, its texel at
+// the receivers, its scored pixels and their share of the light's, and its wrong pixels by class.
+std::string layer_tables(const nlohmann::json& light, const metrics::LightScore& l) {
+    std::string h;
+    for (auto it = light.begin(); it != light.end(); ++it) {
+        const nlohmann::json& layers = it.value();
+        if (!layers.is_array() || layers.empty() || !layers[0].is_object() || !layers[0].contains("near_m") ||
+            !layers[0].contains("far_m") || !layers[0].contains("texel_m"))
+            continue;
+        h += fmt::format(
+            "<h3>{} ({})</h3><div class=\"wrap\"><table><tr><th>#</th><th>view depths (m)</th><th>texel (m)</th>"
+            "<th>scored pixels</th><th>share</th><th>wrong</th>",
+            escape_markup(it.key()), layers.size());
+        for (auto c : metrics::kErrorClasses) h += fmt::format("<th>{}</th>", to_string(c));
+        h += "</tr>\n";
+        const double scored = std::max<double>(1.0, static_cast<double>(l.pixels.scored));
+        for (const nlohmann::json& layer : layers) {
+            const auto px = layer.contains("pixels") ? layer["pixels"].value("scored", std::uint64_t{0}) : 0;
+            std::uint64_t wrong = 0;
+            std::string cells;
+            for (auto c : metrics::kErrorClasses) {
+                const auto n = layer.contains("counts") ? layer["counts"].value(to_string(c), std::uint64_t{0}) : 0;
+                wrong += n;
+                cells += fmt::format("<td>{}</td>", n);
+            }
+            h += fmt::format("<tr><td>{}</td><td>{} – {}</td><td>{}</td><td>{}</td><td>{:.1f}%</td><td>{}</td>{}</tr>\n",
+                             layer.value("index", 0), number(layer.value("near_m", 0.0)),
+                             number(layer.value("far_m", 0.0)), number(layer.value("texel_m", 0.0)), px,
+                             100.0 * static_cast<double>(px) / scored, wrong, cells);
+        }
+        h += "</table></div>\n";
+    }
+    return h;
+}
+
 std::string evidence_text(const metrics::ClassificationEvidence& e) {
     if (e.source == metrics::Evidence::depth_map_lookups) return "the technique's depth-map lookups";
     return fmt::format("the oracle's geometry (V only): texel footprint {} m ({}), bias reach {} m ({})",
@@ -377,6 +413,7 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
         h += "</table><div class=\"scroll\"><table><tr><th>metric</th><th>value</th><th>unit</th></tr>\n" +
              metric_rows(l) + "</table></div></div>\n";
         h += "<div>" + rate_chart(l) + "</div></div>\n";
+        if (report.contains("lights") && li < report["lights"].size()) h += layer_tables(report["lights"][li], l);
         h += "<h3>Classes</h3><div class=\"classmap\"><div>" +
              img(light_file(li, "classes"), fmt::format("class map, light {}", li)) +
              "</div><div><a href=\"#classes\">What each colour means</a></div></div>";

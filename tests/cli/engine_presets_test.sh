@@ -20,6 +20,21 @@ for l in r['lights']:
 import json
 assert json.load(open('$tmp/$preset/raster.json'))['technique']['preset'] == '$preset'"
 done
+# A cascaded preset's report.html shows each cascade's range, texel and pixels, as report.json
+# holds them (#49).
+check "three-csm: report.html has a row per cascade of report.json, with its range and pixels" python3 -c "
+import json, re
+r = json.load(open('$tmp/three-csm/report.json'))
+page = open('$tmp/three-csm/report.html').read()
+cascades = r['lights'][0]['cascades']
+start = page.index('<h3>cascades (%d)</h3>' % len(cascades))
+table = page[start:page.index('</table>', start)]
+rows = re.findall(r'<tr><td>(\d+)</td><td>([^<]*)</td><td>[^<]*</td><td>(\d+)</td>', table)
+assert len(rows) == len(cascades), rows
+for (index, depths, px), c in zip(rows, cascades):
+    assert int(index) == c['index'] and int(px) == c['pixels']['scored'], (index, px, c)
+    near, far = (float(x) for x in depths.split(' – '))
+    assert abs(near - c['near_m']) <= 1e-3 * c['far_m'] and abs(far - c['far_m']) <= 1e-3 * c['far_m'], depths"
 run validate "$tmp/a.json" --out "$tmp/bad" --preset unity
 check "an engine's bare name is not a preset (exit 2, the presets listed)" test "$rc" -eq 2
 check "the error lists unity-urp" grep -q '"unity-urp"' <<<"$err"
