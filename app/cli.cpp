@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <charconv>
-#include <tuple>
-#include <optional>
 #include <cmath>
+#include <optional>
+#include <tuple>
 
 #include "common/errors.h"
 #include "common/json_reader.h"
@@ -256,7 +256,8 @@ int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet) {
     for (const auto& o : gate->outcomes)
         if (!o.passed) fmt::print(stderr, "{}\n", o.failure());
     // Count what failed, not what was checked: "FAILED (3 checks)" read as three failures.
-    const auto failed = std::count_if(gate->outcomes.begin(), gate->outcomes.end(), [](const auto& o) { return !o.passed; });
+    const auto failed =
+        std::count_if(gate->outcomes.begin(), gate->outcomes.end(), [](const auto& o) { return !o.passed; });
     if (!quiet) {
         if (gate->passed)
             fmt::print("gate: passed ({} checks)\n", gate->outcomes.size());

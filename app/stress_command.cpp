@@ -43,7 +43,8 @@ int run_stress_command(const StressArgs& a, const TechniqueArgs& t) {
     stress::check_technique_cases(technique, cases, label);
     stress::StressGate gate;
     if (!a.gate_file.empty())
-        gate = stress::parse_stress_gate(read_json_file(a.gate_file, kGateJson), a.gate_file.filename().string(), cases);
+        gate =
+            stress::parse_stress_gate(read_json_file(a.gate_file, kGateJson), a.gate_file.filename().string(), cases);
 
     stress::SuiteOptions options;
     options.validate.oracle.threads = a.threads;

@@ -10,8 +10,8 @@
 #include <optional>
 #include <set>
 #include <string>
-#include <vector>
 #include <string_view>
+#include <vector>
 
 namespace penumbra {
 
@@ -44,8 +44,7 @@ void check_json_nesting(std::string_view text, const std::string& file_label);
 // Reads a whole regular file of at most `max_bytes`; devices, FIFOs and folders are refused
 // (they may never end). Throws InputError naming `file` (and `kind`, when given, for a file too
 // large).
-std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes,
-                              const char* kind = nullptr);
+std::string read_regular_file(const std::filesystem::path& file, std::uint64_t max_bytes, const char* kind = nullptr);
 
 // `file` opened for reading when it is a regular file of at most `max_bytes`, else InputError
 // naming it: FIFOs, devices and folders are refused without blocking on them. Closes on
@@ -120,7 +119,7 @@ class JsonObject {
     // reported as unknown, with the known key it resembles, not as a missing "yfov_deg"). Call
     // before reading when the object's keys are known up front; finish() still checks at the end.
     void only_keys(std::initializer_list<std::string_view> known) const;
-    void finish() const;  // unknown keys are errors
+    void finish() const;                           // unknown keys are errors
     std::vector<std::string> unread_keys() const;  // what finish() would refuse, in the object's order
 
   private:

@@ -32,7 +32,8 @@ glm::dvec3 position(JsonObject& o, const std::string& key) {
 bool read_up(JsonObject& o) {
     if (!o.has("up")) return false;
     const std::string up = o.string("up");
-    if (up != "y" && up != "z") o.fail("up", fmt::format("\"{}\": expected \"y\" (glTF's) or \"z\" (a Z-up model)", up));
+    if (up != "y" && up != "z")
+        o.fail("up", fmt::format("\"{}\": expected \"y\" (glTF's) or \"z\" (a Z-up model)", up));
     return up == "z";
 }
 
@@ -89,7 +90,8 @@ Camera read_camera(JsonObject cam, const Scene& scene, const std::string& scene_
             cam.fail("gltf_camera", fmt::format("camera {} is not used by any node of the scene", index));
         c = scene.cameras[index];
         if (zfar) {
-            if (!(*zfar > c.znear)) cam.fail("zfar", fmt::format("must exceed the glTF camera's znear ({} <= {})", *zfar, c.znear));
+            if (!(*zfar > c.znear))
+                cam.fail("zfar", fmt::format("must exceed the glTF camera's znear ({} <= {})", *zfar, c.znear));
             c.zfar = *zfar;
         }
         validate_camera(
@@ -300,7 +302,8 @@ Scenario load_scenario(const fs::path& file, const ScenarioOptions& options) {
     s.label = file.filename().string();
     nlohmann::json root = read_json_file(file, kScenarioJson);
     JsonObject top(root, s.label, "");
-    top.only_keys({"scene", "scale", "up", "image", "camera", "camera_path", "lights", "receivers", "technique", "gate"});
+    top.only_keys(
+        {"scene", "scale", "up", "image", "camera", "camera_path", "lights", "receivers", "technique", "gate"});
 
     // "scene": one glTF file, or a list of models (strings or placements), read after the cheap checks.
     const nlohmann::json& scene_value = top.get("scene");

@@ -207,7 +207,8 @@ Run read_run(const fs::path& path) {
                         path_text(path)));
     }
     // Labelled with the whole path: both runs' files are usually called report.json.
-    return parse_run(parse_json_strict(read_regular_file(file, kReportJson.max_bytes, kReportJson.name), path_text(file)), file);
+    return parse_run(
+        parse_json_strict(read_regular_file(file, kReportJson.max_bytes, kReportJson.name), path_text(file)), file);
 }
 
 Run parse_run(const nlohmann::json& doc, const fs::path& file) {

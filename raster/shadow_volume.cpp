@@ -315,8 +315,7 @@ class ShadowVolumeFamily final : public TechniqueFamily {
             if (v.reused) continue;
             auto t0 = SteadyClock::now();
             v = LightVolume{};
-            v.geometry =
-                build_shadow_volume(s_.drawn_positions, scene, topology_, l, light_rel, p.open_meshes, reach);
+            v.geometry = build_shadow_volume(s_.drawn_positions, scene, topology_, l, light_rel, p.open_meshes, reach);
             v.build_ms = seconds_since(t0) * 1e3;
             v.vertex_count = v.geometry.vertices.size();
             if (v.vertex_count > 0)
@@ -617,7 +616,8 @@ void parse_keys(JsonObject& o, Technique& t) {
     auto p = std::make_shared<ShadowVolumeParameters>();
     if (o.has("shadow_volume")) {
         JsonObject v = o.object("shadow_volume");
-        p->open_meshes = pick_enum(v, "open_meshes", OpenMeshRule::include, {OpenMeshRule::skip, OpenMeshRule::include});
+        p->open_meshes =
+            pick_enum(v, "open_meshes", OpenMeshRule::include, {OpenMeshRule::skip, OpenMeshRule::include});
         p->method = pick_enum(v, "method", StencilMethod::zfail, {StencilMethod::zfail, StencilMethod::zpass});
         v.finish();
     }

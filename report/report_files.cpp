@@ -292,10 +292,10 @@ std::string layer_tables(const nlohmann::json& light, const metrics::LightScore&
                 wrong += n;
                 cells += fmt::format("<td>{}</td>", n);
             }
-            h += fmt::format("<tr><td>{}</td><td>{} – {}</td><td>{}</td><td>{}</td><td>{:.1f}%</td><td>{}</td>{}</tr>\n",
-                             layer.value("index", 0), number(layer.value("near_m", 0.0)),
-                             number(layer.value("far_m", 0.0)), number(layer.value("texel_m", 0.0)), px,
-                             100.0 * static_cast<double>(px) / scored, wrong, cells);
+            h += fmt::format(
+                "<tr><td>{}</td><td>{} – {}</td><td>{}</td><td>{}</td><td>{:.1f}%</td><td>{}</td>{}</tr>\n",
+                layer.value("index", 0), number(layer.value("near_m", 0.0)), number(layer.value("far_m", 0.0)),
+                number(layer.value("texel_m", 0.0)), px, 100.0 * static_cast<double>(px) / scored, wrong, cells);
         }
         h += "</table></div>\n";
     }

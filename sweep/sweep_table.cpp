@@ -201,7 +201,8 @@ std::vector<Config> configs_from_json(const json& list, const std::string& name,
 
 std::vector<Config> configs_from_file(const std::filesystem::path& file, const json& base,
                                       const std::vector<Light>& lights) {
-    return configs_from_json(read_json_file(file, kSweepConfigsJson), escape_non_utf8(file.filename().string()), base, lights);
+    return configs_from_json(read_json_file(file, kSweepConfigsJson), escape_non_utf8(file.filename().string()), base,
+                             lights);
 }
 
 Shard parse_shard(const std::string& text) {

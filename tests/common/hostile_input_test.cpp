@@ -342,7 +342,8 @@ TEST_F(HostileScenario, GltfCamerasAndLightsGetTheScenariosChecks) {
 
 TEST(HostileInput, OnlyRegularFilesAreRead) {
     TempDir dir;
-    EXPECT_TRUE(contains(error_of([&] { read_json_file("/dev/zero", kScenarioJson); }), "/dev/zero: not a regular file"));
+    EXPECT_TRUE(
+        contains(error_of([&] { read_json_file("/dev/zero", kScenarioJson); }), "/dev/zero: not a regular file"));
     ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
     EXPECT_TRUE(contains(error_of([&] { read_json_file(dir / "fifo", kScenarioJson); }), "fifo: not a regular file"));
     EXPECT_TRUE(contains(error_of([&] { load_gltf(dir / "fifo"); }), "fifo: not a regular file"));
