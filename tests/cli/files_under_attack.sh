@@ -89,6 +89,15 @@ check "3: the message names it" grep -q "o3b/report.json: is a symbolic link" <<
 check "3: the link is left" test -L "$tmp/o3b/report.json"
 check "3: no other output was moved in" test ! -e "$tmp/o3b/report.html"
 
+# 3 (--junit): a link at --junit's name is refused before any work, as the final rename refuses it.
+decoy
+ln -sf "$tmp/decoy" "$tmp/junit-link.xml"
+run validate "$tmp/s.json" --out "$tmp/o3j" --cache "$cache" "${preset[@]}" --junit "$tmp/junit-link.xml"
+check "3: --junit at a symbolic link: exit 2" test "$rc" -eq 2
+check "3: ... saying it is a link" grep -q "junit-link.xml: is a symbolic link" <<<"$err"
+check "3: ... before any work (no --out)" test ! -e "$tmp/o3j"
+check "3: ... and the file it points to unchanged" same_bytes "$tmp/decoy" "$tmp/decoy.orig"
+
 # 4: init --force never replaces a FIFO (or a device).
 mkfifo "$tmp/fifo.json"
 run init "$tmp/scene.glb" --out "$tmp/fifo.json" --force
