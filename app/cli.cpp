@@ -251,6 +251,21 @@ raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArg
     return technique;
 }
 
+void say_preset_differences(const raster::Technique& t, bool quiet) {
+    if (quiet || t.preset.empty()) return;
+    const nlohmann::json d = raster::preset_differences(t);
+    if (d.empty()) return;
+    std::string keys;
+    std::size_t shown = 0;
+    for (auto it = d.begin(); it != d.end() && shown < 8; ++it, ++shown)
+        keys += fmt::format("{}{} {} (preset: {})", keys.empty() ? "" : ", ", it.key(),
+                            json_excerpt(it.value()["technique"], 40), json_excerpt(it.value()["preset"], 40));
+    if (d.size() > shown) keys += fmt::format(", and {} more (report.json: preset_differences)", d.size() - shown);
+    fmt::print("technique: preset {} with {} key{} of the technique object or --set over it (they win over the "
+               "preset's defaults): {}\n",
+               t.preset, d.size(), d.size() == 1 ? "" : "s", keys);
+}
+
 int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet) {
     if (!gate) return kExitSuccess;
     for (const auto& o : gate->outcomes)

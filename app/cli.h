@@ -107,6 +107,10 @@ void add_technique(CLI::App* cmd, TechniqueArgs& t);
 // The technique JSON from those sources, in order (not yet parsed).
 nlohmann::json technique_json(const Scenario& scenario, const TechniqueArgs& t, std::string& label);
 raster::Technique resolve_technique(const Scenario& scenario, const TechniqueArgs& t);
+// Unless quiet, one stdout line saying what a technique with a preset kept from its other sources
+// (the technique object's own keys and --set, which win over the preset's defaults): each key
+// that differs from the preset alone, with the preset's value (raster::preset_differences).
+void say_preset_differences(const raster::Technique& t, bool quiet);
 
 // Prints each failed check of the gate (stderr) and, unless quiet, the gate's line; returns the
 // exit code it gives (0 without a gate).

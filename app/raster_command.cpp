@@ -20,6 +20,7 @@ int run_raster_command(const std::filesystem::path& scenario_file, const Common&
     auto t0 = SteadyClock::now();
     Scenario scenario = load_for_command(scenario_file, c);
     raster::Technique technique = resolve_technique(scenario, t);
+    say_preset_differences(technique, c.quiet);
     check_run_memory(scenario, c, false, &technique, false);
     raster::RasterTimings timings;
     timings.threads = static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));

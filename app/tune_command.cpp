@@ -126,6 +126,7 @@ int run_tune_command(const TuneArgs& a) {
     for (const auto& f : a.scenarios) scenarios.push_back(load_for_command(f, c));
     for (const auto& f : a.holdout) holdout.push_back(load_for_command(f, c));
     const raster::Technique start = resolve_technique(scenarios.front(), a.technique);
+    say_preset_differences(start, c.quiet);
     if (a.knobs.empty()) knobs = tune::parse_knobs(tune::default_knobs(start), "--knobs");
     options.knobs = tune::knob_set(start, knobs, "--knobs");
     std::optional<EngineUnitsPlan> engine_units;

@@ -60,6 +60,7 @@ int run_validate_command(const std::filesystem::path& scenario_file, const Commo
     Scenario scenario = load_for_command(scenario_file, c);
     // Everything the user wrote is checked before any work starts.
     raster::Technique technique = resolve_technique(scenario, t);
+    say_preset_differences(technique, c.quiet);
     const nlohmann::json gate_json = v.gate_file.empty() ? scenario.gate : read_json_file(v.gate_file, kGateJson);
     const std::string gate_label = v.gate_file.empty() ? scenario.label + ": gate" : v.gate_file.filename().string();
     const metrics::Gate gate =

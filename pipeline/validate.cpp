@@ -241,6 +241,8 @@ void make_report(const Scenario& scenario, ValidateResult& r) {
     r.report = report::report_json(report_inputs(scenario, r, r.oracle->info), r.score);
     r.report["facing"] = to_json(r.facing);
     if (scenario.scene.has_cutouts()) r.report["cutouts"] = cutouts_json(scenario.scene);
+    if (nlohmann::json d = raster::preset_differences(r.technique); !d.empty())
+        r.report["preset_differences"] = std::move(d);
     const std::string& layer_report = hints.layer_report;
     for (std::size_t li = 0; li < r.raster.stats.lights.size() && li < r.report["lights"].size(); ++li) {
         const raster::RasterLightStats& ls = r.raster.stats.lights[li];

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
@@ -529,6 +530,33 @@ void parse_depth_map_keys(JsonObject& o, Technique& t) {
         t.filter.max_radius_texels = f.number_in("max_radius_texels", 32.0, 1.0, 256.0, "texels in [1, 256]");
         f.finish();
     }
+}
+
+namespace {
+
+void flatten(const json& j, const std::string& prefix, std::map<std::string, json>& out) {
+    if (j.is_object() && !j.empty()) {
+        for (auto it = j.begin(); it != j.end(); ++it)
+            flatten(it.value(), prefix.empty() ? it.key() : prefix + "." + it.key(), out);
+    } else {
+        out[prefix] = j;
+    }
+}
+
+}  // namespace
+
+json preset_differences(const Technique& t) {
+    json out = json::object();
+    if (t.preset.empty()) return out;
+    std::map<std::string, json> mine, theirs;
+    flatten(t.to_json(), "", mine);
+    flatten(parse_technique(json{{"preset", t.preset}}, "preset " + t.preset).to_json(), "", theirs);
+    for (const auto& [key, value] : mine)
+        if (const auto it = theirs.find(key); it == theirs.end() || it->second != value)
+            out[key] = {{"preset", it == theirs.end() ? json() : it->second}, {"technique", value}};
+    for (const auto& [key, value] : theirs)
+        if (!mine.contains(key)) out[key] = {{"preset", value}, {"technique", nullptr}};
+    return out;
 }
 
 Technique parse_technique(const json& value, const std::string& label, const std::vector<Light>& lights) {

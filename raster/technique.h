@@ -210,6 +210,13 @@ void parse_depth_map_keys(JsonObject& o, Technique& t);
 // The same keys of `t`, every one resolved (`lights` only when it has entries).
 nlohmann::json depth_map_keys_json(const Technique& t);
 
+// What `t` changes of its preset (empty without one): each key, dotted ("bias.constant"), whose
+// resolved value differs from the preset's alone, as {"preset": value or null, "technique":
+// value or null}. The rule is design.md's (the object's keys, then --preset's defaults, then
+// each --set; later sources win): this says what the run kept from the sources that are not the
+// preset, printed by the commands and written to report.json.
+nlohmann::json preset_differences(const Technique& t);
+
 // Applies `--set key.path=value` overrides: value is parsed as JSON when it is JSON
 // (numbers, true/false, quoted strings), else taken as a string.
 void apply_override(nlohmann::json& technique, const std::string& assignment);

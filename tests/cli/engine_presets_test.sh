@@ -35,6 +35,23 @@ for (index, depths, px), c in zip(rows, cascades):
     assert int(index) == c['index'] and int(px) == c['pixels']['scored'], (index, px, c)
     near, far = (float(x) for x in depths.split(' – '))
     assert abs(near - c['near_m']) <= 1e-3 * c['far_m'] and abs(far - c['far_m']) <= 1e-3 * c['far_m'], depths"
+# --preset over a scenario's technique block: the block's keys and --set win over the preset's
+# defaults, and the run says which it kept (stdout and report.json's preset_differences).
+python3 -c "
+import json
+s = json.load(open('$tmp/a.json'))
+s['technique'] = {'bias': {'constant': 3}}
+json.dump(s, open('$tmp/block.json', 'w'))"
+run validate "$tmp/block.json" --out "$tmp/kept" --preset three --set resolution=1024
+check "--preset over a technique block: exit 0" test "$rc" -eq 0
+check "... stdout names the kept keys with the preset's values" grep -q \
+    "technique: preset three with 2 keys .*bias.constant 3.0 (preset: 0.0), resolution 1024 (preset: 512)" "$tmp/stdout"
+check "... report.json's preset_differences holds them" python3 -c "
+import json
+d = json.load(open('$tmp/kept/report.json'))['preset_differences']
+assert d == {'bias.constant': {'preset': 0.0, 'technique': 3.0}, 'resolution': {'preset': 512, 'technique': 1024}}, d"
+run validate "$tmp/a.json" --out "$tmp/plain" --preset three
+check "a preset alone prints no such line" fails grep -q "^technique: preset" "$tmp/stdout"
 run validate "$tmp/a.json" --out "$tmp/bad" --preset unity
 check "an engine's bare name is not a preset (exit 2, the presets listed)" test "$rc" -eq 2
 check "the error lists unity-urp" grep -q '"unity-urp"' <<<"$err"
