@@ -291,13 +291,18 @@ std::optional<std::string> reading_line(const LightScore& s, const RunFacts& fac
 }
 
 std::string summary_line(const LightScore& s) {
+    // The visible rates first, as gates, hints and tune read them (issue #53), every wrong pixel
+    // beside them; light_bleeding only where it occurs (a depth-map family never has it).
     std::string classes;
-    for (const Metric& m : kMetrics)
-        // light_bleeding only where it occurs: a depth-map family never has it, and its line stays as it was.
-        if (m.path.starts_with("rates.") && (m.path != "rates.light_bleeding" || s.count(PixelClass::light_bleeding)))
-            classes += fmt::format("{} {:.3f}%  ", m.path.substr(6), 100.0 * m.read(s));
+    for (PixelClass c : kErrorClasses)
+        if (c != PixelClass::light_bleeding || s.count(c))
+            classes +=
+                fmt::format("{} {:.3f}% ({:.3f}%)  ", to_string(c), 100.0 * s.rate_visible(c), 100.0 * s.rate(c));
+    const double scored = std::max<double>(1.0, static_cast<double>(s.pixels.scored));
     std::string line =
-        fmt::format("wrong {:.3f}% of {} scored px: {}", 100.0 * s.wrong_fraction, s.pixels.scored, classes);
+        fmt::format("wrong {:.3f}% visible ({:.3f}% in all) of {} scored px: {}",
+                    100.0 * static_cast<double>(s.wrong_visible) / scored, 100.0 * s.wrong_fraction, s.pixels.scored,
+                    classes);
     if (s.evidence.source == Evidence::oracle_geometry)
         line += fmt::format("(V only: footprint {:.4g} m {}, bias reach {:.4g} m {})", s.evidence.texel_footprint_m,
                             to_string(s.evidence.texel_footprint_source), s.evidence.bias_reach_m,

@@ -511,7 +511,8 @@ void write_class_map(OutputTransaction& out, const std::string& name, const Orac
                      const Scenario* scenario, const std::vector<std::uint32_t>* cascade_layer) {
     std::vector<LegendEntry> legend;
     for (auto c : metrics::kErrorClasses)
-        legend.push_back({class_colour(c), fmt::format("{} {:.2f}%", to_string(c), 100.0 * l.rate(c))});
+        legend.push_back({class_colour(c), fmt::format("{} {:.2f}% visible ({:.2f}% in all)", to_string(c),
+                                                       100.0 * l.rate_visible(c), 100.0 * l.rate(c))});
     legend.push_back({0.5f * (class_colour(PixelClass::acne) + truth_shade(0.5f)),
                       fmt::format("paler: faint, error under {:g}", e.visible_threshold)});  // the font has no '|'
     legend.push_back({kCorrectLit, "correct, lit"});
