@@ -172,6 +172,16 @@ TEST(AlphaCoverage, FollowsGltfsRuleAndVulkansAddressing) {
     EXPECT_FALSE(judge_coverage(m, &t, {0.5, 0.5}, 0.8, 1e-6).opaque);
     m.cutoff = 0.2;
     EXPECT_TRUE(judge_coverage(m, &t, {0.5, 0.5}, 0.8, 1e-6).ambiguous);  // on the contour itself
+    // A coverage exactly at the cutoff is opaque (glTF 2.0, 3.9.4: alpha >= alphaCutoff), and
+    // said to lie on the contour.
+    CutoutMaterial flat;
+    flat.factor_alpha = 0.5;
+    flat.cutoff = 0.5;
+    const CoverageAnswer on_cutoff = judge_coverage(flat, nullptr, {0.3, 0.3}, 1.0, 1e-6);
+    EXPECT_TRUE(on_cutoff.opaque);
+    EXPECT_TRUE(on_cutoff.ambiguous);
+    flat.factor_alpha = std::nextafter(0.5, 0.0);
+    EXPECT_FALSE(judge_coverage(flat, nullptr, {0.3, 0.3}, 1.0, 1e-6).opaque);
     // offset (0.25, 0), rotation 90 degrees, scale (2, 1): uv (0.1, 0) -> scale (0.2, 0) -> rotate
     // (0, 0.2) -> offset (0.25, 0.2).
     m = CutoutMaterial{};
