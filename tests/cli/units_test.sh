@@ -94,6 +94,10 @@ check "--from penumbra, no values: the technique's bias" python3 -c '
 import json, sys; j = json.loads(sys.stdin.read()); f = j["from"]
 assert f["source"] == "technique" and f["values"]["constant"] == 100000 and f["values"]["slope"] == 1, f
 assert j["maps"][0]["values"]["bias"] != 0, j["maps"]' <"$tmp/stdout"
+run units "$scenario" --from penumbra --to three --json world=0.05
+check "--from penumbra with values: those values, not the technique's" python3 -c '
+import json, sys; j = json.loads(sys.stdin.read()); f = j["from"]
+assert f["source"] == "arguments" and f["values"]["world"] == 0.05 and f["values"]["constant"] == 0, f' <"$tmp/stdout"
 run units "$scenario" --from penumbra --to three --preset no-bias
 check "all zeros are said" grep -q "note: every value converted is 0" "$tmp/stdout"
 run units "$scenario" --from penumbra --to godot --preset godot
