@@ -179,6 +179,34 @@ TEST(BitmapFont, DrawsInsideTheImageOnly) {
 
 // validate --class-map-tint cascade: a cascaded light's class map (report.json has its cascades)
 // tinted by the layer each pixel's lookup used, the tints in the legend; otherwise untinted.
+// facing.png paints the side each pixel sees: grey where the triangle's front (counter-clockwise
+// as seen) faces the camera, orange where the camera sees a double-sided triangle's back.
+TEST(Report, TheFacingViewPaintsFrontsGreyAndBacksOrange) {
+    Fixture f(nullptr);
+    f.scenario.camera = test::look_at({0, 0, 5}, {0, 0, 0}, 45);
+    f.scenario.scene.positions = {{-9, -9, 0}, {9, -9, 0}, {0, 9, 0}};
+    f.scenario.scene.triangles = {{0, 1, 2}, {0, 2, 1}};  // normal +z (towards the eye), then -z
+    for (std::size_t i = 0; i < f.frames.o.prim.size(); ++i) f.frames.o.prim[i] = i % 64 < 32 ? 0u : 1u;
+    nlohmann::json r = report_json(f.in, f.score);
+    r["facing"] = {{"from_behind_px", 1}, {"meshes", nlohmann::json::array()}};
+    test::TempDir dir;
+    {
+        OutputTransaction out(dir.path());
+        write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
+        out.commit();
+    }
+    auto png = OIIO::ImageInput::open((dir / "facing.png").string());
+    ASSERT_TRUE(png);
+    const int w = png->spec().width, h = png->spec().height;
+    std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
+    ASSERT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data()));
+    const unsigned char* front = &pixels[3 * (20 * 64 + 10)];
+    const unsigned char* back = &pixels[3 * (20 * 64 + 50)];
+    EXPECT_TRUE(front[0] == front[1] && front[1] == front[2]) << "grey: the front seen";
+    EXPECT_GT(int(back[0]), int(back[1]) + 60) << "orange: a double-sided triangle's back";
+    EXPECT_GT(int(back[1]), int(back[2]) + 60);
+}
+
 TEST(Report, TheClassMapCanBeTintedByCascade) {
     const auto class_map = [](bool tint, bool cascaded) {
         Fixture f(nullptr);
