@@ -25,7 +25,10 @@ double shadow_cost_ms(const raster::RasterStats& s) {
 }  // namespace
 
 std::vector<std::string> verdict_columns(const Scenario& scenario) {
+    // The visible rates first, as gates, hints and tune read them (issue #53), every wrong pixel's
+    // beside them; wrong_fraction stays the first column (merge and the Pareto plot read it).
     std::vector<std::string> c = {"wrong_fraction", "mae"};
+    for (auto cls : metrics::kErrorClasses) c.push_back("rates_visible." + std::string(metrics::to_string(cls)));
     for (auto cls : metrics::kErrorClasses) c.push_back("rates." + std::string(metrics::to_string(cls)));
     c.push_back("perceptual.mean");
     if (std::any_of(scenario.lights.begin(), scenario.lights.end(), [](const Light& l) { return is_soft_light(l); })) {

@@ -43,7 +43,7 @@ bool within(const std::string& inner, const std::string& outer) {
 
 // A verdict column that is a fraction of the scored pixels.
 bool is_fraction(const std::string& column) {
-    return column == "wrong_fraction" || column.rfind("rates.", 0) == 0;
+    return column == "wrong_fraction" || column.rfind("rates.", 0) == 0 || column.rfind("rates_visible.", 0) == 0;
 }
 
 // The array at `key` of `o`.

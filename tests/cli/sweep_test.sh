@@ -14,7 +14,7 @@ run sweep "$tmp/a.json" --out "$tmp/one" "${vary[@]}"
 check "sweep exits 0" test "$rc" -eq 0
 for f in sweep.csv sweep.json pareto.svg pareto.png report.html; do check "sweep writes $f" test -s "$tmp/one/$f"; done
 check "sweep.csv names the varied keys and the columns" grep -q \
-    '^resolution,filter.type,wrong_fraction,mae,rates.acne,rates.peter_panning,rates.aliasing,rates.false_shadow,rates.false_lit,rates.light_bleeding,perceptual.mean,production_ms,diagnostic_ms' \
+    '^resolution,filter.type,wrong_fraction,mae,rates_visible.acne,rates_visible.peter_panning,rates_visible.aliasing,rates_visible.false_shadow,rates_visible.false_lit,rates_visible.light_bleeding,rates.acne,rates.peter_panning,rates.aliasing,rates.false_shadow,rates.false_lit,rates.light_bleeding,perceptual.mean,production_ms,diagnostic_ms' \
     "$tmp/one/sweep.csv"
 check "sweep.csv has a row per configuration" test "$(wc -l <"$tmp/one/sweep.csv")" -eq 7
 check "GPU times are measured" python3 -c "
@@ -145,6 +145,39 @@ check "a run beyond the time limit is named" grep -qF "10000 of 10000 configurat
 check "a run beyond the time limit suggests --shard" grep -qF -- "--shard K/N, N >= " <<<"$err"
 check "bad input traces no oracle" test ! -e "$tmp/cache2"
 for d in b1 b2 b3 b4 b5 b6 b7 b8 b9 b10; do check "bad input writes nothing ($d)" test ! -e "$tmp/$d"; done
+# One reading of the rates (#53): for a one-light run, the terminal's line, report.json,
+# report.html's class table, sweep.csv and diff.json give the same visible rate per class (the
+# class map's legend is drawn from the same score into its PNG).
+python3 -c "
+import json
+s = json.load(open('$tmp/a.json'))
+s['lights'] = s['lights'][:1]
+json.dump(s, open('$tmp/sun.json', 'w'))"
+run validate "$tmp/sun.json" --out "$tmp/r1" --preset d3d12-textbook --cache "$tmp/cache1"
+cp "$tmp/stdout" "$tmp/r1.stdout"
+echo '["d3d12-textbook"]' >"$tmp/one.json"
+run sweep "$tmp/sun.json" --out "$tmp/s1" --configs "$tmp/one.json" --repeat 1 -q --cache "$tmp/cache1"
+run diff "$tmp/r1" "$tmp/r1" --out "$tmp/d1"
+check "the terminal, report.json, report.html, sweep.csv and diff agree on the visible rates" python3 - \
+    "$tmp/r1.stdout" "$tmp/r1/report.json" "$tmp/r1/report.html" "$tmp/s1/sweep.csv" "$tmp/d1/diff.json" <<'PY'
+import csv, json, re, sys
+line, report, html, sweep, diff = sys.argv[1:]
+light = json.load(open(report))["lights"][0]
+visible = light["rates_visible"]
+terminal = dict(re.findall(r"(\w+) ([0-9.]+)% \([0-9.]+%\)", open(line).read()))
+page = open(html).read()
+page = page[page.index('id="light-0"'):]
+row = csv.DictReader(open(sweep)).__next__()
+d = json.load(open(diff))["lights"][0]["a"]["rates_visible"]
+for cls, rate in visible.items():
+    if cls in terminal:
+        assert abs(float(terminal[cls]) - 100 * rate) <= 5e-4, (cls, terminal[cls], rate)
+    m = re.search(r"</span>%s</td><td>\d+</td><td>[0-9.]+%%</td><td>\d+</td><td>([0-9.]+)%%</td>" % cls, page)
+    assert m and abs(float(m.group(1)) - 100 * rate) <= 5e-5, (cls, m and m.group(1), rate)
+    assert abs(float(row["rates_visible." + cls]) - rate) <= 1e-9, (cls, row["rates_visible." + cls], rate)
+    assert abs(d[cls] - rate) <= 1e-12, (cls, d[cls], rate)
+assert sum(visible.values()) > 0, visible
+PY
 # A preset name in --configs applies over the starting technique (its --set keys stay).
 echo '["camera-frustum-article"]' >"$tmp/presets.json"
 run sweep "$tmp/a.json" --out "$tmp/c1" --configs "$tmp/presets.json" --set resolution=256 --repeat 1 -q
