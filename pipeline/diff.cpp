@@ -335,16 +335,17 @@ std::string diff_table(const Run& a, const Run& b, const DiffResult& d) {
     for (const LightChange& c : d.lights) {
         t += fmt::format("{}: scored {} -> {}; wrong {} -> {}{}\n", c.a.label(), c.a.scored, c.b.scored,
                          percent(c.a.wrong_fraction), percent(c.b.wrong_fraction), c.identical ? " (identical)" : "");
-        t += fmt::format("  {:<14}{:>10}{:>10}{:>11}{:>11}{:>14}{:>14}{:>14}{:>14}{:>14}\n", "class", "count A",
-                         "count B", "rate A", "rate B", "vis. count A", "vis. count B", "vis. rate A", "vis. rate B",
+        // The visible rates first (what gates and the worse rule read), every wrong pixel's after.
+        t += fmt::format("  {:<14}{:>14}{:>14}{:>14}{:>14}{:>10}{:>10}{:>11}{:>11}{:>14}\n", "class", "vis. rate A",
+                         "vis. rate B", "vis. count A", "vis. count B", "count A", "count B", "rate A", "rate B",
                          "change");
         for (std::size_t k = 0; k < kClasses.size(); ++k) {
             const bool v = c.visible_basis;
             t += fmt::format(
-                "  {:<14}{:>10}{:>10}{:>11}{:>11}{:>14}{:>14}{:>14}{:>14}{:>14}{}\n", kClasses[k], c.a.counts[k],
-                c.b.counts[k], percent(c.a.rates[k]), percent(c.b.rates[k]),
-                v ? std::to_string(c.a.counts_visible[k]) : "-", v ? std::to_string(c.b.counts_visible[k]) : "-",
+                "  {:<14}{:>14}{:>14}{:>14}{:>14}{:>10}{:>10}{:>11}{:>11}{:>14}{}\n", kClasses[k],
                 v ? percent(c.a.rates_visible[k]) : "-", v ? percent(c.b.rates_visible[k]) : "-",
+                v ? std::to_string(c.a.counts_visible[k]) : "-", v ? std::to_string(c.b.counts_visible[k]) : "-",
+                c.a.counts[k], c.b.counts[k], percent(c.a.rates[k]), percent(c.b.rates[k]),
                 fmt::format("{:+.4f} pts", 100.0 * c.classes[k].change), c.classes[k].worse ? "  WORSE" : "");
         }
         if (c.a.perceptual_mean && c.b.perceptual_mean)

@@ -72,17 +72,17 @@ std::string html_page(const Run& a, const Run& b, const DiffResult& d) {
                          escape_markup(c.a.label()), c.a.scored, c.b.scored, pct(c.a.wrong_fraction),
                          pct(c.b.wrong_fraction), c.identical ? " (identical)" : "",
                          c.visible_basis ? "visible rates" : "rates");
-        h += "<div class=\"wrap\"><table><tr><th>class</th><th>count A</th><th>count B</th><th>rate A</th>"
-             "<th>rate B</th><th>visible rate A</th><th>visible rate B</th><th>change</th></tr>\n";
+        h += "<div class=\"wrap\"><table><tr><th>class</th><th>visible rate A</th><th>visible rate B</th>"
+             "<th>count A</th><th>count B</th><th>rate A</th><th>rate B</th><th>change</th></tr>\n";
         for (std::size_t k = 0; k < kClasses.size(); ++k) {
             const ClassChange& cc = c.classes[k];
             const char* cls = cc.worse ? "worse" : cc.change < 0 ? "better" : "";
             h += fmt::format(
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>"
                 "<td class=\"{}\">{:+.4f} pts</td></tr>\n",
-                kClasses[k], c.a.counts[k], c.b.counts[k], pct(c.a.rates[k]), pct(c.b.rates[k]),
-                c.visible_basis ? pct(c.a.rates_visible[k]) : "-", c.visible_basis ? pct(c.b.rates_visible[k]) : "-",
-                cls, 100.0 * cc.change);
+                kClasses[k], c.visible_basis ? pct(c.a.rates_visible[k]) : "-",
+                c.visible_basis ? pct(c.b.rates_visible[k]) : "-", c.a.counts[k], c.b.counts[k], pct(c.a.rates[k]),
+                pct(c.b.rates[k]), cls, 100.0 * cc.change);
         }
         h += "</table></div>\n";
         if (c.a.perceptual_mean && c.b.perceptual_mean)

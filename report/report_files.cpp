@@ -396,14 +396,16 @@ std::string html_page(const ReportInputs& in, const metrics::FrameScore& score, 
                          escape_markup(to_string(sc.lights[li].type)));
         h += fmt::format("<p>{}. Classes from {}.</p>\n", escape_markup(light_reading(l, in.facts)),
                          escape_markup(evidence_text(l.evidence)));
-        h += "<div class=\"grid\"><div><table><tr><th>class</th><th>pixels</th><th>rate</th>"
-             "<th title=\"|error| at least the visible threshold\">visible</th><th>visible rate</th></tr>\n";
+        // The visible rates first, as the terminal, gates and hints read them; every wrong pixel's after.
+        h += "<div class=\"grid\"><div><table><tr><th>class</th>"
+             "<th title=\"|error| at least the visible threshold\">visible</th><th>visible rate</th><th>pixels</th>"
+             "<th>rate</th></tr>\n";
         for (auto c : metrics::kErrorClasses) {
             h += fmt::format(
                 "<tr><td><span class=\"swatch\" "
                 "style=\"background:{}\"></span>{}</td><td>{}</td><td>{:.4f}%</td><td>{}</td><td>{:.4f}%</td></tr>\n",
-                css_colour(class_colour(c)), to_string(c), l.count(c), 100.0 * l.rate(c), l.count_visible(c),
-                100.0 * l.rate_visible(c));
+                css_colour(class_colour(c)), to_string(c), l.count_visible(c), 100.0 * l.rate_visible(c), l.count(c),
+                100.0 * l.rate(c));
         }
         h += "</table><table>\n";
         for (const metrics::Metric& m : metrics::metric_table())
