@@ -261,9 +261,10 @@ void say_preset_differences(const raster::Technique& t, bool quiet) {
         keys += fmt::format("{}{} {} (preset: {})", keys.empty() ? "" : ", ", it.key(),
                             json_excerpt(it.value()["technique"], 40), json_excerpt(it.value()["preset"], 40));
     if (d.size() > shown) keys += fmt::format(", and {} more (report.json: preset_differences)", d.size() - shown);
-    fmt::print("technique: preset {} with {} key{} of the technique object or --set over it (they win over the "
-               "preset's defaults): {}\n",
-               t.preset, d.size(), d.size() == 1 ? "" : "s", keys);
+    fmt::print(
+        "technique: preset {} with {} key{} of the technique object or --set over it (they win over the "
+        "preset's defaults): {}\n",
+        t.preset, d.size(), d.size() == 1 ? "" : "s", keys);
 }
 
 int gate_exit_code(const std::optional<metrics::GateResult>& gate, bool quiet) {

@@ -299,10 +299,9 @@ std::string summary_line(const LightScore& s) {
             classes +=
                 fmt::format("{} {:.3f}% ({:.3f}%)  ", to_string(c), 100.0 * s.rate_visible(c), 100.0 * s.rate(c));
     const double scored = std::max<double>(1.0, static_cast<double>(s.pixels.scored));
-    std::string line =
-        fmt::format("wrong {:.3f}% visible ({:.3f}% in all) of {} scored px: {}",
-                    100.0 * static_cast<double>(s.wrong_visible) / scored, 100.0 * s.wrong_fraction, s.pixels.scored,
-                    classes);
+    std::string line = fmt::format("wrong {:.3f}% visible ({:.3f}% in all) of {} scored px: {}",
+                                   100.0 * static_cast<double>(s.wrong_visible) / scored, 100.0 * s.wrong_fraction,
+                                   s.pixels.scored, classes);
     if (s.evidence.source == Evidence::oracle_geometry)
         line += fmt::format("(V only: footprint {:.4g} m {}, bias reach {:.4g} m {})", s.evidence.texel_footprint_m,
                             to_string(s.evidence.texel_footprint_source), s.evidence.bias_reach_m,

@@ -814,7 +814,7 @@ TEST(MetricTable, DocsListEveryMetric) {
 
 TEST(MetricTable, SummaryLineReadsTheTable) {
     Frames f(4, 1);
-    f.rl().V[0] = 0.0f;  // one acne pixel of 4, visible
+    f.rl().V[0] = 0.0f;   // one acne pixel of 4, visible
     f.rl().V[1] = 0.95f;  // and one of error 0.05, below the visible threshold 0.1
     EXPECT_EQ(summary_line(f.score().lights[0]),
               "wrong 25.000% visible (50.000% in all) of 4 scored px: acne 25.000% (50.000%)  peter_panning 0.000% "

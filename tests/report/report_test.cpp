@@ -179,6 +179,24 @@ TEST(BitmapFont, DrawsInsideTheImageOnly) {
 
 // validate --class-map-tint cascade: a cascaded light's class map (report.json has its cascades)
 // tinted by the layer each pixel's lookup used, the tints in the legend; otherwise untinted.
+// Writes the report of `f` with report.json `r` and reads back the PNG `name` as 8-bit RGB:
+// (pixels, width, height); empty pixels when it cannot be read.
+std::tuple<std::vector<unsigned char>, int, int> written_png(const Fixture& f, const nlohmann::json& r,
+                                                             const char* name) {
+    test::TempDir dir;
+    {
+        OutputTransaction out(dir.path());
+        write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
+        out.commit();
+    }
+    auto png = OIIO::ImageInput::open((dir / name).string());
+    if (!png) return {};
+    const int w = png->spec().width, h = png->spec().height;
+    std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
+    if (!png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data())) return {};
+    return {pixels, w, h};
+}
+
 // facing.png paints the side each pixel sees: grey where the triangle's front (counter-clockwise
 // as seen) faces the camera, orange where the camera sees a double-sided triangle's back.
 TEST(Report, TheFacingViewPaintsFrontsGreyAndBacksOrange) {
@@ -189,17 +207,8 @@ TEST(Report, TheFacingViewPaintsFrontsGreyAndBacksOrange) {
     for (std::size_t i = 0; i < f.frames.o.prim.size(); ++i) f.frames.o.prim[i] = i % 64 < 32 ? 0u : 1u;
     nlohmann::json r = report_json(f.in, f.score);
     r["facing"] = {{"from_behind_px", 1}, {"meshes", nlohmann::json::array()}};
-    test::TempDir dir;
-    {
-        OutputTransaction out(dir.path());
-        write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
-        out.commit();
-    }
-    auto png = OIIO::ImageInput::open((dir / "facing.png").string());
-    ASSERT_TRUE(png);
-    const int w = png->spec().width, h = png->spec().height;
-    std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
-    ASSERT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data()));
+    const auto [pixels, w, h] = written_png(f, r, "facing.png");
+    ASSERT_FALSE(pixels.empty());
     const unsigned char* front = &pixels[3 * (20 * 64 + 10)];
     const unsigned char* back = &pixels[3 * (20 * 64 + 50)];
     EXPECT_TRUE(front[0] == front[1] && front[1] == front[2]) << "grey: the front seen";
@@ -216,18 +225,9 @@ TEST(Report, TheClassMapCanBeTintedByCascade) {
         f.in.tint_cascades = tint;
         nlohmann::json r = report_json(f.in, f.score);
         if (cascaded) r["lights"][0]["cascades"] = nlohmann::json::array({{{"index", 0}}, {{"index", 1}}});
-        test::TempDir dir;
-        {
-            OutputTransaction out(dir.path());
-            write_report(out, f.in, f.frames.o, f.frames.r, f.score, r);
-            out.commit();
-        }
-        auto png = OIIO::ImageInput::open((dir / "light0.classes.png").string());
-        EXPECT_TRUE(png);
-        const int w = png->spec().width, h = png->spec().height;
-        std::vector<unsigned char> pixels(static_cast<std::size_t>(w) * h * 3);
-        EXPECT_TRUE(png->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, pixels.data()));
-        return std::make_tuple(pixels, w, h);
+        auto read = written_png(f, r, "light0.classes.png");
+        EXPECT_FALSE(std::get<0>(read).empty());
+        return read;
     };
     // Two correct, lit pixels of one row: left in cascade 0, right in cascade 1.
     const std::size_t left = 3 * (20 * 64 + 10), right = 3 * (20 * 64 + 50);
