@@ -196,9 +196,10 @@ TEST_F(ShadowVolume, AnOpenMeshIsReportedAndTheRuleDecidesWhetherItCasts) {
 // Open geometry the closed-box test never had (#49): a single-sided ground sheet facing the
 // light, a scatter of thin single-sided triangles tilted either way, an open frame (a box
 // without top and bottom) and a closed box, under a sun and a point light straight above, a
-// spot straight down and an oblique sun; seen by a top-down orthographic camera and an oblique
-// perspective one, at the origin and 10^6 m from it. Every light is exact up to rasterisation
-// with the default rule: open meshes cast, and a sheet facing the light does not shadow itself.
+// spot straight down, an oblique and a grazing sun (shadows several metres long); seen by a
+// top-down orthographic camera and an oblique perspective one, at the origin and 10^6 m from
+// it. Every light is exact up to rasterisation with the default rule: open meshes cast, and a
+// sheet facing the light does not shadow itself.
 test::SceneBuilder open_geometry(glm::dvec3 o) {
     test::SceneBuilder b;
     b.quad(o + glm::dvec3(-6, 0, -6), o + glm::dvec3(-6, 0, 6), o + glm::dvec3(6, 0, 6), o + glm::dvec3(6, 0, -6),
@@ -233,8 +234,9 @@ TEST_F(ShadowVolume, OpenSoupsSheetsAndFramesAreExactFromEitherCameraAtTheOrigin
         const glm::dvec3 o(offset, 0, offset);
         const std::vector<Light> lights = {test::directional({0, -1, 0}), test::point(o + glm::dvec3(0.3, 6, -0.2)),
                                            test::spot(o + glm::dvec3(-0.5, 7, 0.4), {0, -1, 0}, 70),
-                                           test::directional({0.5, -0.8, 0.3})};
-        const char* names[] = {"sun straight above", "point straight above", "spot straight down", "oblique sun"};
+                                           test::directional({0.5, -0.8, 0.3}), test::directional({1, -0.2, 0.1})};
+        const char* names[] = {"sun straight above", "point straight above", "spot straight down", "oblique sun",
+                               "grazing sun"};
         const std::pair<const char*, Camera> cameras[] = {
             {"orthographic from above", test::look_at_ortho(o + glm::dvec3(0, 12, 0), o, 6.5, 5, {0, 0, -1})},
             {"perspective", test::look_at(o + glm::dvec3(5, 7, 9), o + glm::dvec3(0, 0.5, 0), 50)}};
